@@ -1,0 +1,94 @@
+//! Generates Embree 3 bindings with bindgen from Debian's headers and links `embree3`.
+//!
+//! With the `embree4` feature the bindings come from the `embree4-sys` crate instead and this
+//! script does nothing but say so.
+
+use std::env;
+use std::path::{Path, PathBuf};
+
+const APT_HINT: &str = "install it with: sudo apt-get install libembree-dev libclang-dev";
+
+fn main() {
+    println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-env-changed=EMBREE3_INCLUDE_DIR");
+    if env::var_os("CARGO_FEATURE_EMBREE4").is_some() {
+        return;
+    }
+
+    let include_dir = env::var_os("EMBREE3_INCLUDE_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("/usr/include"));
+    let header = include_dir.join("embree3/rtcore.h");
+    if !header.is_file() {
+        fail(&format!(
+            "the Embree 3 header {} was not found; {APT_HINT} \
+             (or set EMBREE3_INCLUDE_DIR to the folder that holds embree3/rtcore.h)",
+            header.display()
+        ));
+    }
+    println!("cargo:rerun-if-changed={}", header.display());
+
+    let bindings = std::panic::catch_unwind(|| generate(&include_dir, &header));
+    let bindings = match bindings {
+        Ok(Ok(b)) => b,
+        Ok(Err(e)) => fail(&format!("bindgen could not process {}: {e}; {APT_HINT}", header.display())),
+        // bindgen panics when it cannot load libclang.
+        Err(_) => fail(&format!("bindgen could not load libclang; {APT_HINT}")),
+    };
+    let out = PathBuf::from(env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("embree3_bindings.rs");
+    bindings.write_to_file(&out).unwrap_or_else(|e| fail(&format!("cannot write {}: {e}", out.display())));
+
+    if let Some(dir) = env::var_os("EMBREE3_LIB_DIR") {
+        println!("cargo:rustc-link-search=native={}", Path::new(&dir).display());
+    }
+    println!("cargo:rerun-if-env-changed=EMBREE3_LIB_DIR");
+    println!("cargo:rustc-link-lib=dylib=embree3");
+}
+
+fn generate(include_dir: &Path, header: &Path) -> Result<bindgen::Bindings, bindgen::BindgenError> {
+    if !clang_available() {
+        fail(&format!("libclang was not found; {APT_HINT}"));
+    }
+    bindgen::Builder::default()
+        .header(header.to_string_lossy())
+        .clang_arg(format!("-I{}", include_dir.display()))
+        .allowlist_function("rtc.*")
+        .allowlist_type("RTC.*")
+        .allowlist_var("RTC.*")
+        .default_enum_style(bindgen::EnumVariation::Consts)
+        .prepend_enum_name(false)
+        .derive_default(true)
+        .layout_tests(true)
+        .generate()
+}
+
+fn clang_available() -> bool {
+    // bindgen's clang-sys looks in LIBCLANG_PATH and the usual llvm folders.
+    if env::var_os("LIBCLANG_PATH").is_some() {
+        return true;
+    }
+    let globs = ["/usr/lib/llvm-", "/usr/lib/x86_64-linux-gnu/libclang", "/usr/lib/libclang"];
+    let mut found = false;
+    for dir in ["/usr/lib", "/usr/lib/x86_64-linux-gnu", "/usr/lib64", "/usr/local/lib"] {
+        if let Ok(entries) = std::fs::read_dir(dir) {
+            for e in entries.flatten() {
+                let p = e.path();
+                let s = p.to_string_lossy();
+                if globs.iter().any(|g| s.starts_with(g)) {
+                    if s.contains("libclang") || p.join("lib").read_dir().map_or(false, |mut d| {
+                        d.any(|f| f.map_or(false, |f| f.file_name().to_string_lossy().starts_with("libclang")))
+                    }) {
+                        found = true;
+                    }
+                }
+            }
+        }
+    }
+    found
+}
+
+fn fail(msg: &str) -> ! {
+    eprintln!("error: {msg}");
+    println!("cargo:warning={msg}");
+    std::process::exit(1);
+}

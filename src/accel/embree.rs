@@ -1,0 +1,59 @@
+use super::{Accel, AccelError};
+use crate::embree::{BuildOptions, Device, EmbreeError, Scene, SceneBuilder};
+use crate::geometry::{Geometry, Hit, Ray};
+use std::time::{Duration, Instant};
+
+/// Intersection through Intel Embree: meshes as triangle geometry, spheres and cylinders as
+/// user geometry calling back into [`crate::geometry::Shape`].
+pub struct EmbreeAccel {
+    scene: Scene,
+    build_time: Duration,
+}
+
+impl EmbreeAccel {
+    /// Registers `geometry` (geometry id = list index) and builds the BVH.
+    pub fn new(device: &Device, geometry: &[Geometry], options: BuildOptions) -> Result<Self, EmbreeError> {
+        let start = Instant::now();
+        let mut b = SceneBuilder::new(device, options)?;
+        for (i, g) in geometry.iter().enumerate() {
+            let id = match g {
+                Geometry::Mesh(m) => b.add_triangles(&m.positions, &m.indices),
+                Geometry::Spheres(s) => b.add_shapes(s.clone()),
+                Geometry::Cylinders(c) => b.add_shapes(c.clone()),
+            }
+            .map_err(|e| match e {
+                EmbreeError::InvalidInput(m) => EmbreeError::InvalidInput(format!("geometry {i}: {m}")),
+                e => e,
+            })?;
+            debug_assert_eq!(id as usize, i);
+        }
+        let scene = b.commit()?;
+        Ok(EmbreeAccel { scene, build_time: start.elapsed() })
+    }
+
+    /// Time spent registering geometry and building the BVH.
+    pub fn build_time(&self) -> Duration {
+        self.build_time
+    }
+
+    /// The underlying Embree scene.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+}
+
+impl Accel for EmbreeAccel {
+    fn name(&self) -> &'static str {
+        "embree"
+    }
+
+    #[inline]
+    fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError> {
+        Ok(self.scene.intersect(ray, tmin, tmax)?)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
+        Ok(self.scene.occluded(ray, tmin, tmax)?)
+    }
+}

@@ -1,0 +1,62 @@
+//! Acceleration structures: one trait, two strategies.
+//!
+//! [`EmbreeAccel`] registers the scene's geometry with Embree (meshes as triangle geometry,
+//! spheres and cylinders as user geometry); [`NaiveAccel`] tests every primitive for every
+//! ray, the baseline every benchmark compares against. Both number geometries by their index
+//! in the scene's geometry list, so their hits are directly comparable.
+
+mod embree;
+mod naive;
+
+pub use self::embree::EmbreeAccel;
+pub use naive::NaiveAccel;
+
+use crate::embree::EmbreeError;
+use crate::geometry::{Hit, Ray};
+use std::fmt;
+use std::str::FromStr;
+
+/// Why a query or a build failed.
+#[derive(Debug, thiserror::Error)]
+pub enum AccelError {
+    #[error(transparent)]
+    Embree(#[from] EmbreeError),
+}
+
+/// Closest-hit and occlusion queries for single rays.
+pub trait Accel: Send + Sync {
+    /// A short name for reports ("embree", "naive").
+    fn name(&self) -> &'static str;
+    /// The closest hit with `tmin < t < tmax` (Embree: `<=` at both ends), or `None`.
+    fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError>;
+    /// Whether anything lies between `tmin` and `tmax` along the ray.
+    fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError>;
+}
+
+/// Which strategy to build.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AccelKind {
+    #[default]
+    Embree,
+    Naive,
+}
+
+impl FromStr for AccelKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "embree" => Ok(AccelKind::Embree),
+            "naive" => Ok(AccelKind::Naive),
+            _ => Err(format!("unknown accelerator {s:?} (expected embree or naive)")),
+        }
+    }
+}
+
+impl fmt::Display for AccelKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            AccelKind::Embree => "embree",
+            AccelKind::Naive => "naive",
+        })
+    }
+}

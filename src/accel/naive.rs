@@ -1,0 +1,78 @@
+use super::{Accel, AccelError};
+use crate::geometry::{Cylinder, Geometry, Hit, Ray, Shape, Sphere, WatertightRay};
+use glam::Vec3;
+use std::sync::Arc;
+
+/// The seed paper's strategy: every ray is tested against every triangle, sphere and cylinder.
+/// Triangles use the watertight test (see [`crate::geometry::WatertightRay`]).
+pub struct NaiveAccel {
+    geometry: Vec<Prims>,
+}
+
+/// Primitives laid out for the loop: triangle corners contiguous (no index indirection).
+enum Prims {
+    Triangles(Vec<[Vec3; 3]>),
+    Spheres(Arc<[Sphere]>),
+    Cylinders(Arc<[Cylinder]>),
+}
+
+impl NaiveAccel {
+    pub fn new(geometry: &[Geometry]) -> Self {
+        let geometry = geometry
+            .iter()
+            .map(|g| match g {
+                Geometry::Mesh(m) => Prims::Triangles((0..m.triangle_count()).map(|i| m.triangle(i)).collect()),
+                Geometry::Spheres(s) => Prims::Spheres(s.clone()),
+                Geometry::Cylinders(c) => Prims::Cylinders(c.clone()),
+            })
+            .collect();
+        NaiveAccel { geometry }
+    }
+}
+
+impl Accel for NaiveAccel {
+    fn name(&self) -> &'static str {
+        "naive"
+    }
+
+    fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError> {
+        let mut best: Option<Hit> = None;
+        let mut tmax = tmax;
+        let wt = WatertightRay::new(ray);
+        for (gi, g) in self.geometry.iter().enumerate() {
+            let geom = gi as u32;
+            match g {
+                Prims::Triangles(tris) => {
+                    for (pi, &[a, b, c]) in tris.iter().enumerate() {
+                        if let Some(h) = wt.intersect(a, b, c, tmin, tmax) {
+                            tmax = h.t;
+                            best = Some(Hit { t: h.t, geom, prim: pi as u32, u: h.u, v: h.v, ng: (b - a).cross(c - a) });
+                        }
+                    }
+                }
+                Prims::Spheres(s) => closest_shape(s, ray, tmin, &mut tmax, geom, &mut best),
+                Prims::Cylinders(c) => closest_shape(c, ray, tmin, &mut tmax, geom, &mut best),
+            }
+        }
+        Ok(best)
+    }
+
+    fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
+        let wt = WatertightRay::new(ray);
+        let hit = self.geometry.iter().any(|g| match g {
+            Prims::Triangles(tris) => tris.iter().any(|&[a, b, c]| wt.intersect(a, b, c, tmin, tmax).is_some()),
+            Prims::Spheres(s) => s.iter().any(|p| p.occludes(ray, tmin, tmax)),
+            Prims::Cylinders(c) => c.iter().any(|p| p.occludes(ray, tmin, tmax)),
+        });
+        Ok(hit)
+    }
+}
+
+fn closest_shape<S: Shape>(shapes: &[S], ray: &Ray, tmin: f32, tmax: &mut f32, geom: u32, best: &mut Option<Hit>) {
+    for (pi, s) in shapes.iter().enumerate() {
+        if let Some(h) = s.intersect(ray, tmin, *tmax) {
+            *tmax = h.t;
+            *best = Some(Hit::from_shape(h, geom, pi as u32));
+        }
+    }
+}

@@ -1,0 +1,36 @@
+use crate::accel::EmbreeAccel;
+use crate::embree::{BuildOptions, Device};
+use crate::scene::Scene;
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// Scene file (.toml) or mesh (.obj).
+    pub scene: PathBuf,
+}
+
+pub fn run(args: InfoArgs) -> anyhow::Result<()> {
+    let scene = Scene::load(&args.scene)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let (tris, spheres, cylinders) = scene.primitive_counts();
+    let b = scene.bounds();
+    let device = Device::new()?;
+    // Warm-up: the first commit in a process also starts Embree's threads.
+    drop(EmbreeAccel::new(&device, &[], BuildOptions::default())?);
+    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default())?;
+    println!("scene:      {}", args.scene.display());
+    println!("geometries: {}", scene.geometry.len());
+    println!("triangles:  {tris}");
+    println!("spheres:    {spheres}");
+    println!("cylinders:  {cylinders}");
+    println!(
+        "bounds:     ({:.4}, {:.4}, {:.4}) .. ({:.4}, {:.4}, {:.4})",
+        b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+    );
+    println!("embree:     {}", device.version());
+    println!("bvh build:  {:.2} ms (medium quality)", accel.build_time().as_secs_f64() * 1e3);
+    Ok(())
+}

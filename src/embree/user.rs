@@ -1,0 +1,172 @@
+//! User-geometry callbacks: Embree calls these with raw pointers; they call the Rust
+//! [`Shape`] methods, never unwind into C, and record panics for the scene to report.
+
+use super::error::EmbreeError;
+use super::sys;
+use crate::geometry::{Ray, Shape};
+use glam::Vec3;
+use std::any::Any;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// Records the first panic of any callback of a scene. Sticky: once set, every later query on
+/// the scene reports it, because Embree was handed a made-up answer.
+#[derive(Default)]
+pub(super) struct CallbackFailure {
+    flag: AtomicBool,
+    message: Mutex<Option<String>>,
+}
+
+impl CallbackFailure {
+    fn record(&self, what: &str, payload: Box<dyn Any + Send>) {
+        let text = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "non-string panic payload".to_string());
+        let mut m = self.message.lock().unwrap_or_else(|e| e.into_inner());
+        if m.is_none() {
+            *m = Some(format!("{what} callback: {text}"));
+        }
+        self.flag.store(true, Ordering::Release);
+    }
+
+    #[inline]
+    pub(super) fn check(&self) -> Result<(), EmbreeError> {
+        if !self.flag.load(Ordering::Acquire) {
+            return Ok(());
+        }
+        let m = self.message.lock().unwrap_or_else(|e| e.into_inner());
+        Err(EmbreeError::CallbackPanic(m.clone().unwrap_or_default()))
+    }
+}
+
+/// What Embree's user pointer points at: boxed and owned by the scene, so it neither moves nor
+/// dies while Embree may call back.
+pub(super) struct UserData<S> {
+    pub(super) shapes: Arc<[S]>,
+    pub(super) failure: Arc<CallbackFailure>,
+}
+
+/// Index of 32-bit word `k` of lane `i` in an `RTCRayN`/`RTCRayHitN` block of width `n`.
+#[inline]
+fn word(k: usize, i: usize, n: usize) -> usize {
+    k * n + i
+}
+
+// Word numbers of RTCRayN (12 words) followed by RTCHitN.
+const ORG: usize = 0;
+const TNEAR: usize = 3;
+const DIR: usize = 4;
+const TFAR: usize = 8;
+const HIT: usize = 12; // Ng_x, Ng_y, Ng_z, u, v, primID, geomID, instID[0]
+
+/// Reads lane `i` of a ray block.
+///
+/// # Safety
+/// `p` points to an `RTCRayN` block of width `n` and `i < n`.
+#[inline]
+unsafe fn read_ray(p: *const f32, i: usize, n: usize) -> (Ray, f32, f32) {
+    // SAFETY: the caller guarantees the block holds 12·n words and i < n.
+    unsafe {
+        let f = |k: usize| *p.add(word(k, i, n));
+        let ray = Ray::new(Vec3::new(f(ORG), f(ORG + 1), f(ORG + 2)), Vec3::new(f(DIR), f(DIR + 1), f(DIR + 2)));
+        (ray, f(TNEAR), f(TFAR))
+    }
+}
+
+pub(super) unsafe extern "C" fn bounds<S: Shape>(args: *const sys::RTCBoundsFunctionArguments) {
+    // SAFETY: Embree passes valid arguments whose user pointer is the `UserData<S>` this
+    // function was registered with (see `SceneBuilder::add_shapes`).
+    let args = unsafe { &*args };
+    let data = unsafe { &*(args.geometryUserPtr as *const UserData<S>) };
+    let b = catch_unwind(AssertUnwindSafe(|| data.shapes[args.primID as usize].bounds()));
+    let b = match b {
+        Ok(b) if b.is_valid() => b,
+        Ok(_) => crate::geometry::Aabb::new(Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        Err(p) => {
+            data.failure.record("bounds", p);
+            crate::geometry::Aabb::new(Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY))
+        }
+    };
+    // SAFETY: `bounds_o` points to one writable RTCBounds. An inverted (invalid) box makes
+    // Embree skip the primitive.
+    unsafe {
+        let o = &mut *args.bounds_o;
+        o.lower_x = b.min.x;
+        o.lower_y = b.min.y;
+        o.lower_z = b.min.z;
+        o.upper_x = b.max.x;
+        o.upper_y = b.max.y;
+        o.upper_z = b.max.z;
+    }
+}
+
+pub(super) unsafe extern "C" fn intersect<S: Shape>(args: *const sys::RTCIntersectFunctionNArguments) {
+    // SAFETY: Embree passes valid arguments: `valid` has N entries, `rayhit` is an RTCRayHitN
+    // of width N, and the user pointer is our `UserData<S>`.
+    let args = unsafe { &*args };
+    let data = unsafe { &*(args.geometryUserPtr as *const UserData<S>) };
+    let n = args.N as usize;
+    let prim = args.primID;
+    let Some(shape) = data.shapes.get(prim as usize) else { return };
+    // SAFETY: the context pointer is valid for the call; instID[0] is the instance id to report.
+    let inst = unsafe { (*args.context).instID[0] };
+    let p = args.rayhit as *mut f32;
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        for i in 0..n {
+            // SAFETY: `valid` has n entries. Only lanes marked -1 are active.
+            if unsafe { *args.valid.add(i) } != -1 {
+                continue;
+            }
+            // SAFETY: `p` is an RTCRayHitN of width n (12·n ray words, then the hit words).
+            let (ray, tnear, tfar) = unsafe { read_ray(p, i, n) };
+            if let Some(h) = shape.intersect(&ray, tnear, tfar) {
+                // SAFETY: as above; hit words start at 12·n.
+                unsafe {
+                    *p.add(word(TFAR, i, n)) = h.t;
+                    *p.add(word(HIT, i, n)) = h.ng.x;
+                    *p.add(word(HIT + 1, i, n)) = h.ng.y;
+                    *p.add(word(HIT + 2, i, n)) = h.ng.z;
+                    *p.add(word(HIT + 3, i, n)) = h.u;
+                    *p.add(word(HIT + 4, i, n)) = h.v;
+                    let q = p as *mut u32;
+                    *q.add(word(HIT + 5, i, n)) = prim;
+                    *q.add(word(HIT + 6, i, n)) = args.geomID;
+                    *q.add(word(HIT + 7, i, n)) = inst;
+                }
+            }
+        }
+    }));
+    if let Err(payload) = r {
+        data.failure.record("intersect", payload);
+    }
+}
+
+pub(super) unsafe extern "C" fn occluded<S: Shape>(args: *const sys::RTCOccludedFunctionNArguments) {
+    // SAFETY: Embree passes valid arguments: `valid` has N entries, `ray` is an RTCRayN of
+    // width N, and the user pointer is our `UserData<S>`.
+    let args = unsafe { &*args };
+    let data = unsafe { &*(args.geometryUserPtr as *const UserData<S>) };
+    let n = args.N as usize;
+    let Some(shape) = data.shapes.get(args.primID as usize) else { return };
+    let p = args.ray as *mut f32;
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        for i in 0..n {
+            // SAFETY: `valid` has n entries.
+            if unsafe { *args.valid.add(i) } != -1 {
+                continue;
+            }
+            // SAFETY: `p` is an RTCRayN of width n.
+            let (ray, tnear, tfar) = unsafe { read_ray(p, i, n) };
+            if shape.occludes(&ray, tnear, tfar) {
+                // SAFETY: as above; tfar = -inf is Embree's "occluded" mark.
+                unsafe { *p.add(word(TFAR, i, n)) = f32::NEG_INFINITY };
+            }
+        }
+    }));
+    if let Err(payload) = r {
+        data.failure.record("occluded", payload);
+    }
+}

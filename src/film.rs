@@ -1,0 +1,132 @@
+//! The film: per-pixel radiance, and its output as PNG (8-bit sRGB) or OpenEXR (linear float),
+//! written atomically (temporary file in the same folder, then rename).
+
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+/// An image of linear RGB radiance values, row-major, top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Vec3>,
+}
+
+/// Why an image could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum FilmError {
+    #[error("{path}: unsupported output format (use .png or .exr)")]
+    UnsupportedFormat { path: PathBuf },
+    #[error("{path}: cannot write: {reason}")]
+    Write { path: PathBuf, reason: String },
+}
+
+/// Output formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    Png,
+    Exr,
+}
+
+impl ImageFormat {
+    /// The format for a path's extension.
+    pub fn from_path(path: &Path) -> Result<Self, FilmError> {
+        match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+            Some("png") => Ok(ImageFormat::Png),
+            Some("exr") => Ok(ImageFormat::Exr),
+            _ => Err(FilmError::UnsupportedFormat { path: path.to_path_buf() }),
+        }
+    }
+}
+
+/// Linear → sRGB transfer function.
+#[inline]
+pub fn linear_to_srgb(x: f32) -> f32 {
+    if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// sRGB → linear transfer function.
+#[inline]
+pub fn srgb_to_linear(x: f32) -> f32 {
+    if x <= 0.040_45 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32) -> Film {
+        Film { width, height, pixels: vec![Vec3::ZERO; width as usize * height as usize] }
+    }
+
+    #[inline]
+    pub fn get(&self, x: u32, y: u32) -> Vec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Mean of all pixels.
+    pub fn mean(&self) -> Vec3 {
+        self.pixels.iter().fold(Vec3::ZERO, |a, &p| a + p) / self.pixels.len().max(1) as f32
+    }
+
+    /// 8-bit sRGB (values clamped to [0, 1], no tone mapping).
+    pub fn to_rgb8(&self) -> Vec<u8> {
+        self.pixels
+            .iter()
+            .flat_map(|p| p.to_array())
+            .map(|c| (linear_to_srgb(c.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
+            .collect()
+    }
+
+    /// Writes the image, format chosen by extension, atomically: nothing appears at `path`
+    /// unless the whole file was written.
+    pub fn save(&self, path: &Path) -> Result<(), FilmError> {
+        let format = ImageFormat::from_path(path)?;
+        let err = |reason: String| FilmError::Write { path: path.to_path_buf(), reason };
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        if !dir.is_dir() {
+            return Err(err(format!("folder {} does not exist", dir.display())));
+        }
+        let name = path.file_name().ok_or_else(|| err("no file name".into()))?.to_string_lossy().into_owned();
+        let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+        let result = match format {
+            ImageFormat::Png => image::save_buffer_with_format(
+                &tmp,
+                &self.to_rgb8(),
+                self.width,
+                self.height,
+                image::ExtendedColorType::Rgb8,
+                image::ImageFormat::Png,
+            )
+            .map_err(|e| e.to_string()),
+            ImageFormat::Exr => exr::prelude::write_rgb_file(&tmp, self.width as usize, self.height as usize, |x, y| {
+                let p = self.pixels[y * self.width as usize + x];
+                (p.x, p.y, p.z)
+            })
+            .map_err(|e| e.to_string()),
+        };
+        if let Err(reason) = result {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(err(reason));
+        }
+        std::fs::rename(&tmp, path).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            err(e.to_string())
+        })
+    }
+
+    /// Reads a linear OpenEXR image (as written by [`Film::save`]).
+    pub fn load_exr(path: &Path) -> Result<Film, FilmError> {
+        use exr::prelude::*;
+        let image = read_first_rgba_layer_from_file(
+            path,
+            |res, _| Film::new(res.width() as u32, res.height() as u32),
+            |film: &mut Film, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let w = film.width as usize;
+                film.pixels[pos.y() * w + pos.x()] = Vec3::new(r, g, b);
+            },
+        )
+        .map_err(|e| FilmError::Write { path: path.to_path_buf(), reason: e.to_string() })?;
+        Ok(image.layer_data.channel_data.pixels)
+    }
+}

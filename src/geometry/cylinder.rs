@@ -1,0 +1,135 @@
+use super::{Aabb, Frame, Ray, Shape, ShapeHit};
+use glam::Vec3;
+use std::f32::consts::PI;
+
+/// A capped cylinder: the disc of `radius` around the axis `p0 → p1`, swept along it,
+/// closed by a disc at each end. Any axis direction.
+///
+/// Texture coordinates: on the side `u` = angle around the axis / 2π, `v` = height / length;
+/// on the caps `u` = angle / 2π and `v` = distance from the axis / radius.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cylinder {
+    pub p0: Vec3,
+    pub p1: Vec3,
+    pub radius: f32,
+}
+
+/// Which part of a cylinder a hit lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CylinderPart {
+    Side,
+    Cap0,
+    Cap1,
+}
+
+impl Cylinder {
+    pub fn new(p0: Vec3, p1: Vec3, radius: f32) -> Self {
+        Cylinder { p0, p1, radius }
+    }
+
+    fn is_valid(&self) -> bool {
+        self.p0.is_finite()
+            && self.p1.is_finite()
+            && self.radius.is_finite()
+            && self.radius > 0.0
+            && (self.p1 - self.p0).length_squared() > 0.0
+    }
+
+    /// The closest hit of the ray with the closed surface in `(tmin, tmax)`, with the part hit.
+    fn closest(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, CylinderPart)> {
+        let mut best: Option<(f32, CylinderPart)> = None;
+        let mut offer = |t: f32, part: CylinderPart| {
+            if t > tmin && t < tmax && best.is_none_or(|(bt, _)| t < bt) {
+                best = Some((t, part));
+            }
+        };
+        let axis = self.p1 - self.p0;
+        let h = axis.length();
+        let a = axis / h;
+        let f = ray.o - self.p0;
+        let oz = f.dot(a);
+        let dz = ray.d.dot(a);
+        // Components perpendicular to the axis: a 2-D ray/circle problem, solved as for spheres
+        // (Ray Tracing Gems ch. 7 form) to avoid cancellation for thin or distant cylinders.
+        let fp = f - oz * a;
+        let dp = ray.d - dz * a;
+        let r2 = self.radius * self.radius;
+        let qa = dp.length_squared();
+        if qa > 0.0 {
+            let b = -fp.dot(dp);
+            let c = fp.length_squared() - r2;
+            let l = fp + (b / qa) * dp;
+            let disc = qa * (r2 - l.length_squared());
+            if disc >= 0.0 {
+                let q = b + b.signum() * disc.sqrt();
+                if q != 0.0 {
+                    for t in [c / q, q / qa] {
+                        let z = oz + t * dz;
+                        if (0.0..=h).contains(&z) {
+                            offer(t, CylinderPart::Side);
+                        }
+                    }
+                }
+            }
+        }
+        if dz != 0.0 {
+            for (t, part) in [((0.0 - oz) / dz, CylinderPart::Cap0), ((h - oz) / dz, CylinderPart::Cap1)] {
+                if (fp + t * dp).length_squared() <= r2 {
+                    offer(t, part);
+                }
+            }
+        }
+        best
+    }
+
+    fn hit_at(&self, ray: &Ray, t: f32, part: CylinderPart) -> ShapeHit {
+        let axis = self.p1 - self.p0;
+        let h = axis.length();
+        let a = axis / h;
+        let frame = Frame::from_normal(a);
+        let rel = ray.at(t) - self.p0;
+        let z = rel.dot(a);
+        let radial = rel - z * a;
+        let angle = (radial.dot(frame.b).atan2(radial.dot(frame.t)) + PI) / (2.0 * PI);
+        match part {
+            CylinderPart::Side => {
+                ShapeHit { t, u: angle, v: (z / h).clamp(0.0, 1.0), ng: radial / self.radius }
+            }
+            CylinderPart::Cap0 => {
+                ShapeHit { t, u: angle, v: (radial.length() / self.radius).min(1.0), ng: -a }
+            }
+            CylinderPart::Cap1 => {
+                ShapeHit { t, u: angle, v: (radial.length() / self.radius).min(1.0), ng: a }
+            }
+        }
+    }
+
+    /// The part of the closest hit, for callers that need it (e.g. tests).
+    pub fn closest_part(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, CylinderPart)> {
+        if !self.is_valid() {
+            return None;
+        }
+        self.closest(ray, tmin, tmax)
+    }
+}
+
+impl Shape for Cylinder {
+    fn bounds(&self) -> Aabb {
+        if !self.is_valid() {
+            return Aabb::EMPTY;
+        }
+        let a = (self.p1 - self.p0).normalize();
+        // Extent of a disc of radius r with normal a along axis i: r·sqrt(1 − a_i²).
+        let e = self.radius * (Vec3::ONE - a * a).max(Vec3::ZERO).sqrt();
+        Aabb::new(self.p0.min(self.p1) - e, self.p0.max(self.p1) + e)
+    }
+
+    fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<ShapeHit> {
+        let (t, part) = self.closest_part(ray, tmin, tmax)?;
+        Some(self.hit_at(ray, t, part))
+    }
+
+    fn occludes(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
+        self.closest_part(ray, tmin, tmax).is_some()
+    }
+}

@@ -1,0 +1,86 @@
+use super::Aabb;
+use glam::{Vec2, Vec3};
+
+/// A triangle mesh with optional per-vertex normals and texture coordinates (sharing the
+/// position indices).
+#[derive(Clone, Debug, Default)]
+pub struct TriMesh {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    pub indices: Vec<[u32; 3]>,
+    /// Per-vertex shading normals, empty when the source had none.
+    pub normals: Vec<Vec3>,
+    /// Per-vertex texture coordinates, empty when the source had none.
+    pub uvs: Vec<Vec2>,
+}
+
+/// Why a mesh could not be built.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum MeshError {
+    #[error("triangle {tri} uses vertex {index}, but the mesh has {count} vertices")]
+    IndexOutOfRange { tri: usize, index: u32, count: usize },
+    #[error("{what} has {got} entries for {count} vertices")]
+    AttributeLength { what: &'static str, got: usize, count: usize },
+    #[error("mesh has {0} vertices; at most 2^32 - 1 are supported")]
+    TooManyVertices(usize),
+}
+
+impl TriMesh {
+    /// A mesh after checking that every index is in range and attributes match the vertices.
+    pub fn new(
+        name: impl Into<String>,
+        positions: Vec<Vec3>,
+        indices: Vec<[u32; 3]>,
+        normals: Vec<Vec3>,
+        uvs: Vec<Vec2>,
+    ) -> Result<Self, MeshError> {
+        let count = positions.len();
+        if count >= u32::MAX as usize {
+            return Err(MeshError::TooManyVertices(count));
+        }
+        for (tri, idx) in indices.iter().enumerate() {
+            if let Some(&index) = idx.iter().find(|&&i| i as usize >= count) {
+                return Err(MeshError::IndexOutOfRange { tri, index, count });
+            }
+        }
+        if !normals.is_empty() && normals.len() != count {
+            return Err(MeshError::AttributeLength { what: "normals", got: normals.len(), count });
+        }
+        if !uvs.is_empty() && uvs.len() != count {
+            return Err(MeshError::AttributeLength { what: "texture coordinates", got: uvs.len(), count });
+        }
+        Ok(TriMesh { name: name.into(), positions, indices, normals, uvs })
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len()
+    }
+
+    /// The three corners of triangle `i`.
+    #[inline]
+    pub fn triangle(&self, i: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.indices[i];
+        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
+    }
+
+    /// Bounds of the vertices used by triangles (finite ones only).
+    pub fn bounds(&self) -> Aabb {
+        self.indices
+            .iter()
+            .flatten()
+            .map(|&i| self.positions[i as usize])
+            .filter(|p| p.is_finite())
+            .fold(Aabb::EMPTY, |b, p| b.grow(p))
+    }
+
+    /// Applies an affine transform to positions (normals by the inverse transpose).
+    pub fn transform(&mut self, m: glam::Affine3A) {
+        for p in &mut self.positions {
+            *p = m.transform_point3(*p);
+        }
+        let nm = glam::Mat3::from(m.matrix3).inverse().transpose();
+        for n in &mut self.normals {
+            *n = (nm * *n).normalize_or_zero();
+        }
+    }
+}

@@ -1,0 +1,42 @@
+//! Shared helpers for the integration tests.
+#![allow(dead_code)]
+
+use ember::geometry::{Cylinder, Geometry, Sphere};
+use ember::sampler::Rng;
+use glam::Vec3;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Path of a file in `scenes/`.
+pub fn scene_path(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
+}
+
+/// The teapot (6,320 triangles) plus 12 spheres and 8 cylinders of assorted sizes and axes
+/// around and inside it.
+pub fn teapot_spheres_cylinders() -> Vec<Geometry> {
+    let obj = ember::scene::load_obj(&scene_path("teapot.obj")).expect("teapot loads");
+    let mut geometry: Vec<Geometry> = obj.meshes.into_iter().map(|m| Geometry::Mesh(Arc::new(m.mesh))).collect();
+    let mut rng = Rng::new(42, 0);
+    let mut v = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+    let spheres: Vec<Sphere> =
+        (0..12).map(|_| Sphere::new(Vec3::new(v(-4.0, 4.0), v(-1.0, 4.0), v(-3.0, 3.0)), v(0.05, 1.0))).collect();
+    let cylinders: Vec<Cylinder> = (0..8)
+        .map(|_| {
+            let p0 = Vec3::new(v(-4.0, 4.0), v(-1.0, 4.0), v(-3.0, 3.0));
+            let p1 = p0 + Vec3::new(v(-2.0, 2.0), v(-2.0, 2.0), v(-2.0, 2.0));
+            Cylinder::new(p0, p1, v(0.02, 0.5))
+        })
+        .collect();
+    geometry.push(Geometry::Spheres(spheres.into()));
+    geometry.push(Geometry::Cylinders(cylinders.into()));
+    geometry
+}
+
+/// Uniform unit vector.
+pub fn unit_vector(rng: &mut Rng) -> Vec3 {
+    let z = 1.0 - 2.0 * rng.next_f32();
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
