@@ -1,8 +1,8 @@
 //! ember: a physically based path tracer on Intel Embree.
 //!
 //! Data flows one way: scene file → [`scene`] → [`accel`] (Embree or the naive loop) →
-//! integrator → film → image file. Lower modules never import higher ones; all `unsafe` code
-//! lives in [`embree`].
+//! integrator → film → image file. Lower modules never import higher ones; the FFI layer
+//! [`embree`] is the only module with unchecked (FFI) code.
 
 #![deny(unsafe_op_in_unsafe_fn)]
 
@@ -12,5 +12,9 @@ pub mod cli;
 pub mod embree;
 pub mod film;
 pub mod geometry;
+pub mod integrator;
+pub mod light;
+pub mod material;
 pub mod sampler;
 pub mod scene;
+pub mod texture;

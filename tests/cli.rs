@@ -112,3 +112,70 @@ fn render_writes_a_png_atomically() {
     let leftovers: Vec<_> = std::fs::read_dir(&d).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().ends_with(".tmp")).collect();
     assert!(leftovers.is_empty());
 }
+
+/// Renders `toml` (written to a temp folder with the scene assets) and expects failure with
+/// exit code 2, a message naming the file and `line`, containing `needle`, and no output.
+fn expect_scene_error(name: &str, toml: &str, line: Option<usize>, needle: &str) {
+    let d = tmpdir(name);
+    let scene = write(&d, "scene.toml", toml);
+    let out = d.join("out.png");
+    let o = ember(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "8", "--height", "8", "--spp", "1"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{name}: {e}");
+    let prefix = match line {
+        Some(l) => format!("error: {}:{l}: ", scene.display()),
+        None => format!("error: {}: ", scene.display()),
+    };
+    assert!(e.starts_with(&prefix), "{name}: expected prefix {prefix:?} in {e:?}");
+    assert!(e.contains(needle), "{name}: expected {needle:?} in {e:?}");
+    assert!(!out.exists(), "{name}: an output file was written");
+}
+
+const SPHERE_OK: &str = "[materials.m]\ntype = \"diffuse\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n";
+
+#[test]
+fn scene_file_errors_name_file_line_and_problem() {
+    expect_scene_error("unknown-material", &SPHERE_OK.replace("material = \"m\"", "material = \"steel\""), Some(6), "unknown material \"steel\"");
+    expect_scene_error("unknown-type", &SPHERE_OK.replace("\"diffuse\"", "\"velvet\""), Some(2), "unknown variant `velvet`");
+    expect_scene_error("unknown-key", &format!("{SPHERE_OK}colour = 3\n"), Some(7), "unknown field `colour`");
+    expect_scene_error("negative-radius", &SPHERE_OK.replace("radius = 1.0", "radius = -2.0"), Some(5), "greater than 0");
+    expect_scene_error("zero-radius", &SPHERE_OK.replace("radius = 1.0", "radius = 0.0"), Some(5), "greater than 0");
+    expect_scene_error("nan", &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[nan, 0.0, 0.0]"), Some(4), "not a finite number");
+    expect_scene_error("inf", &SPHERE_OK.replace("radius = 1.0", "radius = inf"), Some(5), "not a finite number");
+    expect_scene_error("malformed", "[materials.m\ntype = 1\n", Some(1), "");
+    expect_scene_error("spp-zero", &format!("[render]\nspp = 0\n{SPHERE_OK}"), Some(2), "at least 1");
+    expect_scene_error("huge-width", &format!("[render]\nwidth = 100000\n{SPHERE_OK}"), Some(2), "between 1 and 16384");
+    // Inside a material the value's own span is lost (serde buffers tagged enums): the line
+    // is the material's header.
+    expect_scene_error("roughness", &SPHERE_OK.replace("type = \"diffuse\"", "type = \"metal\"\nroughness = 1.5"), Some(1), "between 0 and 1");
+    expect_scene_error("missing-obj", "[[meshes]]\nfile = \"nothere.obj\"\n", Some(2), "no such file");
+    expect_scene_error(
+        "missing-texture",
+        "[materials.m]\ntype = \"diffuse\"\ntexture = \"nothere.png\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n",
+        Some(1),
+        "no such file",
+    );
+    expect_scene_error("empty", "", None, "no geometry");
+}
+
+#[test]
+fn render_flag_errors_exit_2_without_output() {
+    let d = tmpdir("flags");
+    let out = d.join("o.png");
+    let scene = common::scene_path("spheres.toml");
+    for args in [["--spp", "0"], ["--width", "0"], ["--height", "-3"], ["--accel", "octree"]] {
+        let mut all = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        all.extend(args);
+        let o = ember(&all);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("error"), "{args:?}");
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn unwritable_output_folder() {
+    let o = ember(&["render", common::scene_path("spheres.toml").to_str().unwrap(), "-o", "/nonexistent/dir/out.png", "--width", "8", "--height", "8", "--spp", "1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("/nonexistent/dir/out.png: cannot write"), "{}", stderr(&o));
+}

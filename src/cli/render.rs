@@ -1,29 +1,77 @@
 use crate::accel::{Accel, AccelKind, EmbreeAccel, NaiveAccel};
-use crate::camera::Camera;
 use crate::embree::{BuildOptions, Device};
-use crate::film::{Film, ImageFormat};
+use crate::film::ImageFormat;
+use crate::integrator::{Estimator, RenderSettings, render};
 use crate::scene::Scene;
-use anyhow::Context;
+use crate::scene::format::MAX_IMAGE_SIDE;
 use clap::Args;
-use glam::Vec2;
-use rayon::prelude::*;
 use std::path::PathBuf;
-use std::time::Instant;
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
     /// Scene file (.toml) or mesh (.obj).
     pub scene: PathBuf,
-    /// Output image (.png or .exr).
+    /// Output image: .png (8-bit sRGB) or .exr (linear float).
     #[arg(short, long)]
     pub output: PathBuf,
-    #[arg(long, default_value_t = 640)]
-    pub width: u32,
-    #[arg(long, default_value_t = 480)]
-    pub height: u32,
-    /// Intersection strategy.
+    /// Samples per pixel [scene's render.spp, else 64].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub spp: Option<u32>,
+    /// Image width in pixels [scene's render.width, else 640].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_IMAGE_SIDE as i64))]
+    pub width: Option<u32>,
+    /// Image height in pixels [scene's render.height, else 480].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_IMAGE_SIDE as i64))]
+    pub height: Option<u32>,
+    /// Maximum bounces: 0 = emitters only, 1 = direct light [scene's render.max_depth, else 8].
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Russian roulette after this many bounces; "off" disables it [scene's, else 3].
+    #[arg(long)]
+    pub rr_depth: Option<String>,
+    /// Worker threads [all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+    /// Random seed [scene's render.seed, else 0].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Intersection strategy: embree or naive.
     #[arg(long, default_value = "embree")]
     pub accel: AccelKind,
+    /// Estimator: nee-mis (default), nee, bsdf.
+    #[arg(long, default_value = "nee-mis", value_parser = parse_estimator)]
+    pub estimator: Estimator,
+}
+
+fn parse_estimator(s: &str) -> Result<Estimator, String> {
+    match s {
+        "nee-mis" => Ok(Estimator::NeeMis),
+        "nee" => Ok(Estimator::NeeOnly),
+        "bsdf" => Ok(Estimator::BsdfOnly),
+        _ => Err(format!("unknown estimator {s:?} (expected nee-mis, nee or bsdf)")),
+    }
+}
+
+/// Settings from the command line, then the scene file, then built-in defaults.
+fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> {
+    let d = RenderSettings::default();
+    let r = &scene.render;
+    let rr_depth = match args.rr_depth.as_deref() {
+        Some("off") => u32::MAX,
+        Some(s) => s.parse().map_err(|_| anyhow::anyhow!("--rr-depth: expected a number or \"off\", found {s:?}"))?,
+        None => r.rr_depth.unwrap_or(d.rr_depth),
+    };
+    Ok(RenderSettings {
+        width: args.width.or(r.width).unwrap_or(d.width),
+        height: args.height.or(r.height).unwrap_or(d.height),
+        spp: args.spp.or(r.spp).unwrap_or(d.spp),
+        max_depth: args.max_depth.or(r.max_depth).unwrap_or(d.max_depth),
+        rr_depth,
+        seed: args.seed.or(r.seed).unwrap_or(d.seed),
+        threads: args.threads.map(|t| t as usize),
+        estimator: args.estimator,
+        progress: true,
+    })
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
@@ -32,6 +80,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
+    let settings = settings(&args, &scene)?;
     let device;
     let accel: Box<dyn Accel> = match args.accel {
         AccelKind::Embree => {
@@ -40,23 +89,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         AccelKind::Naive => Box::new(NaiveAccel::new(&scene.geometry)),
     };
-    let camera = Camera::framing(&scene.bounds(), 40.0, args.width as f32 / args.height as f32);
-    let start = Instant::now();
-    let (w, h) = (args.width, args.height);
-    let pixels = (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let film = Vec2::new(((i % w) as f32 + 0.5) / w as f32, ((i / w) as f32 + 0.5) / h as f32);
-            let ray = camera.ray(film, Vec2::ZERO);
-            Ok(match accel.intersect(&ray, 0.0, f32::INFINITY)? {
-                // Eye-light shading of the geometric normal: a preview, not a physical render.
-                Some(hit) => glam::Vec3::splat(0.1 + 0.8 * hit.ng.normalize().dot(ray.d).abs()),
-                None => glam::Vec3::new(0.05, 0.05, 0.08),
-            })
-        })
-        .collect::<Result<Vec<_>, crate::accel::AccelError>>()?;
-    let film = Film { width: w, height: h, pixels };
-    film.save(&args.output).with_context(|| "writing the image")?;
-    eprintln!("rendered {}x{} in {:.2} s -> {}", w, h, start.elapsed().as_secs_f64(), args.output.display());
+    let (film, stats) = render(&scene, accel.as_ref(), &settings)?;
+    film.save(&args.output)?;
+    eprintln!(
+        "rendered {}x{} at {} spp in {:.2} s: {:.2} Mrays/s ({} rays, {} accel), {} non-finite samples dropped -> {}",
+        settings.width,
+        settings.height,
+        settings.spp,
+        stats.elapsed.as_secs_f64(),
+        stats.mrays_per_s(),
+        stats.rays,
+        accel.name(),
+        stats.nonfinite,
+        args.output.display()
+    );
     Ok(())
 }

@@ -84,3 +84,25 @@ impl TriMesh {
         }
     }
 }
+
+impl TriMesh {
+    /// Angle-weighted vertex normals (Thürmer and Wüthrich 1998) from the faces sharing each
+    /// vertex index; replaces any normals present. Degenerate faces contribute nothing.
+    pub fn compute_vertex_normals(&mut self) {
+        let mut acc = vec![Vec3::ZERO; self.positions.len()];
+        for idx in &self.indices {
+            let p = idx.map(|i| self.positions[i as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            if n == Vec3::ZERO || !n.is_finite() {
+                continue;
+            }
+            for k in 0..3 {
+                let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
+                let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+                let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
+                acc[idx[k] as usize] += n * angle;
+            }
+        }
+        self.normals = acc.into_iter().map(|n| n.normalize_or_zero()).collect();
+    }
+}

@@ -6,6 +6,7 @@ mod cylinder;
 mod frame;
 mod mesh;
 mod ray;
+mod spawn;
 mod sphere;
 mod triangle;
 
@@ -14,6 +15,7 @@ pub use cylinder::{Cylinder, CylinderPart};
 pub use frame::Frame;
 pub use mesh::{MeshError, TriMesh};
 pub use ray::{Hit, Ray, ShapeHit};
+pub use spawn::offset_ray_origin;
 pub use sphere::Sphere;
 pub use triangle::{TriangleTest, WatertightRay};
 

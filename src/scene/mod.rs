@@ -1,38 +1,93 @@
-//! Scene description: input files (OBJ/MTL, TOML) and the loaded scene.
+//! Scene description: input files (TOML scenes, OBJ/MTL meshes) and the loaded [`Scene`].
 
+mod build;
 mod error;
+pub mod format;
+mod material;
 mod obj;
 
 pub use error::SceneError;
+pub use material::{Material, MaterialKind};
 pub use obj::{ObjFile, ObjMesh, load_obj};
 
+use crate::camera::Camera;
 use crate::geometry::{Aabb, Geometry};
+use crate::light::{Background, LightSet, PointLight};
+use glam::Vec3;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// A loaded scene: the geometry list (index = geometry id in every accelerator) and what is
-/// needed to look at it.
+/// Which material each primitive of a geometry uses.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MaterialBinding {
+    /// Every primitive uses this material.
+    Uniform(u32),
+    /// Material of primitive i is entry i.
+    PerPrim(Arc<[u32]>),
+}
+
+impl MaterialBinding {
+    #[inline]
+    pub fn material(&self, prim: u32) -> u32 {
+        match self {
+            MaterialBinding::Uniform(m) => *m,
+            MaterialBinding::PerPrim(v) => v[prim as usize],
+        }
+    }
+}
+
+/// The camera as described, before the image aspect is known. `None` frames the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraSpec {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    pub fov: f32,
+    pub aperture: f32,
+    pub focus_distance: Option<f32>,
+}
+
+/// Render settings a scene file may suggest (the command line overrides them).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderDefaults {
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub spp: Option<u32>,
+    pub max_depth: Option<u32>,
+    pub rr_depth: Option<u32>,
+    pub seed: Option<u64>,
+}
+
+/// A loaded scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
     pub source: PathBuf,
+    /// Index = geometry id in every accelerator.
     pub geometry: Vec<Geometry>,
+    /// One entry per geometry.
+    pub bindings: Vec<MaterialBinding>,
+    pub materials: Vec<Material>,
+    pub point_lights: Vec<PointLight>,
+    pub background: Background,
+    pub camera: Option<CameraSpec>,
+    pub render: RenderDefaults,
     /// Problems that did not stop loading.
     pub warnings: Vec<String>,
 }
 
 impl Scene {
-    /// Loads a scene file by extension (`.obj`).
+    /// Loads a scene by extension: `.toml` (scene file) or `.obj` (a mesh, framed by the camera,
+    /// lit by a default sky when it has no emitters).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
         match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-            Some("obj") => {
-                let obj = load_obj(path)?;
-                Ok(Scene {
-                    source: path.to_path_buf(),
-                    geometry: obj.meshes.into_iter().map(|m| Geometry::Mesh(Arc::new(m.mesh))).collect(),
-                    warnings: obj.warnings,
-                })
+            Some("toml") => build::from_toml(path),
+            Some("obj") => build::from_obj(path),
+            _ => {
+                if !path.exists() {
+                    return Err(SceneError::new(path, None, "no such file"));
+                }
+                Err(SceneError::new(path, None, "unknown scene format (expected .toml or .obj)"))
             }
-            _ => Err(SceneError::new(path, None, "unknown scene format (expected .obj)")),
         }
     }
 
@@ -51,5 +106,27 @@ impl Scene {
             }
         }
         c
+    }
+
+    /// The camera for an image of aspect `width / height`.
+    pub fn camera(&self, aspect: f32) -> Camera {
+        match self.camera {
+            Some(c) => {
+                let focus = c.focus_distance.unwrap_or_else(|| (c.look_at - c.position).length());
+                Camera::look_at(c.position, c.look_at, c.up, c.fov, aspect, c.aperture, focus)
+            }
+            None => Camera::framing(&self.bounds(), 40.0, aspect),
+        }
+    }
+
+    /// The scene's lights, ready for sampling.
+    pub fn light_set(&self) -> LightSet {
+        LightSet::new(&self.geometry, &|g, p| self.material(g, p).emission, &self.point_lights, &self.background)
+    }
+
+    /// The material of primitive `prim` of geometry `geom`.
+    #[inline]
+    pub fn material(&self, geom: u32, prim: u32) -> &Material {
+        &self.materials[self.bindings[geom as usize].material(prim) as usize]
     }
 }

@@ -1,0 +1,135 @@
+//! The path tracer: an iterative estimator of the rendering equation with next-event
+//! estimation and multiple importance sampling (power heuristic, Veach 1997) against BSDF
+//! sampling, and Russian roulette.
+
+use super::surface::surface_point;
+use super::{Estimator, RenderSettings};
+use crate::accel::{Accel, AccelError};
+use crate::geometry::{Frame, Ray, offset_ray_origin};
+use crate::light::LightSet;
+use crate::sampler::Rng;
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Power heuristic with β = 2.
+#[inline]
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+/// Everything one path needs, shared by all pixels.
+pub struct PathContext<'a> {
+    pub scene: &'a Scene,
+    pub accel: &'a dyn Accel,
+    pub lights: &'a LightSet,
+    pub settings: &'a RenderSettings,
+}
+
+/// Radiance along `ray`; `rays` counts the rays traced.
+pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) -> Result<Vec3, AccelError> {
+    let s = ctx.settings;
+    let use_nee = s.estimator != Estimator::BsdfOnly && !ctx.lights.is_empty();
+    let count_bsdf_emission = s.estimator != Estimator::NeeOnly;
+    let mis = s.estimator == Estimator::NeeMis;
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut specular = true; // camera rays count as specular: emission seen directly is kept
+    let mut prev_pdf = 0.0f32;
+    let mut prev_p = ray.o;
+    let mut depth = 0u32;
+    loop {
+        *rays += 1;
+        let Some(hit) = ctx.accel.intersect(&ray, 0.0, f32::INFINITY)? else {
+            let le = ctx.scene.background.radiance(ray.d);
+            if le != Vec3::ZERO {
+                if specular || !use_nee {
+                    l += beta * le;
+                } else if count_bsdf_emission {
+                    let w = if mis { power_heuristic(prev_pdf, ctx.lights.pdf_background()) } else { 1.0 };
+                    l += beta * le * w;
+                }
+            }
+            break;
+        };
+        let sp = surface_point(ctx.scene, &ray, &hit);
+        let wo = -ray.d;
+        let emission = sp.material.emission;
+        if emission != Vec3::ZERO {
+            if specular || !use_nee {
+                l += beta * emission;
+            } else if count_bsdf_emission {
+                let w = if mis {
+                    power_heuristic(prev_pdf, ctx.lights.pdf_emitter(hit.geom, hit.prim, prev_p, sp.p, sp.ng))
+                } else {
+                    1.0
+                };
+                l += beta * emission * w;
+            }
+        }
+        if depth >= s.max_depth {
+            break;
+        }
+        let bsdf = sp.material.bsdf(sp.uv);
+        let transmissive = bsdf.is_transmissive();
+        let (mut ng, mut ns) = (sp.ng, sp.ns);
+        if !transmissive && wo.dot(ng) < 0.0 {
+            // Opaque surfaces are shaded on the side they are seen from.
+            ng = -ng;
+            ns = -ns;
+        }
+        let frame = Frame::from_normal(ns);
+        let wo_l = frame.to_local(wo);
+
+        // Next-event estimation.
+        if use_nee && !bsdf.is_delta() {
+            if let Some(ls) = ctx.lights.sample(sp.p, rng.next_f32(), rng.next_2d()) {
+                let wi_l = frame.to_local(ls.wi);
+                let side = ls.wi.dot(ng);
+                let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
+                if f != Vec3::ZERO && ls.radiance != Vec3::ZERO && (transmissive || side > 0.0) {
+                    let o = offset_ray_origin(sp.p, if side > 0.0 { ng } else { -ng });
+                    let (d, tmax) = match ls.point {
+                        // Toward a point on a light: stop just short of it (the light's own
+                        // surface is not an occluder), measured in units of the full segment.
+                        Some(q) => {
+                            let q = if ls.delta { q } else { offset_ray_origin(q, if ls.normal.dot(o - q) > 0.0 { ls.normal } else { -ls.normal }) };
+                            (q - o, 1.0)
+                        }
+                        None => (ls.wi, f32::INFINITY),
+                    };
+                    *rays += 1;
+                    if !ctx.accel.occluded(&Ray::new(o, d), 0.0, tmax)? {
+                        let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l)) };
+                        l += beta * f * ls.radiance * (w / ls.pdf);
+                    }
+                }
+            }
+        }
+
+        // Continue the path by sampling the BSDF.
+        let Some(bs) = bsdf.sample(wo_l, rng.next_2d(), rng.next_f32()) else { break };
+        let wi = frame.to_world(bs.wi);
+        let side = wi.dot(ng);
+        if (!transmissive && side <= 0.0) || !(bs.pdf > 0.0) {
+            break; // below the geometric surface: the shading normal would leak light
+        }
+        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        specular = bs.delta;
+        prev_pdf = bs.pdf;
+        prev_p = sp.p;
+        depth += 1;
+        if depth >= s.rr_depth {
+            let q = (1.0 - beta.max_element()).max(0.05);
+            if rng.next_f32() < q {
+                break;
+            }
+            beta /= 1.0 - q;
+        }
+        if beta == Vec3::ZERO || !beta.is_finite() {
+            break;
+        }
+        ray = Ray::new(offset_ray_origin(sp.p, if side > 0.0 { ng } else { -ng }), wi);
+    }
+    Ok(l)
+}

@@ -1,0 +1,47 @@
+//! From a hit to a shading point: position refined from the primitive (barycentrics for
+//! triangles, re-projection for spheres), normals, texture coordinates, material.
+
+use crate::geometry::{Geometry, Hit, Ray};
+use crate::scene::{Material, Scene};
+use glam::{Vec2, Vec3};
+
+pub struct SurfacePoint<'a> {
+    pub p: Vec3,
+    /// Unit geometric normal as the primitive defines it (outward for spheres/cylinders,
+    /// winding order for triangles).
+    pub ng: Vec3,
+    /// Unit shading normal, on the same side as `ng`.
+    pub ns: Vec3,
+    pub uv: Vec2,
+    pub material: &'a Material,
+}
+
+#[inline]
+pub fn surface_point<'a>(scene: &'a Scene, ray: &Ray, hit: &Hit) -> SurfacePoint<'a> {
+    let material = scene.material(hit.geom, hit.prim);
+    let ng = hit.ng.normalize_or(-ray.d);
+    match &scene.geometry[hit.geom as usize] {
+        Geometry::Mesh(m) => {
+            let [i0, i1, i2] = m.indices[hit.prim as usize].map(|i| i as usize);
+            let (u, v) = (hit.u, hit.v);
+            let w = 1.0 - u - v;
+            // The hit point from barycentrics: no error from o + t·d far from the origin.
+            let p = w * m.positions[i0] + u * m.positions[i1] + v * m.positions[i2];
+            let ns = if m.normals.is_empty() {
+                ng
+            } else {
+                let n = (w * m.normals[i0] + u * m.normals[i1] + v * m.normals[i2]).normalize_or(ng);
+                if n.dot(ng) < 0.0 { -n } else { n }
+            };
+            let uv = if m.uvs.is_empty() { Vec2::new(u, v) } else { w * m.uvs[i0] + u * m.uvs[i1] + v * m.uvs[i2] };
+            SurfacePoint { p, ng, ns, uv, material }
+        }
+        Geometry::Spheres(s) => {
+            let s = &s[hit.prim as usize];
+            // Re-projected onto the sphere.
+            let n = (ray.at(hit.t) - s.center).normalize_or(ng);
+            SurfacePoint { p: s.center + s.radius * n, ng: n, ns: n, uv: Vec2::new(hit.u, hit.v), material }
+        }
+        Geometry::Cylinders(_) => SurfacePoint { p: ray.at(hit.t), ng, ns: ng, uv: Vec2::new(hit.u, hit.v), material },
+    }
+}

@@ -1,0 +1,324 @@
+//! Lights: point lights, emissive triangles and spheres (area lights), and the background
+//! (sky or environment image). [`LightSet`] chooses one in proportion to its estimated power
+//! and samples a direction toward it, for next-event estimation; its `pdf_*` methods give the
+//! matching densities for multiple importance sampling.
+
+mod background;
+
+pub use background::Background;
+
+use crate::geometry::{Aabb, Frame, Geometry, Sphere};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// An isotropic point light; `intensity` is radiant intensity (W/sr) per channel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointLight {
+    pub position: Vec3,
+    pub intensity: Vec3,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+enum Light {
+    Point(PointLight),
+    Triangle { p: [Vec3; 3], area: f32, emission: Vec3 },
+    Sphere { sphere: Sphere, emission: Vec3 },
+    Background,
+}
+
+/// A sampled light direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSample {
+    /// Unit direction from the shading point toward the light.
+    pub wi: Vec3,
+    /// Point on the light (for shadow rays); `None` for the background (infinitely far).
+    pub point: Option<Vec3>,
+    /// Unit normal of the light's surface at `point` (zero for point lights).
+    pub normal: Vec3,
+    /// Radiance arriving along `wi` (for point lights: intensity / distance²).
+    pub radiance: Vec3,
+    /// Solid-angle density including the light choice; for point lights the choice
+    /// probability alone.
+    pub pdf: f32,
+    /// Point lights: the sample cannot be hit by BSDF sampling, so no MIS.
+    pub delta: bool,
+}
+
+/// Where to find the light of an emissive primitive.
+#[derive(Clone, Debug, PartialEq)]
+enum Lookup {
+    None,
+    /// Light index of primitive i is base + i.
+    Range(u32),
+    PerPrim(Vec<u32>),
+}
+
+/// All lights of a scene with a power-proportional choice distribution.
+#[derive(Clone, Debug)]
+pub struct LightSet {
+    lights: Vec<Light>,
+    cdf: Vec<f32>,
+    prob: Vec<f32>,
+    lookup: Vec<Lookup>,
+    background: Background,
+    background_index: Option<usize>,
+}
+
+fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+impl LightSet {
+    /// The lights of a scene: every primitive of `geometry` for which `emission(geom, prim)`
+    /// is not black (triangles and spheres; cylinders are not sampled), the point lights, and
+    /// the background unless it is black.
+    pub fn new(
+        geometry: &[Geometry],
+        emission: &dyn Fn(u32, u32) -> Vec3,
+        point_lights: &[PointLight],
+        background: &Background,
+    ) -> LightSet {
+        let mut lights = Vec::new();
+        let mut power = Vec::new();
+        let mut lookup = Vec::new();
+        for (gi, g) in geometry.iter().enumerate() {
+            let gi = gi as u32;
+            let base = lights.len() as u32;
+            let mut per = Vec::new();
+            match g {
+                Geometry::Mesh(m) => {
+                    for i in 0..m.triangle_count() {
+                        let e = emission(gi, i as u32);
+                        if e.max_element() <= 0.0 {
+                            per.push(u32::MAX);
+                            continue;
+                        }
+                        let p = m.triangle(i);
+                        let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+                        let area = if area.is_finite() { area } else { 0.0 };
+                        per.push(lights.len() as u32);
+                        power.push(luminance(e) * area * PI);
+                        lights.push(Light::Triangle { p, area, emission: e });
+                    }
+                }
+                Geometry::Spheres(s) => {
+                    for (i, sp) in s.iter().enumerate() {
+                        let e = emission(gi, i as u32);
+                        if e.max_element() <= 0.0 {
+                            per.push(u32::MAX);
+                            continue;
+                        }
+                        per.push(lights.len() as u32);
+                        power.push(luminance(e) * 4.0 * PI * sp.radius * sp.radius * PI);
+                        lights.push(Light::Sphere { sphere: *sp, emission: e });
+                    }
+                }
+                Geometry::Cylinders(_) => {}
+            }
+            lookup.push(if per.iter().all(|&x| x == u32::MAX) {
+                Lookup::None
+            } else if per.iter().enumerate().all(|(i, &x)| x == base + i as u32) {
+                Lookup::Range(base)
+            } else {
+                Lookup::PerPrim(per)
+            });
+        }
+        for pl in point_lights {
+            power.push(luminance(pl.intensity) * 4.0 * PI);
+            lights.push(Light::Point(*pl));
+        }
+        let mut background_index = None;
+        if !background.is_black() {
+            let bounds = geometry.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()));
+            let r = 0.5 * bounds.diagonal().length();
+            let r = if r.is_finite() && r > 0.0 { r } else { 1.0 };
+            background_index = Some(lights.len());
+            power.push(luminance(background.average()).max(1e-6) * 4.0 * PI * PI * r * r);
+            lights.push(Light::Background);
+        }
+        let total: f32 = power.iter().sum();
+        let prob: Vec<f32> = if total > 0.0 && total.is_finite() {
+            power.iter().map(|p| p / total).collect()
+        } else {
+            vec![1.0 / lights.len().max(1) as f32; lights.len()]
+        };
+        let mut acc = 0.0;
+        let cdf = prob
+            .iter()
+            .map(|p| {
+                acc += p;
+                acc
+            })
+            .collect();
+        LightSet { lights, cdf, prob, lookup, background: background.clone(), background_index }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    pub fn len(&self) -> usize {
+        self.lights.len()
+    }
+
+    /// Whether every light is a point light.
+    pub fn all_delta(&self) -> bool {
+        self.lights.iter().all(|l| matches!(l, Light::Point(_)))
+    }
+
+    fn choose(&self, u: f32) -> usize {
+        let i = self.cdf.partition_point(|&c| c <= u);
+        i.min(self.lights.len() - 1)
+    }
+
+    /// Samples a light and a direction toward it from `p`.
+    pub fn sample(&self, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
+        if self.lights.is_empty() {
+            return None;
+        }
+        let i = self.choose(u_choice);
+        let sel = self.prob[i];
+        if sel <= 0.0 {
+            return None;
+        }
+        match &self.lights[i] {
+            Light::Point(l) => {
+                let d = l.position - p;
+                let d2 = d.length_squared();
+                if !(d2 > 0.0) {
+                    return None;
+                }
+                Some(LightSample {
+                    wi: d / d2.sqrt(),
+                    point: Some(l.position),
+                    normal: Vec3::ZERO,
+                    radiance: l.intensity / d2,
+                    pdf: sel,
+                    delta: true,
+                })
+            }
+            Light::Triangle { p: tri, area, emission } => {
+                if *area <= 0.0 {
+                    return None;
+                }
+                let su = u.x.sqrt();
+                let (b0, b1) = (1.0 - su, u.y * su);
+                let q = b0 * tri[0] + b1 * tri[1] + (1.0 - b0 - b1) * tri[2];
+                let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
+                let d = q - p;
+                let d2 = d.length_squared();
+                let wi = d / d2.sqrt();
+                let cos = n.dot(wi).abs();
+                if !(cos > 0.0 && d2 > 0.0) {
+                    return None;
+                }
+                let pdf = sel * d2 / (cos * area);
+                pdf.is_finite().then_some(LightSample { wi, point: Some(q), normal: n, radiance: *emission, pdf, delta: false })
+            }
+            Light::Sphere { sphere, emission } => {
+                let (q, n, pdf) = sample_sphere(sphere, p, u)?;
+                let wi = (q - p).normalize();
+                let pdf = pdf * sel;
+                (pdf.is_finite() && pdf > 0.0)
+                    .then_some(LightSample { wi, point: Some(q), normal: n, radiance: *emission, pdf, delta: false })
+            }
+            Light::Background => {
+                let wi = uniform_sphere(u);
+                Some(LightSample {
+                    wi,
+                    point: None,
+                    normal: Vec3::ZERO,
+                    radiance: self.background.radiance(wi),
+                    pdf: sel / (4.0 * PI),
+                    delta: false,
+                })
+            }
+        }
+    }
+
+    /// Density with which `sample` from `p` picks the point `q` (normal `n`) on primitive
+    /// `prim` of geometry `geom`; 0 if that primitive is not a light.
+    pub fn pdf_emitter(&self, geom: u32, prim: u32, p: Vec3, q: Vec3, n: Vec3) -> f32 {
+        let i = match self.lookup.get(geom as usize) {
+            Some(Lookup::Range(base)) => (base + prim) as usize,
+            Some(Lookup::PerPrim(v)) => match v.get(prim as usize) {
+                Some(&i) if i != u32::MAX => i as usize,
+                _ => return 0.0,
+            },
+            _ => return 0.0,
+        };
+        let sel = self.prob[i];
+        match &self.lights[i] {
+            Light::Triangle { area, .. } => {
+                let d = q - p;
+                let d2 = d.length_squared();
+                let cos = n.normalize().dot(d / d2.sqrt()).abs();
+                if *area <= 0.0 || cos <= 0.0 { 0.0 } else { sel * d2 / (cos * area) }
+            }
+            Light::Sphere { sphere, .. } => sel * pdf_sphere(sphere, p, q, n),
+            _ => 0.0,
+        }
+    }
+
+    /// Density with which `sample` picks direction `wi` toward the background.
+    pub fn pdf_background(&self) -> f32 {
+        self.background_index.map_or(0.0, |i| self.prob[i] / (4.0 * PI))
+    }
+}
+
+/// Uniform direction on the unit sphere.
+#[inline]
+pub fn uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// 1 − cosθmax of the cone a sphere subtends from a point at distance² `d2` from its centre
+/// (outside), computed as sin²θmax / (1 + cosθmax): no cancellation for small or distant
+/// spheres.
+fn cone_one_minus_cos(radius: f32, d2: f32) -> f32 {
+    let sin2 = (radius * radius / d2).min(1.0);
+    let cos = (1.0 - sin2).max(0.0).sqrt();
+    sin2 / (1.0 + cos)
+}
+
+/// Samples a point on a sphere as seen from `p`: uniformly in the subtended cone when outside
+/// (solid-angle density 1 / (2π(1 − cosθmax))), uniformly by area when inside.
+fn sample_sphere(s: &Sphere, p: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+    let to_c = s.center - p;
+    let d2 = to_c.length_squared();
+    if d2 <= s.radius * s.radius {
+        let n = uniform_sphere(u);
+        let q = s.center + s.radius * n;
+        let d = q - p;
+        let dd = d.length_squared();
+        let cos = n.dot(d / dd.sqrt()).abs();
+        let pdf = dd / (cos * 4.0 * PI * s.radius * s.radius);
+        return (cos > 0.0).then_some((q, n, pdf));
+    }
+    let d = d2.sqrt();
+    let one_minus_cos = cone_one_minus_cos(s.radius, d2);
+    let cos_t = 1.0 - u.x * one_minus_cos;
+    let sin2_t = (1.0 - cos_t * cos_t).max(0.0);
+    let phi = 2.0 * PI * u.y;
+    // Distance along the sampled direction to the near intersection with the sphere.
+    let ds = d * cos_t - (s.radius * s.radius - d2 * sin2_t).max(0.0).sqrt();
+    let frame = Frame::from_normal(to_c / d);
+    let dir = frame.to_world(Vec3::new(sin2_t.sqrt() * phi.cos(), sin2_t.sqrt() * phi.sin(), cos_t));
+    let q = p + ds * dir;
+    let n = (q - s.center).normalize();
+    Some((q, n, 1.0 / (2.0 * PI * one_minus_cos)))
+}
+
+fn pdf_sphere(s: &Sphere, p: Vec3, q: Vec3, n: Vec3) -> f32 {
+    let d2 = (s.center - p).length_squared();
+    if d2 <= s.radius * s.radius {
+        let d = q - p;
+        let dd = d.length_squared();
+        let cos = n.normalize().dot(d / dd.sqrt()).abs();
+        return if cos > 0.0 { dd / (cos * 4.0 * PI * s.radius * s.radius) } else { 0.0 };
+    }
+    1.0 / (2.0 * PI * cone_one_minus_cos(s.radius, d2))
+}

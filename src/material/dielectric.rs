@@ -1,0 +1,92 @@
+//! Smooth glass: a delta reflection and a delta refraction weighted by the exact dielectric
+//! Fresnel reflectance (pbrt 4th ed., §9.5 `DielectricBxDF`, smooth case).
+//!
+//! The lobe is chosen with probability F (reflect) or 1 − F (refract), so every sample carries
+//! the throughput 1 (reflection) or `tint` (refraction). Refraction does *not* apply the
+//! 1/η² radiance compression: it cancels for light that enters and leaves a closed object,
+//! and omitting it keeps reflection + transmission = 1 (no energy bookkeeping across media).
+
+use glam::Vec3;
+
+use super::fresnel::{fresnel_dielectric, refracted_cos};
+use super::{BsdfSample, MIN_COS, reflect_z};
+
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Dielectric {
+    /// IOR inside / outside (outside is the side +Z points to).
+    ior: f32,
+    tint: Vec3,
+}
+
+impl Dielectric {
+    /// A non-positive or non-finite `ior` is replaced by 1 (no interface).
+    pub(super) fn new(ior: f32, tint: Vec3) -> Self {
+        let ior = if ior.is_finite() && ior > 0.0 { ior } else { 1.0 };
+        Dielectric { ior, tint }
+    }
+
+    /// Picks reflection with probability F(wo), else refraction. `uc` in [0, 1).
+    pub(super) fn sample(&self, wo: Vec3, uc: f32) -> Option<BsdfSample> {
+        if wo.z.abs() <= MIN_COS {
+            return None;
+        }
+        let fr = fresnel_dielectric(wo.z, self.ior);
+        if uc < fr {
+            let wi = reflect_z(wo);
+            let f = Vec3::splat(fr / wi.z.abs());
+            return Some(BsdfSample { wi, f, pdf: fr, delta: true });
+        }
+        // fr < 1 here, so refraction exists (refract and fresnel_dielectric agree on TIR).
+        let wi = refract(wo, self.ior)?;
+        let ft = 1.0 - fr;
+        let f = self.tint * (ft / wi.z.abs());
+        Some(BsdfSample { wi, f, pdf: ft, delta: true })
+    }
+}
+
+/// Refracts `wo` through the interface with the normal +Z, the inside having IOR `ior`
+/// relative to the outside. Works from either side; None on total internal reflection.
+///
+/// The tangential part scales by 1/η and the normal part is cos θt, so the result is unit
+/// length by Snell's law; for η = 1 it is exactly −wo.
+pub(super) fn refract(wo: Vec3, ior: f32) -> Option<Vec3> {
+    let (eta, side) = if wo.z > 0.0 { (ior, 1.0) } else { (1.0 / ior, -1.0) };
+    let cos_t = refracted_cos(wo.z.abs(), eta)?;
+    Some(Vec3::new(-wo.x / eta, -wo.y / eta, -side * cos_t))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn refraction_obeys_snell_from_both_sides() {
+        for ior in [1.33f32, 1.5, 3.0] {
+            for i in 1..50 {
+                let theta = i as f32 / 50.0 * std::f32::consts::FRAC_PI_2;
+                for outside in [true, false] {
+                    let z = if outside { theta.cos() } else { -theta.cos() };
+                    let wo = Vec3::new(theta.sin() * 0.6, theta.sin() * 0.8, z);
+                    let (n_i, n_t) = if outside { (1.0, ior) } else { (ior, 1.0) };
+                    match refract(wo, ior) {
+                        Some(wi) => {
+                            assert!((wi.length() - 1.0).abs() < 1e-5);
+                            assert!(wi.z * wo.z < 0.0, "must cross the interface");
+                            let sin_i = wo.truncate().length();
+                            let sin_t = wi.truncate().length();
+                            assert!((n_i * sin_i - n_t * sin_t).abs() < 1e-5);
+                        }
+                        None => assert!(n_i * theta.sin() >= n_t * 0.9999, "spurious TIR"),
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn index_one_passes_straight_through() {
+        let wo = Vec3::new(0.3, -0.4, 0.2).normalize();
+        assert_eq!(refract(wo, 1.0), Some(-wo));
+        assert_eq!(refract(-wo, 1.0), Some(wo));
+    }
+}

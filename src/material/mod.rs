@@ -1,0 +1,151 @@
+//! Materials: the BSDFs (bidirectional scattering distribution functions).
+//!
+//! Everything here works in the **local shading frame**: the shading normal is +Z, and every
+//! direction is unit length and points *away* from the surface (`wo` towards the viewer, `wi`
+//! towards the light). Convert with [`crate::geometry::Frame`] before and after.
+//!
+//! One concept per file:
+//! - `fresnel`: exact dielectric ([`fresnel_dielectric`]) and Schlick Fresnel reflectance,
+//! - `microfacet`: the GGX distribution, Smith masking-shadowing and visible-normal sampling,
+//! - `diffuse`, `conductor`, `plastic`, `dielectric`: the four BSDFs behind [`Bsdf`].
+//!
+//! Conventions shared by all BSDFs:
+//! - [`Bsdf::eval`] is f(wo, wi) *without* the cosine factor, and only for non-delta lobes.
+//! - [`Bsdf::pdf`] is the solid-angle density with which [`Bsdf::sample`] produces `wi`
+//!   through its non-delta lobes (including the lobe-selection probability).
+//! - Delta lobes follow pbrt: `f = F / |cos θi|` and `pdf` = the discrete probability of picking
+//!   the lobe, so `f * |wi.z| / pdf` is the throughput multiplier.
+//! - Opaque BSDFs (diffuse, conductor, plastic) are zero when `wo` or `wi` lies below — or
+//!   within [`MIN_COS`] of — the surface plane; the caller flips the frame so that `wo.z > 0`.
+//! - No method returns NaN or infinity for unit-length inputs.
+
+mod conductor;
+mod dielectric;
+mod diffuse;
+mod fresnel;
+mod microfacet;
+mod plastic;
+
+use glam::{Vec2, Vec3};
+
+use conductor::Conductor;
+use dielectric::Dielectric;
+use diffuse::Diffuse;
+use plastic::Plastic;
+
+pub use fresnel::fresnel_dielectric;
+
+/// Directions whose |cos θ| to the normal is at most this are treated as lying in the surface
+/// plane: opaque BSDFs are zero there and sampling fails. It keeps delta weights `F / |cos θ|`
+/// and microfacet terms finite (1/MIN_COS = 1e9) at a negligible angular cost (~6e-8°).
+pub const MIN_COS: f32 = 1e-9;
+
+/// A BSDF with its parameters already resolved (textures looked up by the caller).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bsdf {
+    /// Lambertian, cosine-weighted sampling.
+    Diffuse { albedo: Vec3 },
+    /// Rough metal: GGX (Trowbridge-Reitz) microfacet reflection with the height-correlated
+    /// Smith G2 and visible-normal sampling, Schlick Fresnel with F0 = `color`,
+    /// alpha = roughness². Roughness is clamped to [0, 1]; alpha below 1e-3
+    /// (roughness < ~0.032) is a perfect mirror (delta).
+    Conductor { color: Vec3, roughness: f32 },
+    /// Glossy plastic: a GGX dielectric coating (IOR 1.5, alpha = roughness²) over a
+    /// Lambertian base `diffuse`, the base weighted by (1 − F(cos θo))(1 − F(cos θi)).
+    /// Roughness 0 gives a smooth coating (delta specular lobe + diffuse).
+    Plastic { diffuse: Vec3, roughness: f32 },
+    /// Smooth glass: exact dielectric Fresnel, reflection + refraction (both delta), total
+    /// internal reflection; `tint` multiplies transmission. `wo.z > 0` means the ray arrives
+    /// from outside (IOR 1), `wo.z < 0` from inside (IOR `ior`). `ior == 1` passes straight
+    /// through.
+    Dielectric { ior: f32, tint: Vec3 },
+}
+
+/// One direction drawn by [`Bsdf::sample`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    pub wi: Vec3,
+    /// BSDF value f(wo, wi) (NOT multiplied by cos). For delta lobes: the weight such that
+    /// `f * |wi.z| / pdf` is the correct throughput multiplier (as in pbrt: f = F/|cos|,
+    /// pdf = choice probability).
+    pub f: Vec3,
+    /// Solid-angle pdf (for delta lobes: the discrete probability of choosing that lobe).
+    /// Always > 0.
+    pub pdf: f32,
+    /// True if wi was chosen from a delta (specular) lobe: MIS and eval() do not apply to it.
+    pub delta: bool,
+}
+
+impl Bsdf {
+    /// f(wo, wi) for the non-delta part (0 for delta-only BSDFs). Not multiplied by cos.
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        match *self {
+            Bsdf::Diffuse { albedo } => Diffuse::new(albedo).eval(wo, wi),
+            Bsdf::Conductor { color, roughness } => Conductor::new(color, roughness).eval(wo, wi),
+            Bsdf::Plastic { diffuse, roughness } => Plastic::new(diffuse, roughness).eval(wo, wi),
+            Bsdf::Dielectric { .. } => Vec3::ZERO,
+        }
+    }
+
+    /// Solid-angle pdf that [`sample`](Self::sample) would produce wi through its non-delta
+    /// lobes (0 for pure delta).
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match *self {
+            Bsdf::Diffuse { albedo } => Diffuse::new(albedo).pdf(wo, wi),
+            Bsdf::Conductor { color, roughness } => Conductor::new(color, roughness).pdf(wo, wi),
+            Bsdf::Plastic { diffuse, roughness } => Plastic::new(diffuse, roughness).pdf(wo, wi),
+            Bsdf::Dielectric { .. } => 0.0,
+        }
+    }
+
+    /// Samples wi. `u` in [0,1)² for the direction, `uc` in [0,1) for the lobe choice.
+    /// None if sampling fails (e.g. wo below the surface of an opaque BSDF, or a microfacet
+    /// reflection that ends below the horizon).
+    ///
+    /// For non-delta samples, `f` and `pdf` are computed at the returned `wi` by the very code
+    /// of [`eval`](Self::eval) and [`pdf`](Self::pdf), so MIS weights agree exactly.
+    pub fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        let s = match *self {
+            Bsdf::Diffuse { albedo } => Diffuse::new(albedo).sample(wo, u),
+            Bsdf::Conductor { color, roughness } => Conductor::new(color, roughness).sample(wo, u),
+            Bsdf::Plastic { diffuse, roughness } => {
+                Plastic::new(diffuse, roughness).sample(wo, u, uc)
+            }
+            Bsdf::Dielectric { ior, tint } => Dielectric::new(ior, tint).sample(wo, uc),
+        }?;
+        debug_assert!(s.f.is_finite() && s.pdf.is_finite() && s.wi.is_finite(), "{s:?}");
+        (s.pdf > 0.0).then_some(s)
+    }
+
+    /// True if every lobe is delta (mirror conductor, glass): next-event estimation is useless.
+    pub fn is_delta(&self) -> bool {
+        match *self {
+            Bsdf::Diffuse { .. } | Bsdf::Plastic { .. } => false,
+            Bsdf::Conductor { color, roughness } => Conductor::new(color, roughness).is_delta(),
+            Bsdf::Dielectric { .. } => true,
+        }
+    }
+
+    /// True if the BSDF transmits (light can leave on the other side), i.e. Dielectric.
+    pub fn is_transmissive(&self) -> bool {
+        matches!(self, Bsdf::Dielectric { .. })
+    }
+}
+
+/// True if both directions are strictly above the surface (the domain of opaque BSDFs).
+#[inline]
+fn same_hemisphere_above(wo: Vec3, wi: Vec3) -> bool {
+    wo.z > MIN_COS && wi.z > MIN_COS
+}
+
+/// Mirror reflection of `wo` about the unit normal `n` (both pointing away from the surface).
+#[inline]
+fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
+    2.0 * wo.dot(n) * n - wo
+}
+
+/// Mirror reflection about the shading normal +Z.
+#[inline]
+fn reflect_z(wo: Vec3) -> Vec3 {
+    Vec3::new(-wo.x, -wo.y, wo.z)
+}

@@ -1,0 +1,332 @@
+//! Turning scene files into a [`Scene`].
+
+use super::format::{self, BackgroundSection, ColorSource, LightSection, MaterialSection, ScaleSpec, SceneFile};
+use super::{CameraSpec, Material, MaterialBinding, MaterialKind, RenderDefaults, Scene, SceneError, load_obj};
+use crate::geometry::{Cylinder, Geometry, Sphere, TriMesh};
+use crate::light::{Background, PointLight};
+use crate::texture::{Image, Texture};
+use glam::{Affine3A, Quat, Vec3};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// 1-based line of byte offset `pos` in `text`.
+fn line_of(text: &str, pos: usize) -> usize {
+    text[..pos.min(text.len())].bytes().filter(|&b| b == b'\n').count() + 1
+}
+
+struct Ctx<'a> {
+    path: &'a Path,
+    text: &'a str,
+    dir: PathBuf,
+    images: HashMap<PathBuf, Arc<Image>>,
+}
+
+impl Ctx<'_> {
+    fn err_at(&self, span: std::ops::Range<usize>, msg: impl Into<String>) -> SceneError {
+        SceneError::new(self.path, Some(line_of(self.text, span.start)), msg)
+    }
+
+    fn resolve(&self, file: &str) -> PathBuf {
+        self.dir.join(file)
+    }
+
+    fn image(&mut self, file: &str, span: std::ops::Range<usize>) -> Result<Arc<Image>, SceneError> {
+        let p = self.resolve(file);
+        if let Some(img) = self.images.get(&p) {
+            return Ok(img.clone());
+        }
+        let img = Image::load(&p)
+            .map_err(|e| self.err_at(span, format!("texture {}: {e}", p.display())))?;
+        let img = Arc::new(img);
+        self.images.insert(p, img.clone());
+        Ok(img)
+    }
+
+    fn texture(&mut self, c: ColorSource, at: std::ops::Range<usize>) -> Result<Texture, SceneError> {
+        let given = c.color.is_some() as u8 + c.texture.is_some() as u8 + c.checker.is_some() as u8;
+        if given > 1 {
+            return Err(self.err_at(at, "give only one of color, texture and checker"));
+        }
+        Ok(if let Some(t) = c.texture {
+            Texture::Image(self.image(&t, at)?)
+        } else if let Some(ch) = c.checker {
+            Texture::Checker { a: ch.a.0, b: ch.b.0, scale: ch.scale.0 }
+        } else {
+            Texture::Constant(c.color.map_or(Vec3::splat(0.8), |c| c.0))
+        })
+    }
+}
+
+pub(super) fn from_toml(path: &Path) -> Result<Scene, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?;
+    let file: SceneFile = toml::from_str(&text).map_err(|e| {
+        let line = e.span().map(|s| line_of(&text, s.start));
+        SceneError::new(path, line, e.message().trim().to_string())
+    })?;
+    let mut ctx = Ctx { path, text: &text, dir: path.parent().map(Path::to_path_buf).unwrap_or_default(), images: HashMap::new() };
+    let mut scene = Scene {
+        source: path.to_path_buf(),
+        geometry: Vec::new(),
+        bindings: Vec::new(),
+        materials: Vec::new(),
+        point_lights: Vec::new(),
+        background: Background::Black,
+        camera: None,
+        render: render_defaults(&file.render),
+        warnings: Vec::new(),
+    };
+
+    // Materials, by name.
+    let mut by_name: HashMap<String, u32> = HashMap::new();
+    for (name, m) in file.materials {
+        let span = m.span();
+        let material = material(&mut ctx, name.clone(), m.into_inner(), span)?;
+        by_name.insert(name, scene.materials.len() as u32);
+        scene.materials.push(material);
+    }
+    let lookup = |ctx: &Ctx, name: &toml::Spanned<String>| -> Result<u32, SceneError> {
+        by_name.get(name.get_ref()).copied().ok_or_else(|| {
+            let mut known: Vec<&str> = by_name.keys().map(String::as_str).collect();
+            known.sort();
+            ctx.err_at(name.span(), format!("unknown material {:?} (defined: {})", name.get_ref(), known.join(", ")))
+        })
+    };
+
+    for m in &file.meshes {
+        let obj_path = ctx.resolve(m.file.get_ref());
+        let obj = load_obj(&obj_path).map_err(|e| {
+            if e.line.is_none() && e.path == obj_path {
+                // Point at the scene line that names the file, and say what is wrong with it.
+                ctx.err_at(m.file.span(), format!("mesh {}: {}", obj_path.display(), e.message))
+            } else {
+                e
+            }
+        })?;
+        scene.warnings.extend(obj.warnings.iter().cloned());
+        let transform = mesh_transform(&ctx, m)?;
+        let over = m.material.as_ref().map(|n| lookup(&ctx, n)).transpose()?;
+        let mtl_ids = mtl_materials(&mut scene, &obj_path, &obj.materials);
+        for om in obj.meshes {
+            let mut mesh = om.mesh;
+            mesh.transform(transform);
+            if m.smooth && mesh.normals.is_empty() {
+                mesh.compute_vertex_normals();
+            }
+            let id = over.unwrap_or_else(|| om.material.map(|i| mtl_ids[i]).unwrap_or_else(|| default_material(&mut scene)));
+            scene.geometry.push(Geometry::Mesh(Arc::new(mesh)));
+            scene.bindings.push(MaterialBinding::Uniform(id));
+        }
+    }
+    for q in &file.quads {
+        let id = lookup(&ctx, &q.material)?;
+        let (c, e1, e2) = (q.corner.0, q.edge1.0, q.edge2.0);
+        if e1.cross(e2).length_squared() == 0.0 {
+            return Err(ctx.err_at(q.material.span(), "quad edges are parallel or zero: the quad has no area"));
+        }
+        let mesh = TriMesh::new("quad", vec![c, c + e1, c + e1 + e2, c + e2], vec![[0, 1, 2], [0, 2, 3]], vec![], vec![
+            glam::Vec2::new(0.0, 0.0),
+            glam::Vec2::new(1.0, 0.0),
+            glam::Vec2::new(1.0, 1.0),
+            glam::Vec2::new(0.0, 1.0),
+        ])
+        .expect("a quad's indices are in range");
+        scene.geometry.push(Geometry::Mesh(Arc::new(mesh)));
+        scene.bindings.push(MaterialBinding::Uniform(id));
+    }
+    if !file.spheres.is_empty() {
+        let mut shapes = Vec::new();
+        let mut ids = Vec::new();
+        for s in &file.spheres {
+            ids.push(lookup(&ctx, &s.material)?);
+            shapes.push(Sphere::new(s.center.0, s.radius.0));
+        }
+        scene.geometry.push(Geometry::Spheres(shapes.into()));
+        scene.bindings.push(MaterialBinding::PerPrim(ids.into()));
+    }
+    if !file.cylinders.is_empty() {
+        let mut shapes = Vec::new();
+        let mut ids = Vec::new();
+        for c in &file.cylinders {
+            ids.push(lookup(&ctx, &c.material)?);
+            if c.p0.0 == c.p1.0 {
+                return Err(ctx.err_at(c.material.span(), "cylinder p0 and p1 are the same point"));
+            }
+            if scene.materials[*ids.last().unwrap() as usize].is_emissive() {
+                scene.warnings.push(format!("{}: emissive cylinders are not sampled as lights; they glow but light nothing directly", path.display()));
+            }
+            shapes.push(Cylinder::new(c.p0.0, c.p1.0, c.radius.0));
+        }
+        scene.geometry.push(Geometry::Cylinders(shapes.into()));
+        scene.bindings.push(MaterialBinding::PerPrim(ids.into()));
+    }
+    for l in &file.lights {
+        match l {
+            LightSection::Point { position, intensity } => {
+                scene.point_lights.push(PointLight { position: position.0, intensity: intensity.0 })
+            }
+        }
+    }
+    scene.background = match file.background {
+        None => Background::Black,
+        Some(BackgroundSection::Constant { color }) => Background::Constant(color.0),
+        Some(BackgroundSection::Gradient { zenith, horizon, ground }) => {
+            Background::Gradient { zenith: zenith.0, horizon: horizon.0, ground: ground.map_or(horizon.0, |g| g.0) }
+        }
+        Some(BackgroundSection::Image { file, scale }) => {
+            Background::Image { image: ctx.image(file.get_ref(), file.span())?, scale: scale.map_or(1.0, |s| s.0) }
+        }
+    };
+    if let Some(c) = file.camera {
+        let fov = c.fov.as_ref().map_or(40.0, |f| f.get_ref().0);
+        if fov >= 180.0 {
+            return Err(ctx.err_at(c.fov.unwrap().span(), format!("fov must be below 180 degrees, found {fov}")));
+        }
+        let aperture = c.aperture.map_or(0.0, |a| a.0);
+        if aperture < 0.0 {
+            return Err(SceneError::new(path, None, "camera aperture must not be negative"));
+        }
+        if c.position.0 == c.look_at.0 {
+            return Err(SceneError::new(path, None, "camera position and look_at are the same point"));
+        }
+        scene.camera = Some(CameraSpec {
+            position: c.position.0,
+            look_at: c.look_at.0,
+            up: c.up.map_or(Vec3::Y, |u| u.0),
+            fov,
+            aperture,
+            focus_distance: c.focus_distance.map(|f| f.0),
+        });
+    }
+    if scene.geometry.is_empty() {
+        return Err(SceneError::new(path, None, "the scene has no geometry (meshes, quads, spheres or cylinders)"));
+    }
+    Ok(scene)
+}
+
+fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
+    RenderDefaults {
+        width: r.width.map(|s| s.0),
+        height: r.height.map(|s| s.0),
+        spp: r.spp.map(|s| s.0),
+        max_depth: r.max_depth,
+        rr_depth: r.rr_depth,
+        seed: r.seed,
+    }
+}
+
+fn material(ctx: &mut Ctx, name: String, m: MaterialSection, span: std::ops::Range<usize>) -> Result<Material, SceneError> {
+    let e = |x: Option<format::Rgb>| x.map_or(Vec3::ZERO, |c| c.0);
+    let (kind, emission) = match m {
+        MaterialSection::Diffuse { color, emission } => (MaterialKind::Diffuse { color: ctx.texture(color, span)? }, e(emission)),
+        MaterialSection::Metal { color, roughness, emission } => (
+            MaterialKind::Metal { color: ctx.texture(color, span)?, roughness: roughness.map_or(0.0, |r| r.0) },
+            e(emission),
+        ),
+        MaterialSection::Plastic { color, roughness, emission } => (
+            MaterialKind::Plastic { color: ctx.texture(color, span)?, roughness: roughness.map_or(0.2, |r| r.0) },
+            e(emission),
+        ),
+        MaterialSection::Glass { ior, tint } => {
+            (MaterialKind::Glass { ior: ior.map_or(1.5, |i| i.0), tint: tint.map_or(Vec3::ONE, |t| t.0) }, Vec3::ZERO)
+        }
+        MaterialSection::Emissive { emission } => (MaterialKind::Emissive, emission.0),
+    };
+    Ok(Material { name, kind, emission })
+}
+
+fn mesh_transform(ctx: &Ctx, m: &format::MeshSection) -> Result<Affine3A, SceneError> {
+    let scale = match m.scale.as_ref().map(|s| (*s.get_ref(), s.span())) {
+        None => Vec3::ONE,
+        Some((ScaleSpec::Uniform(s), span)) => {
+            if s.0 == 0.0 {
+                return Err(ctx.err_at(span, "scale must not be 0"));
+            }
+            Vec3::splat(s.0)
+        }
+        Some((ScaleSpec::PerAxis(v), span)) => {
+            if v.0.cmpeq(Vec3::ZERO).any() {
+                return Err(ctx.err_at(span, "scale components must not be 0"));
+            }
+            v.0
+        }
+    };
+    let r = m.rotate.map_or(Vec3::ZERO, |r| r.0) * (std::f32::consts::PI / 180.0);
+    let rot = Quat::from_rotation_z(r.z) * Quat::from_rotation_y(r.y) * Quat::from_rotation_x(r.x);
+    let t = m.translate.map_or(Vec3::ZERO, |t| t.0);
+    Ok(Affine3A::from_scale_rotation_translation(scale, rot, t))
+}
+
+/// Adds the MTL materials of an OBJ file to the scene; returns their scene ids.
+///
+/// Mapping: `Kd` → diffuse colour; `Ks` > 0 with `Ns` → plastic with roughness
+/// `(2 / (Ns + 2))^(1/4)` (the Phong-to-Beckmann/GGX convention alpha = sqrt(2 / (Ns + 2)),
+/// roughness = sqrt(alpha)); dissolve `d` < 1 or `illum` 4/6/7 → glass with IOR `Ni`;
+/// `Ke` → emission, and, following Embree's `cornell_box.mtl`, an ambient `Ka` above 1 is
+/// read as emission too.
+fn mtl_materials(scene: &mut Scene, obj: &Path, mtls: &[tobj::Material]) -> Vec<u32> {
+    mtls.iter()
+        .map(|m| {
+            let kd = m.diffuse.map_or(Vec3::splat(0.8), Vec3::from_array);
+            let ks = m.specular.map_or(Vec3::ZERO, Vec3::from_array);
+            let ka = m.ambient.map_or(Vec3::ZERO, Vec3::from_array);
+            let ke = m.unknown_param.get("Ke").and_then(|s| parse3(s)).unwrap_or(Vec3::ZERO);
+            let emission = if ke.max_element() > 0.0 { ke } else if ka.max_element() > 1.0 { ka } else { Vec3::ZERO };
+            let glass = m.dissolve.is_some_and(|d| d < 1.0) || matches!(m.illumination_model, Some(4 | 6 | 7));
+            let kind = if glass {
+                MaterialKind::Glass { ior: m.optical_density.filter(|&n| n > 0.0).unwrap_or(1.5), tint: Vec3::ONE }
+            } else if ks.max_element() > 0.0 {
+                let ns = m.shininess.unwrap_or(10.0).max(0.0);
+                MaterialKind::Plastic { color: Texture::Constant(kd), roughness: (2.0 / (ns + 2.0)).powf(0.25) }
+            } else {
+                MaterialKind::Diffuse { color: Texture::Constant(kd) }
+            };
+            scene.materials.push(Material {
+                name: format!("{}:{}", obj.file_name().map_or(String::new(), |f| f.to_string_lossy().into_owned()), m.name),
+                kind,
+                emission,
+            });
+            scene.materials.len() as u32 - 1
+        })
+        .collect()
+}
+
+fn parse3(s: &str) -> Option<Vec3> {
+    let v: Vec<f32> = s.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+    (v.len() == 3 && v.iter().all(|x| x.is_finite() && *x >= 0.0)).then(|| Vec3::new(v[0], v[1], v[2]))
+}
+
+fn default_material(scene: &mut Scene) -> u32 {
+    if let Some(i) = scene.materials.iter().position(|m| m.name == "default") {
+        return i as u32;
+    }
+    scene.materials.push(Material::diffuse("default", Vec3::splat(0.8)));
+    scene.materials.len() as u32 - 1
+}
+
+/// A mesh file rendered on its own: MTL materials (or a light grey), a camera that frames it
+/// and, when nothing in it emits, a sky.
+pub(super) fn from_obj(path: &Path) -> Result<Scene, SceneError> {
+    let obj = load_obj(path)?;
+    let mut scene = Scene {
+        source: path.to_path_buf(),
+        geometry: Vec::new(),
+        bindings: Vec::new(),
+        materials: Vec::new(),
+        point_lights: Vec::new(),
+        background: Background::Black,
+        camera: None,
+        render: RenderDefaults::default(),
+        warnings: obj.warnings.clone(),
+    };
+    let ids = mtl_materials(&mut scene, path, &obj.materials);
+    for om in obj.meshes {
+        let id = om.material.map(|i| ids[i]).unwrap_or_else(|| default_material(&mut scene));
+        scene.geometry.push(Geometry::Mesh(Arc::new(om.mesh)));
+        scene.bindings.push(MaterialBinding::Uniform(id));
+    }
+    if !scene.materials.iter().any(Material::is_emissive) {
+        scene.background = Background::Gradient { zenith: Vec3::new(0.9, 0.95, 1.0), horizon: Vec3::splat(0.8), ground: Vec3::splat(0.25) };
+    }
+    Ok(scene)
+}

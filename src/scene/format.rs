@@ -1,0 +1,263 @@
+//! The TOML scene format (documented in `docs/scene-format.md`). Values are checked while they
+//! are read, so a bad value is reported at its own line.
+
+use serde::de::{self, Deserializer};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use toml::Spanned;
+
+/// A finite number.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Num(pub f32);
+
+impl<'de> Deserialize<'de> for Num {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = f64::deserialize(d)?;
+        if !v.is_finite() || v.abs() > f32::MAX as f64 {
+            return Err(de::Error::custom(format!("{v} is not a finite number")));
+        }
+        Ok(Num(v as f32))
+    }
+}
+
+/// Three finite numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct V3(pub glam::Vec3);
+
+impl<'de> Deserialize<'de> for V3 {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = <Vec<Num>>::deserialize(d)?;
+        if v.len() != 3 {
+            return Err(de::Error::custom(format!("expected 3 numbers, found {}", v.len())));
+        }
+        Ok(V3(glam::Vec3::new(v[0].0, v[1].0, v[2].0)))
+    }
+}
+
+/// A colour: three finite, non-negative numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rgb(pub glam::Vec3);
+
+impl<'de> Deserialize<'de> for Rgb {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let V3(v) = V3::deserialize(d)?;
+        if v.min_element() < 0.0 {
+            return Err(de::Error::custom("colour components must not be negative"));
+        }
+        Ok(Rgb(v))
+    }
+}
+
+/// A number > 0.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Positive(pub f32);
+
+impl<'de> Deserialize<'de> for Positive {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let Num(v) = Num::deserialize(d)?;
+        if v <= 0.0 {
+            return Err(de::Error::custom(format!("must be greater than 0, found {v}")));
+        }
+        Ok(Positive(v))
+    }
+}
+
+/// A number in [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Unit(pub f32);
+
+impl<'de> Deserialize<'de> for Unit {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let Num(v) = Num::deserialize(d)?;
+        if !(0.0..=1.0).contains(&v) {
+            return Err(de::Error::custom(format!("must be between 0 and 1, found {v}")));
+        }
+        Ok(Unit(v))
+    }
+}
+
+/// Largest accepted image side.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// An image side: 1 ..= 16384.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Side(pub u32);
+
+impl<'de> Deserialize<'de> for Side {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = i64::deserialize(d)?;
+        if v < 1 || v > MAX_IMAGE_SIDE as i64 {
+            return Err(de::Error::custom(format!("must be between 1 and {MAX_IMAGE_SIDE}, found {v}")));
+        }
+        Ok(Side(v as u32))
+    }
+}
+
+/// A count ≥ 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Count(pub u32);
+
+impl<'de> Deserialize<'de> for Count {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = i64::deserialize(d)?;
+        if v < 1 || v > u32::MAX as i64 {
+            return Err(de::Error::custom(format!("must be at least 1, found {v}")));
+        }
+        Ok(Count(v as u32))
+    }
+}
+
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    #[serde(default)]
+    pub render: RenderSection,
+    pub camera: Option<CameraSection>,
+    pub background: Option<BackgroundSection>,
+    #[serde(default)]
+    pub materials: BTreeMap<String, Spanned<MaterialSection>>,
+    #[serde(default)]
+    pub meshes: Vec<MeshSection>,
+    #[serde(default)]
+    pub spheres: Vec<SphereSection>,
+    #[serde(default)]
+    pub cylinders: Vec<CylinderSection>,
+    #[serde(default)]
+    pub quads: Vec<QuadSection>,
+    #[serde(default)]
+    pub lights: Vec<LightSection>,
+}
+
+#[derive(Debug, Deserialize, Default, Clone, Copy)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSection {
+    pub width: Option<Side>,
+    pub height: Option<Side>,
+    pub spp: Option<Count>,
+    pub max_depth: Option<u32>,
+    pub rr_depth: Option<u32>,
+    pub seed: Option<u64>,
+}
+
+#[derive(Debug, Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSection {
+    pub position: V3,
+    pub look_at: V3,
+    pub up: Option<V3>,
+    /// Vertical field of view, degrees.
+    pub fov: Option<Spanned<Positive>>,
+    /// Lens radius (0 = pinhole).
+    pub aperture: Option<Num>,
+    pub focus_distance: Option<Positive>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum BackgroundSection {
+    Constant { color: Rgb },
+    Gradient { zenith: Rgb, horizon: Rgb, ground: Option<Rgb> },
+    Image { file: Spanned<String>, scale: Option<Positive> },
+}
+
+/// Where a material's colour comes from.
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct ColorSource {
+    pub color: Option<Rgb>,
+    /// Not `Spanned`: serde's `flatten` cannot carry spans; errors point at the material.
+    pub texture: Option<String>,
+    pub checker: Option<CheckerSection>,
+}
+
+#[derive(Debug, Deserialize, Clone, Copy)]
+#[serde(deny_unknown_fields)]
+pub struct CheckerSection {
+    pub a: Rgb,
+    pub b: Rgb,
+    pub scale: Positive,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum MaterialSection {
+    Diffuse {
+        #[serde(flatten)]
+        color: ColorSource,
+        emission: Option<Rgb>,
+    },
+    Metal {
+        #[serde(flatten)]
+        color: ColorSource,
+        roughness: Option<Unit>,
+        emission: Option<Rgb>,
+    },
+    Plastic {
+        #[serde(flatten)]
+        color: ColorSource,
+        roughness: Option<Unit>,
+        emission: Option<Rgb>,
+    },
+    Glass {
+        ior: Option<Positive>,
+        tint: Option<Rgb>,
+    },
+    Emissive {
+        emission: Rgb,
+    },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSection {
+    pub file: Spanned<String>,
+    pub material: Option<Spanned<String>>,
+    pub scale: Option<Spanned<ScaleSpec>>,
+    /// Rotation in degrees about x, then y, then z.
+    pub rotate: Option<V3>,
+    pub translate: Option<V3>,
+    /// Compute smooth vertex normals when the file has none.
+    #[serde(default)]
+    pub smooth: bool,
+}
+
+#[derive(Debug, Deserialize, Clone, Copy)]
+#[serde(untagged)]
+pub enum ScaleSpec {
+    Uniform(Num),
+    PerAxis(V3),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereSection {
+    pub center: V3,
+    pub radius: Positive,
+    pub material: Spanned<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CylinderSection {
+    pub p0: V3,
+    pub p1: V3,
+    pub radius: Positive,
+    pub material: Spanned<String>,
+}
+
+/// A parallelogram: `corner`, `corner + edge1`, `corner + edge1 + edge2`, `corner + edge2`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QuadSection {
+    pub corner: V3,
+    pub edge1: V3,
+    pub edge2: V3,
+    pub material: Spanned<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum LightSection {
+    /// Radiant intensity in W/sr per channel.
+    Point { position: V3, intensity: Rgb },
+}

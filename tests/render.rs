@@ -1,0 +1,279 @@
+//! The path tracer against analytic answers, estimator agreement, accelerator agreement and
+//! determinism. Small images, fixed seeds; tolerances are stated with each test.
+
+mod common;
+
+use ember::accel::{Accel, EmbreeAccel, NaiveAccel};
+use ember::embree::{BuildOptions, Device};
+use ember::film::Film;
+use ember::integrator::{Estimator, RenderSettings, render};
+use ember::scene::Scene;
+use glam::Vec3;
+use std::path::PathBuf;
+
+fn write_scene(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ember-render-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for asset in ["teapot.obj", "cornell_box.obj", "cornell_box.mtl", "earthmap.jpg"] {
+        let dst = dir.join(asset);
+        if !dst.exists() {
+            std::fs::copy(common::scene_path(asset), dst).unwrap();
+        }
+    }
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn embree_render(scene: &Scene, settings: &RenderSettings) -> Film {
+    let device = Device::new().unwrap();
+    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+    let (film, stats) = render(scene, &accel, settings).unwrap();
+    assert_eq!(stats.nonfinite, 0, "non-finite samples");
+    film
+}
+
+/// The average of `f` over the pixel's area (8 × 8 sub-positions), matching the renderer's
+/// box filter with jittered positions.
+fn pixel_average(x: u32, y: u32, w: u32, h: u32, f: impl Fn(glam::Vec2) -> f64) -> f64 {
+    let mut sum = 0.0;
+    for j in 0..8 {
+        for i in 0..8 {
+            sum += f(glam::Vec2::new((x as f32 + (i as f32 + 0.5) / 8.0) / w as f32, (y as f32 + (j as f32 + 0.5) / 8.0) / h as f32));
+        }
+    }
+    sum / 64.0
+}
+
+fn settings(w: u32, h: u32, spp: u32) -> RenderSettings {
+    RenderSettings { width: w, height: h, spp, ..Default::default() }
+}
+
+#[test]
+fn white_furnace_sphere_in_uniform_sky_is_one_everywhere() {
+    // An albedo-1 diffuse sphere under uniform sky radiance 1 reflects exactly radiance 1:
+    // every pixel (sphere or sky) must be 1. Tolerance: 1% per pixel (16384 spp), 0.2% for
+    // the image mean.
+    let p = write_scene(
+        "furnace.toml",
+        r#"
+        [camera]
+        position = [0.0, 0.0, 4.0]
+        look_at = [0.0, 0.0, 0.0]
+        fov = 40
+        [background]
+        type = "constant"
+        color = [1.0, 1.0, 1.0]
+        [materials.white]
+        type = "diffuse"
+        color = [1.0, 1.0, 1.0]
+        [[spheres]]
+        center = [0.0, 0.0, 0.0]
+        radius = 1.0
+        material = "white"
+        "#,
+    );
+    let scene = Scene::load(&p).unwrap();
+    let film = embree_render(&scene, &RenderSettings { max_depth: 50, ..settings(8, 8, 16384) });
+    let worst = film.pixels.iter().map(|p| (*p - Vec3::ONE).abs().max_element()).fold(0.0f32, f32::max);
+    assert!(worst < 0.01, "worst pixel off by {worst}");
+    assert!((image_mean(&film) - 1.0).abs() < 0.002, "mean {}", image_mean(&film));
+}
+
+#[test]
+fn diffuse_plane_under_point_light_matches_inverse_square_cosine() {
+    // L = albedo/π · I cosθ / r² averaged over each pixel. Direct light only: the only noise
+    // is the jittered position inside the pixel (about ±1% at 64 spp, so 1024 spp). Tolerance:
+    // 1% per pixel.
+    let (albedo, intensity, h) = (0.5f32, 40.0f32, 2.0f32);
+    let p = write_scene(
+        "point.toml",
+        &format!(
+            r#"
+            [camera]
+            position = [0.0, 10.0, 0.0]
+            look_at = [0.0, 0.0, 0.0]
+            up = [0.0, 0.0, -1.0]
+            fov = 30
+            [materials.plane]
+            type = "diffuse"
+            color = [{albedo}, {albedo}, {albedo}]
+            [[quads]]
+            corner = [-10.0, 0.0, -10.0]
+            edge1 = [0.0, 0.0, 20.0]
+            edge2 = [20.0, 0.0, 0.0]
+            material = "plane"
+            [[lights]]
+            type = "point"
+            position = [0.5, {h}, 0.3]
+            intensity = [{intensity}, {intensity}, {intensity}]
+            "#
+        ),
+    );
+    let scene = Scene::load(&p).unwrap();
+    let (w, hgt) = (32, 32);
+    let film = embree_render(&scene, &RenderSettings { max_depth: 1, ..settings(w, hgt, 1024) });
+    let cam = scene.camera(1.0);
+    let light = Vec3::new(0.5, h, 0.3);
+    let mut worst = 0.0f32;
+    for y in 0..hgt {
+        for x in 0..w {
+            let expected = pixel_average(x, y, w, hgt, |film| {
+                let ray = cam.ray(film, glam::Vec2::ZERO);
+                let q = ray.at(-ray.o.y / ray.d.y);
+                let d = light - q;
+                (albedo / std::f32::consts::PI * intensity * (d.y / d.length()) / d.length_squared()) as f64
+            }) as f32;
+            let got = film.get(x, y).x;
+            worst = worst.max((got - expected).abs() / expected);
+        }
+    }
+    assert!(worst < 0.01, "worst relative error {worst}");
+}
+
+/// Irradiance at a point below a corner of a parallel emitting rectangle a × b at height c,
+/// radiance le: E = le · π · F, with the differential-area-to-rectangle form factor
+/// F = 1/(2π) [ a/√(a²+c²) atan(b/√(a²+c²)) + b/√(b²+c²) atan(a/√(b²+c²)) ].
+fn corner_irradiance(a: f64, b: f64, c: f64, le: f64) -> f64 {
+    let (ra, rb) = ((a * a + c * c).sqrt(), (b * b + c * c).sqrt());
+    let f = (a / ra * (b / ra).atan() + b / rb * (a / rb).atan()) / (2.0 * std::f64::consts::PI);
+    le * std::f64::consts::PI * f
+}
+
+#[test]
+fn plane_under_emissive_quad_matches_form_factor() {
+    // Light: 2 × 2 quad at height 1 over [-1,1]²; plane albedo 0.8. For points under the
+    // light, E is the sum of four corner rectangles. Tolerances: the image mean within 1%,
+    // 99% of pixels within 5% (1024 spp, Monte Carlo noise).
+    let (albedo, le) = (0.8f64, 3.0f64);
+    let p = write_scene(
+        "formfactor.toml",
+        &format!(
+            r#"
+            [camera]
+            position = [0.0, 0.5, 0.0]
+            look_at = [0.0, 0.0, 0.0]
+            up = [0.0, 0.0, -1.0]
+            fov = 90
+            [materials.plane]
+            type = "diffuse"
+            color = [{albedo}, {albedo}, {albedo}]
+            [materials.light]
+            type = "emissive"
+            emission = [{le}, {le}, {le}]
+            [[quads]]
+            corner = [-10.0, 0.0, -10.0]
+            edge1 = [0.0, 0.0, 20.0]
+            edge2 = [20.0, 0.0, 0.0]
+            material = "plane"
+            [[quads]]
+            corner = [-1.0, 1.0, -1.0]
+            edge1 = [2.0, 0.0, 0.0]
+            edge2 = [0.0, 0.0, 2.0]
+            material = "light"
+            "#
+        ),
+    );
+    let scene = Scene::load(&p).unwrap();
+    let (w, h) = (24, 24);
+    let film = embree_render(&scene, &RenderSettings { max_depth: 1, ..settings(w, h, 1024) });
+    let cam = scene.camera(1.0);
+    let (mut sum_got, mut sum_exp, mut n, mut off) = (0.0f64, 0.0f64, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let expected = pixel_average(x, y, w, h, |film| {
+                let ray = cam.ray(film, glam::Vec2::ZERO);
+                let q = ray.at(-ray.o.y / ray.d.y);
+                let (qx, qz) = (q.x as f64, q.z as f64);
+                let e: f64 = [(1.0 - qx, 1.0 - qz), (1.0 + qx, 1.0 - qz), (1.0 - qx, 1.0 + qz), (1.0 + qx, 1.0 + qz)]
+                    .iter()
+                    .map(|&(a, b)| corner_irradiance(a, b, 1.0, le))
+                    .sum();
+                albedo / std::f64::consts::PI * e
+            });
+            let got = film.get(x, y).x as f64;
+            sum_got += got;
+            sum_exp += expected;
+            n += 1;
+            if (got - expected).abs() / expected > 0.05 {
+                off += 1;
+            }
+        }
+    }
+    assert!(n > 200, "too few pixels under the light ({n})");
+    let mean_err = (sum_got - sum_exp).abs() / sum_exp;
+    assert!(mean_err < 0.01, "mean relative error {mean_err}");
+    assert!(off * 100 <= n, "{off} of {n} pixels off by more than 5%");
+}
+
+fn image_mean(f: &Film) -> f64 {
+    f.pixels.iter().map(|p| (p.x + p.y + p.z) as f64 / 3.0).sum::<f64>() / f.pixels.len() as f64
+}
+
+#[test]
+fn nee_mis_and_bsdf_only_agree_in_the_mean() {
+    // The Cornell box with its area light, 8 independent seeds per estimator: the two image
+    // means must agree within 3 combined standard errors.
+    let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
+    let device = Device::new().unwrap();
+    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+    let stats = |estimator: Estimator| {
+        let means: Vec<f64> = (0..8)
+            .map(|seed| {
+                let s = RenderSettings { estimator, seed, max_depth: 4, ..settings(24, 24, 16) };
+                image_mean(&render(&scene, &accel, &s).unwrap().0)
+            })
+            .collect();
+        let m = means.iter().sum::<f64>() / means.len() as f64;
+        let var = means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (means.len() - 1) as f64;
+        (m, (var / means.len() as f64).sqrt())
+    };
+    let (m1, se1) = stats(Estimator::NeeMis);
+    let (m2, se2) = stats(Estimator::BsdfOnly);
+    let (m3, se3) = stats(Estimator::NeeOnly);
+    println!("nee+mis {m1:.5} ± {se1:.5}, bsdf {m2:.5} ± {se2:.5}, nee {m3:.5} ± {se3:.5}");
+    assert!((m1 - m2).abs() < 3.0 * (se1 * se1 + se2 * se2).sqrt(), "NEE+MIS {m1} vs BSDF-only {m2}");
+    assert!((m1 - m3).abs() < 3.0 * (se1 * se1 + se3 * se3).sqrt(), "NEE+MIS {m1} vs NEE-only {m3}");
+    assert!(se1 < se2, "MIS should have lower variance than BSDF sampling alone");
+}
+
+#[test]
+fn naive_and_embree_give_the_same_image() {
+    // Same scene, seed and random streams: the images differ only where the two triangle
+    // tests round differently. Tolerance: mean absolute difference below 0.5% of the mean,
+    // 99% of pixels within 1e-3 absolute.
+    let scene = Scene::load(&common::scene_path("spheres.toml")).unwrap();
+    let s = RenderSettings { max_depth: 4, ..settings(40, 25, 4) };
+    let a = embree_render(&scene, &s);
+    let naive = NaiveAccel::new(&scene.geometry);
+    let (b, _) = render(&scene, &naive, &s).unwrap();
+    let diffs: Vec<f32> = a.pixels.iter().zip(&b.pixels).map(|(p, q)| (*p - *q).abs().max_element()).collect();
+    let mean_diff = diffs.iter().sum::<f32>() / diffs.len() as f32;
+    let close = diffs.iter().filter(|&&d| d <= 1e-3).count();
+    assert!(mean_diff <= 0.005 * image_mean(&a) as f32, "mean difference {mean_diff}");
+    assert!(close * 100 >= diffs.len() * 99, "{close} of {} pixels within 1e-3", diffs.len());
+}
+
+#[test]
+fn image_is_bit_identical_for_one_and_two_threads() {
+    let scene = Scene::load(&common::scene_path("spheres.toml")).unwrap();
+    let device = Device::new().unwrap();
+    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+    let one = render(&scene, &accel, &RenderSettings { threads: Some(1), ..settings(48, 30, 4) }).unwrap().0;
+    let two = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
+    let again = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
+    assert!(one.pixels.iter().zip(&two.pixels).all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)));
+    assert_eq!(two, again);
+    let other_seed = render(&scene, &accel, &RenderSettings { seed: 1, ..settings(48, 30, 4) }).unwrap().0;
+    assert_ne!(one, other_seed, "the seed must matter");
+}
+
+#[test]
+fn every_sample_scene_renders_finite() {
+    for name in ["teapot.toml", "cornell.toml", "cornell-area.toml", "spheres.toml", "dof.toml"] {
+        let scene = Scene::load(&common::scene_path(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let film = embree_render(&scene, &settings(32, 24, 2));
+        assert!(film.pixels.iter().all(|p| p.is_finite()), "{name}");
+        assert!(image_mean(&film) > 0.005, "{name} is black");
+    }
+}
