@@ -167,14 +167,15 @@ pub(super) fn from_toml(path: &Path) -> Result<Scene, SceneError> {
             }
         }
     }
-    scene.background = match file.background {
+    let background_span = file.background.as_ref().map(|b| b.span());
+    scene.background = match file.background.map(toml::Spanned::into_inner) {
         None => Background::Black,
         Some(BackgroundSection::Constant { color }) => Background::Constant(color.0),
         Some(BackgroundSection::Gradient { zenith, horizon, ground }) => {
             Background::Gradient { zenith: zenith.0, horizon: horizon.0, ground: ground.map_or(horizon.0, |g| g.0) }
         }
         Some(BackgroundSection::Image { file, scale }) => {
-            Background::Image { image: ctx.image(file.get_ref(), file.span())?, scale: scale.map_or(1.0, |s| s.0) }
+            Background::Image { image: ctx.image(&file, background_span.unwrap_or(0..0))?, scale: scale.map_or(1.0, |s| s.0) }
         }
     };
     if let Some(c) = file.camera {

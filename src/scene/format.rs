@@ -113,7 +113,7 @@ pub struct SceneFile {
     #[serde(default)]
     pub render: RenderSection,
     pub camera: Option<CameraSection>,
-    pub background: Option<BackgroundSection>,
+    pub background: Option<Spanned<BackgroundSection>>,
     #[serde(default)]
     pub materials: BTreeMap<String, Spanned<MaterialSection>>,
     #[serde(default)]
@@ -157,7 +157,8 @@ pub struct CameraSection {
 pub enum BackgroundSection {
     Constant { color: Rgb },
     Gradient { zenith: Rgb, horizon: Rgb, ground: Option<Rgb> },
-    Image { file: Spanned<String>, scale: Option<Positive> },
+    /// Not `Spanned`: serde buffers tagged enums, losing spans; errors point at the section.
+    Image { file: String, scale: Option<Positive> },
 }
 
 /// Where a material's colour comes from.
