@@ -65,17 +65,8 @@ pub(super) fn from_toml(path: &Path) -> Result<Scene, SceneError> {
         SceneError::new(path, line, e.message().trim().to_string())
     })?;
     let mut ctx = Ctx { path, text: &text, dir: path.parent().map(Path::to_path_buf).unwrap_or_default(), images: HashMap::new() };
-    let mut scene = Scene {
-        source: path.to_path_buf(),
-        geometry: Vec::new(),
-        bindings: Vec::new(),
-        materials: Vec::new(),
-        point_lights: Vec::new(),
-        background: Background::Black,
-        camera: None,
-        render: render_defaults(&file.render),
-        warnings: Vec::new(),
-    };
+    let mut scene = empty_scene(path);
+    scene.render = render_defaults(&file.render);
 
     // Materials, by name.
     let mut by_name: HashMap<String, u32> = HashMap::new();
@@ -205,6 +196,20 @@ pub(super) fn from_toml(path: &Path) -> Result<Scene, SceneError> {
     Ok(scene)
 }
 
+fn empty_scene(path: &Path) -> Scene {
+    Scene {
+        source: path.to_path_buf(),
+        geometry: Vec::new(),
+        bindings: Vec::new(),
+        materials: Vec::new(),
+        point_lights: Vec::new(),
+        background: Background::Black,
+        camera: None,
+        render: RenderDefaults::default(),
+        warnings: Vec::new(),
+    }
+}
+
 fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
     RenderDefaults {
         width: r.width.map(|s| s.0),
@@ -309,17 +314,8 @@ fn default_material(scene: &mut Scene) -> u32 {
 /// and, when nothing in it emits, a sky.
 pub(super) fn from_obj(path: &Path) -> Result<Scene, SceneError> {
     let obj = load_obj(path)?;
-    let mut scene = Scene {
-        source: path.to_path_buf(),
-        geometry: Vec::new(),
-        bindings: Vec::new(),
-        materials: Vec::new(),
-        point_lights: Vec::new(),
-        background: Background::Black,
-        camera: None,
-        render: RenderDefaults::default(),
-        warnings: obj.warnings.clone(),
-    };
+    let mut scene = empty_scene(path);
+    scene.warnings = obj.warnings.clone();
     let ids = mtl_materials(&mut scene, path, &obj.materials);
     for om in obj.meshes {
         let id = om.material.map(|i| ids[i]).unwrap_or_else(|| default_material(&mut scene));
