@@ -3,7 +3,7 @@
 
 mod common;
 
-use ember::accel::{Accel, EmbreeAccel, NaiveAccel};
+use ember::accel::{EmbreeAccel, NaiveAccel};
 use ember::embree::{BuildOptions, Device};
 use ember::film::Film;
 use ember::integrator::{Estimator, RenderSettings, render};

@@ -15,7 +15,7 @@ pub use cylinder::{Cylinder, CylinderPart};
 pub use frame::Frame;
 pub use mesh::{MeshError, TriMesh};
 pub use ray::{Hit, Ray, ShapeHit};
-pub use spawn::offset_ray_origin;
+pub use spawn::{offset_ray_origin, offset_toward};
 pub use sphere::Sphere;
 pub use triangle::{TriangleTest, WatertightRay};
 

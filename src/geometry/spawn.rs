@@ -28,3 +28,10 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
         if p.z.abs() < ORIGIN { p.z + FLOAT_SCALE * n.z } else { pi.z },
     )
 }
+
+/// `p` moved off the surface with normal `n` (either orientation) to the side `toward`
+/// points to: where a ray leaving in direction `toward` starts.
+#[inline]
+pub fn offset_toward(p: Vec3, n: Vec3, toward: Vec3) -> Vec3 {
+    offset_ray_origin(p, if n.dot(toward) > 0.0 { n } else { -n })
+}

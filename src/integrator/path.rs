@@ -5,7 +5,7 @@
 use super::surface::surface_point;
 use super::{Estimator, RenderSettings};
 use crate::accel::{Accel, AccelError};
-use crate::geometry::{Frame, Ray, offset_ray_origin};
+use crate::geometry::{Frame, Ray, offset_toward};
 use crate::light::LightSet;
 use crate::sampler::Rng;
 use crate::scene::Scene;
@@ -88,12 +88,12 @@ pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) 
                 let side = ls.wi.dot(ng);
                 let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
                 if f != Vec3::ZERO && ls.radiance != Vec3::ZERO && (transmissive || side > 0.0) {
-                    let o = offset_ray_origin(sp.p, if side > 0.0 { ng } else { -ng });
+                    let o = offset_toward(sp.p, ng, ls.wi);
                     let (d, tmax) = match ls.point {
                         // Toward a point on a light: stop just short of it (the light's own
                         // surface is not an occluder), measured in units of the full segment.
                         Some(q) => {
-                            let q = if ls.delta { q } else { offset_ray_origin(q, if ls.normal.dot(o - q) > 0.0 { ls.normal } else { -ls.normal }) };
+                            let q = if ls.delta { q } else { offset_toward(q, ls.normal, o - q) };
                             (q - o, 1.0)
                         }
                         None => (ls.wi, f32::INFINITY),
@@ -129,7 +129,7 @@ pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) 
         if beta == Vec3::ZERO || !beta.is_finite() {
             break;
         }
-        ray = Ray::new(offset_ray_origin(sp.p, if side > 0.0 { ng } else { -ng }), wi);
+        ray = Ray::new(offset_toward(sp.p, ng, wi), wi);
     }
     Ok(l)
 }
