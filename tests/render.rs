@@ -211,7 +211,7 @@ fn image_mean(f: &Film) -> f64 {
 }
 
 #[test]
-fn nee_mis_and_bsdf_only_agree_in_the_mean() {
+fn all_estimators_agree_in_the_mean() {
     // The Cornell box with its area light, 8 independent seeds per estimator: the two image
     // means must agree within 3 combined standard errors.
     let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
@@ -231,7 +231,10 @@ fn nee_mis_and_bsdf_only_agree_in_the_mean() {
     let (m1, se1) = stats(Estimator::NeeMis);
     let (m2, se2) = stats(Estimator::BsdfOnly);
     let (m3, se3) = stats(Estimator::NeeOnly);
-    println!("nee+mis {m1:.5} ± {se1:.5}, bsdf {m2:.5} ± {se2:.5}, nee {m3:.5} ± {se3:.5}");
+    let (m4, se4) = stats(Estimator::BsdfUniform);
+    println!("nee+mis {m1:.5} ± {se1:.5}, bsdf {m2:.5} ± {se2:.5}, nee {m3:.5} ± {se3:.5}, uniform {m4:.5} ± {se4:.5}");
+    assert!((m1 - m4).abs() < 3.0 * (se1 * se1 + se4 * se4).sqrt(), "NEE+MIS {m1} vs uniform BSDF {m4}");
+    assert!(se2 < se4, "cosine sampling should have lower variance than uniform");
     assert!((m1 - m2).abs() < 3.0 * (se1 * se1 + se2 * se2).sqrt(), "NEE+MIS {m1} vs BSDF-only {m2}");
     assert!((m1 - m3).abs() < 3.0 * (se1 * se1 + se3 * se3).sqrt(), "NEE+MIS {m1} vs NEE-only {m3}");
     assert!(se1 < se2, "MIS should have lower variance than BSDF sampling alone");

@@ -38,18 +38,9 @@ pub struct RenderArgs {
     /// Intersection strategy: embree or naive.
     #[arg(long, default_value = "embree")]
     pub accel: AccelKind,
-    /// Estimator: nee-mis (default), nee, bsdf.
-    #[arg(long, default_value = "nee-mis", value_parser = parse_estimator)]
+    /// Estimator: nee-mis (default), nee, bsdf, bsdf-uniform.
+    #[arg(long, default_value = "nee-mis")]
     pub estimator: Estimator,
-}
-
-fn parse_estimator(s: &str) -> Result<Estimator, String> {
-    match s {
-        "nee-mis" => Ok(Estimator::NeeMis),
-        "nee" => Ok(Estimator::NeeOnly),
-        "bsdf" => Ok(Estimator::BsdfOnly),
-        _ => Err(format!("unknown estimator {s:?} (expected nee-mis, nee or bsdf)")),
-    }
 }
 
 /// Settings from the command line, then the scene file, then built-in defaults.
@@ -71,6 +62,7 @@ fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> 
         threads: args.threads.map(|t| t as usize),
         estimator: args.estimator,
         progress: true,
+        ..d
     })
 }
 

@@ -28,6 +28,39 @@ pub enum Estimator {
     NeeOnly,
     /// BSDF sampling only (point lights then contribute nothing).
     BsdfOnly,
+    /// BSDF sampling only, with diffuse surfaces sampled uniformly over the hemisphere
+    /// instead of by cosine (the seed paper's estimator; other BSDFs use their own sampling).
+    BsdfUniform,
+}
+
+impl Estimator {
+    pub const ALL: [Estimator; 4] = [Estimator::NeeMis, Estimator::NeeOnly, Estimator::BsdfOnly, Estimator::BsdfUniform];
+
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Estimator::NeeMis => "nee-mis",
+            Estimator::NeeOnly => "nee",
+            Estimator::BsdfOnly => "bsdf",
+            Estimator::BsdfUniform => "bsdf-uniform",
+        }
+    }
+}
+
+impl std::str::FromStr for Estimator {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Estimator::ALL
+            .into_iter()
+            .find(|e| e.name() == s)
+            .ok_or_else(|| format!("unknown estimator {s:?} (expected nee-mis, nee, bsdf or bsdf-uniform)"))
+    }
+}
+
+impl std::fmt::Display for Estimator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// How to render.
@@ -46,6 +79,8 @@ pub struct RenderSettings {
     pub estimator: Estimator,
     /// Show a progress bar (only when stderr is a terminal).
     pub progress: bool,
+    /// Run the kernel specialised to the scene's effects (`false`: the general kernel).
+    pub specialize: bool,
 }
 
 impl Default for RenderSettings {
@@ -60,6 +95,7 @@ impl Default for RenderSettings {
             threads: None,
             estimator: Estimator::NeeMis,
             progress: false,
+            specialize: true,
         }
     }
 }

@@ -7,6 +7,7 @@ use super::{Estimator, RenderSettings};
 use crate::accel::{Accel, AccelError};
 use crate::geometry::{Frame, Ray, offset_toward};
 use crate::light::LightSet;
+use crate::material::{Bsdf, BsdfSample};
 use crate::sampler::Rng;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -29,7 +30,8 @@ pub struct PathContext<'a> {
 /// Radiance along `ray`; `rays` counts the rays traced.
 pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) -> Result<Vec3, AccelError> {
     let s = ctx.settings;
-    let use_nee = s.estimator != Estimator::BsdfOnly && !ctx.lights.is_empty();
+    let use_nee = matches!(s.estimator, Estimator::NeeMis | Estimator::NeeOnly) && !ctx.lights.is_empty();
+    let uniform_diffuse = s.estimator == Estimator::BsdfUniform;
     let count_bsdf_emission = s.estimator != Estimator::NeeOnly;
     let mis = s.estimator == Estimator::NeeMis;
     let mut l = Vec3::ZERO;
@@ -108,7 +110,12 @@ pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) 
         }
 
         // Continue the path by sampling the BSDF.
-        let Some(bs) = bsdf.sample(wo_l, rng.next_2d(), rng.next_f32()) else { break };
+        let bs = if uniform_diffuse && matches!(bsdf, Bsdf::Diffuse { .. }) {
+            sample_uniform_hemisphere(&bsdf, wo_l, rng.next_2d())
+        } else {
+            bsdf.sample(wo_l, rng.next_2d(), rng.next_f32())
+        };
+        let Some(bs) = bs else { break };
         let wi = frame.to_world(bs.wi);
         let side = wi.dot(ng);
         if (!transmissive && side <= 0.0) || !(bs.pdf > 0.0) {
@@ -132,4 +139,15 @@ pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) 
         ray = Ray::new(offset_toward(sp.p, ng, wi), wi);
     }
     Ok(l)
+}
+
+/// Uniform sampling of the hemisphere above the shading normal (density 1/2π), evaluated with
+/// the BSDF's own `eval`: the seed paper's estimator, kept for convergence comparisons.
+fn sample_uniform_hemisphere(bsdf: &Bsdf, wo: Vec3, u: glam::Vec2) -> Option<BsdfSample> {
+    let z = u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u.y;
+    let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+    let f = bsdf.eval(wo, wi);
+    (f != Vec3::ZERO).then_some(BsdfSample { wi, f, pdf: 0.5 * std::f32::consts::FRAC_1_PI, delta: false })
 }
