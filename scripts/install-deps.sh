@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Installs what ember needs to build on Debian 12 (or Ubuntu): Embree 3 (headers and library)
-# and libclang (bindgen generates the Embree bindings at build time). Idempotent.
+# libclang (bindgen generates the Embree bindings at build time) and the DejaVu font (text in
+# benchmark and convergence plots). Idempotent.
 set -euo pipefail
 
-packages=(libembree-dev libclang-dev)
+packages=(libembree-dev libclang-dev fonts-dejavu-core)
 missing=()
 for p in "${packages[@]}"; do
   dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")

@@ -79,19 +79,9 @@ impl Film {
     /// unless the whole file was written.
     pub fn save(&self, path: &Path) -> Result<(), FilmError> {
         let format = ImageFormat::from_path(path)?;
-        let err = |reason: String| FilmError::Write { path: path.to_path_buf(), reason };
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        if !dir.is_dir() {
-            return Err(err(format!("folder {} does not exist", dir.display())));
-        }
-        let name = path.file_name().ok_or_else(|| err("no file name".into()))?.to_string_lossy().into_owned();
-        let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-        let result = match format {
+        crate::output::write_atomically(path, |tmp| match format {
             ImageFormat::Png => image::save_buffer_with_format(
-                &tmp,
+                tmp,
                 &self.to_rgb8(),
                 self.width,
                 self.height,
@@ -99,20 +89,13 @@ impl Film {
                 image::ImageFormat::Png,
             )
             .map_err(|e| e.to_string()),
-            ImageFormat::Exr => exr::prelude::write_rgb_file(&tmp, self.width as usize, self.height as usize, |x, y| {
+            ImageFormat::Exr => exr::prelude::write_rgb_file(tmp, self.width as usize, self.height as usize, |x, y| {
                 let p = self.pixels[y * self.width as usize + x];
                 (p.x, p.y, p.z)
             })
             .map_err(|e| e.to_string()),
-        };
-        if let Err(reason) = result {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(err(reason));
-        }
-        std::fs::rename(&tmp, path).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            err(e.to_string())
         })
+        .map_err(|e| FilmError::Write { path: e.path, reason: e.reason })
     }
 
     /// Reads a linear OpenEXR image (as written by [`Film::save`]).

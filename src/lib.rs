@@ -15,6 +15,8 @@ pub mod geometry;
 pub mod integrator;
 pub mod light;
 pub mod material;
+pub mod output;
+pub mod report;
 pub mod sampler;
 pub mod scene;
 pub mod texture;

@@ -1,0 +1,6 @@
+//! Reports: tables and plots of measurements (benchmarks, convergence). Everything here
+//! writes files atomically (see [`crate::output`]).
+
+mod plot;
+
+pub use plot::{PlotError, Series, log_log_plot};
