@@ -1,8 +1,8 @@
 use crate::accel::{Accel, AccelKind, EmbreeAccel, NaiveAccel};
 use crate::embree::{BuildOptions, Device};
 use crate::film::ImageFormat;
-use crate::integrator::{Estimator, RenderSettings, render};
-use crate::scene::Scene;
+use crate::integrator::{Estimator, RenderSettings, RenderStats, render};
+use crate::scene::{DepthLimit, Effects, Scene};
 use crate::scene::format::MAX_IMAGE_SIDE;
 use clap::Args;
 use std::path::PathBuf;
@@ -38,6 +38,9 @@ pub struct RenderArgs {
     /// Intersection strategy: embree or naive.
     #[arg(long, default_value = "embree")]
     pub accel: AccelKind,
+    /// Run the general kernel instead of the one specialised to the scene's effects.
+    #[arg(long)]
+    pub no_specialize: bool,
     /// Estimator: nee-mis (default), nee, bsdf, bsdf-uniform.
     #[arg(long, default_value = "nee-mis")]
     pub estimator: Estimator,
@@ -62,6 +65,7 @@ fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> 
         threads: args.threads.map(|t| t as usize),
         estimator: args.estimator,
         progress: true,
+        specialize: !args.no_specialize,
         ..d
     })
 }
@@ -83,6 +87,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     let (film, stats) = render(&scene, accel.as_ref(), &settings)?;
     film.save(&args.output)?;
+    eprintln!("{}", stats.effects);
+    eprintln!("{}", describe_kernel(&stats, &settings));
     eprintln!(
         "rendered {}x{} at {} spp in {:.2} s: {:.2} Mrays/s ({} rays, {} accel), {} non-finite samples dropped -> {}",
         settings.width,
@@ -96,4 +102,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         args.output.display()
     );
     Ok(())
+}
+
+/// `kernel: lens off, …; path depth 1 (direct light only: …)`
+pub(crate) fn describe_kernel(stats: &RenderStats, settings: &RenderSettings) -> String {
+    format!("kernel: {}; path depth {}", stats.kernel, describe_depth(&stats.effects, settings.max_depth, settings.specialize))
+}
+
+/// The path depth a render uses, and why.
+pub(crate) fn describe_depth(effects: &Effects, max_depth: u32, specialize: bool) -> String {
+    let used = if specialize { effects.depth_limit().apply(max_depth) } else { max_depth };
+    if used == max_depth {
+        return format!("{used} (--max-depth)");
+    }
+    match effects.depth_limit() {
+        DepthLimit::EmittersOnly => format!("{used} (nothing scatters light: emitters only; --max-depth {max_depth})"),
+        DepthLimit::DirectOnly => format!("{used} (direct light only: nothing can bounce light onward; --max-depth {max_depth})"),
+        DepthLimit::Unbounded => format!("{used}"),
+    }
 }

@@ -2,17 +2,18 @@
 //! numbers from a stream keyed by (seed, pixel, sample index), so the image is bit-identical
 //! whatever the thread count or tile order.
 
+mod kernel;
 mod path;
 mod surface;
 
-pub use path::{PathContext, radiance};
+pub use kernel::KernelChoice;
+pub use path::PathContext;
 pub use surface::{SurfacePoint, surface_point};
 
 use crate::accel::{Accel, AccelError};
 use crate::film::Film;
-use crate::sampler::Rng;
-use crate::scene::Scene;
-use glam::{Vec2, Vec3};
+use crate::scene::{Effects, Scene};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -101,13 +102,33 @@ impl Default for RenderSettings {
 }
 
 /// What a render did.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderStats {
     pub elapsed: Duration,
     pub rays: u64,
     pub samples: u64,
     /// Samples whose value was NaN or infinite; dropped from the image.
     pub nonfinite: u64,
+    /// What the scene analysis found.
+    pub effects: Effects,
+    /// The kernel that ran.
+    pub kernel: KernelChoice,
+    /// The bounce limit used (the user's, or less where the scene cannot use more).
+    pub max_depth: u32,
+}
+
+impl Default for RenderStats {
+    fn default() -> Self {
+        RenderStats {
+            elapsed: Duration::ZERO,
+            rays: 0,
+            samples: 0,
+            nonfinite: 0,
+            effects: Effects::default(),
+            kernel: KernelChoice::GENERAL,
+            max_depth: 0,
+        }
+    }
 }
 
 impl RenderStats {
@@ -145,7 +166,19 @@ fn render_in_pool(scene: &Scene, accel: &dyn Accel, settings: &RenderSettings) -
     let (w, h) = (settings.width, settings.height);
     let camera = scene.camera(w as f32 / h as f32);
     let lights = scene.light_set();
-    let ctx = PathContext { scene, accel, lights: &lights, settings };
+    let effects = scene.effects();
+    let (kernel, max_depth) = if settings.specialize {
+        (KernelChoice::for_effects(&effects), effects.depth_limit().apply(settings.max_depth))
+    } else {
+        (KernelChoice::GENERAL, settings.max_depth)
+    };
+    if settings.specialize && !effects.lit {
+        // Nothing emits: every path carries zero radiance, so none is traced.
+        let stats = RenderStats { samples: w as u64 * h as u64 * settings.spp as u64, effects, kernel, max_depth, ..Default::default() };
+        return Ok((Film::new(w, h), RenderStats { elapsed: start.elapsed(), ..stats }));
+    }
+    let sample = kernel.sample_fn();
+    let ctx = PathContext { scene, accel, lights: &lights, camera: &camera, settings, max_depth };
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
     let bar = progress_bar(settings.progress, tiles.len() as u64);
     let rays_total = AtomicU64::new(0);
@@ -158,13 +191,9 @@ fn render_in_pool(scene: &Scene, accel: &dyn Accel, settings: &RenderSettings) -
             let (mut rays, mut bad) = (0u64, 0u64);
             for y in y0..y1 {
                 for x in x0..x1 {
-                    let pixel = (y as u64) * w as u64 + x as u64;
                     let mut sum = Vec3::ZERO;
                     for s in 0..settings.spp {
-                        let mut rng = Rng::for_sample(settings.seed, pixel, s as u64);
-                        let film = Vec2::new((x as f32 + rng.next_f32()) / w as f32, (y as f32 + rng.next_f32()) / h as f32);
-                        let ray = camera.ray(film, rng.next_2d());
-                        let v = radiance(&ctx, ray, &mut rng, &mut rays)?;
+                        let v = sample(&ctx, x, y, s, &mut rays)?;
                         if v.is_finite() {
                             sum += v;
                         } else {
@@ -187,7 +216,13 @@ fn render_in_pool(scene: &Scene, accel: &dyn Accel, settings: &RenderSettings) -
         b.finish_and_clear();
     }
     let mut film = Film::new(w, h);
-    let mut stats = RenderStats { samples: w as u64 * h as u64 * settings.spp as u64, ..Default::default() };
+    let mut stats = RenderStats {
+        samples: w as u64 * h as u64 * settings.spp as u64,
+        effects,
+        kernel,
+        max_depth,
+        ..Default::default()
+    };
     for (tx, ty, px, rays, bad) in results {
         let (x0, y0) = (tx * TILE, ty * TILE);
         let tw = (x0 + TILE).min(w) - x0;

@@ -2,7 +2,8 @@
 //! estimation and multiple importance sampling (power heuristic, Veach 1997) against BSDF
 //! sampling, and Russian roulette.
 
-use super::surface::surface_point;
+use super::surface::surface_point_at;
+use crate::camera::Camera;
 use super::{Estimator, RenderSettings};
 use crate::accel::{Accel, AccelError};
 use crate::geometry::{Frame, Ray, offset_toward};
@@ -24,16 +25,27 @@ pub struct PathContext<'a> {
     pub scene: &'a Scene,
     pub accel: &'a dyn Accel,
     pub lights: &'a LightSet,
+    pub camera: &'a Camera,
     pub settings: &'a RenderSettings,
+    /// Bounce limit in force (the user's, or less where the scene cannot use more).
+    pub max_depth: u32,
 }
 
-/// Radiance along `ray`; `rays` counts the rays traced.
-pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) -> Result<Vec3, AccelError> {
+/// Radiance along `ray`; `rays` counts the rays traced. The const switches are those of
+/// [`super::kernel::KernelChoice`]: each one off removes the code of an effect the scene
+/// lacks (see there).
+#[inline(always)]
+pub(crate) fn radiance<const TEX: bool, const GLOSSY: bool, const GLASS: bool, const MIS: bool>(
+    ctx: &PathContext,
+    mut ray: Ray,
+    rng: &mut Rng,
+    rays: &mut u64,
+) -> Result<Vec3, AccelError> {
     let s = ctx.settings;
     let use_nee = matches!(s.estimator, Estimator::NeeMis | Estimator::NeeOnly) && !ctx.lights.is_empty();
     let uniform_diffuse = s.estimator == Estimator::BsdfUniform;
     let count_bsdf_emission = s.estimator != Estimator::NeeOnly;
-    let mis = s.estimator == Estimator::NeeMis;
+    let mis = MIS && s.estimator == Estimator::NeeMis;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let mut specular = true; // camera rays count as specular: emission seen directly is kept
@@ -43,8 +55,9 @@ pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) 
     loop {
         *rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray, 0.0, f32::INFINITY)? else {
-            let le = ctx.scene.background.radiance(ray.d);
-            if le != Vec3::ZERO {
+            // Without non-delta lights the background is black.
+            let le = if MIS { ctx.scene.background.radiance(ray.d) } else { Vec3::ZERO };
+            if MIS && le != Vec3::ZERO {
                 if specular || !use_nee {
                     l += beta * le;
                 } else if count_bsdf_emission {
@@ -54,10 +67,11 @@ pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) 
             }
             break;
         };
-        let sp = surface_point(ctx.scene, &ray, &hit);
+        let sp = surface_point_at::<TEX>(ctx.scene, &ray, &hit);
         let wo = -ray.d;
         let emission = sp.material.emission;
-        if emission != Vec3::ZERO {
+        // Without non-delta lights nothing emits.
+        if MIS && emission != Vec3::ZERO {
             if specular || !use_nee {
                 l += beta * emission;
             } else if count_bsdf_emission {
@@ -69,11 +83,13 @@ pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) 
                 l += beta * emission * w;
             }
         }
-        if depth >= s.max_depth {
+        if depth >= ctx.max_depth {
             break;
         }
-        let bsdf = sp.material.bsdf(sp.uv);
-        let transmissive = bsdf.is_transmissive();
+        // Only Lambertian surfaces: the BSDF's variant is known here, so its methods inline
+        // without dispatch.
+        let bsdf = if GLOSSY || GLASS { sp.material.bsdf_at::<TEX>(sp.uv) } else { sp.material.lambert_at::<TEX>(sp.uv) };
+        let transmissive = GLASS && bsdf.is_transmissive();
         let (mut ng, mut ns) = (sp.ng, sp.ns);
         if !transmissive && wo.dot(ng) < 0.0 {
             // Opaque surfaces are shaded on the side they are seen from.
@@ -84,7 +100,7 @@ pub fn radiance(ctx: &PathContext, mut ray: Ray, rng: &mut Rng, rays: &mut u64) 
         let wo_l = frame.to_local(wo);
 
         // Next-event estimation.
-        if use_nee && !bsdf.is_delta() {
+        if use_nee && !((GLOSSY || GLASS) && bsdf.is_delta()) {
             if let Some(ls) = ctx.lights.sample(sp.p, rng.next_f32(), rng.next_2d()) {
                 let wi_l = frame.to_local(ls.wi);
                 let side = ls.wi.dot(ng);

@@ -18,6 +18,13 @@ pub struct SurfacePoint<'a> {
 
 #[inline]
 pub fn surface_point<'a>(scene: &'a Scene, ray: &Ray, hit: &Hit) -> SurfacePoint<'a> {
+    surface_point_at::<true>(scene, ray, hit)
+}
+
+/// [`surface_point`]; with `TEX == false` texture coordinates are not interpolated (`uv` is
+/// then the raw hit parametrisation), for scenes without textures.
+#[inline]
+pub fn surface_point_at<'a, const TEX: bool>(scene: &'a Scene, ray: &Ray, hit: &Hit) -> SurfacePoint<'a> {
     let material = scene.material(hit.geom, hit.prim);
     let ng = hit.ng.normalize_or(-ray.d);
     match &scene.geometry[hit.geom as usize] {
@@ -33,7 +40,7 @@ pub fn surface_point<'a>(scene: &'a Scene, ray: &Ray, hit: &Hit) -> SurfacePoint
                 let n = (w * m.normals[i0] + u * m.normals[i1] + v * m.normals[i2]).normalize_or(ng);
                 if n.dot(ng) < 0.0 { -n } else { n }
             };
-            let uv = if m.uvs.is_empty() { Vec2::new(u, v) } else { w * m.uvs[i0] + u * m.uvs[i1] + v * m.uvs[i2] };
+            let uv = if !TEX || m.uvs.is_empty() { Vec2::new(u, v) } else { w * m.uvs[i0] + u * m.uvs[i1] + v * m.uvs[i2] };
             SurfacePoint { p, ng, ns, uv, material }
         }
         Geometry::Spheres(s) => {

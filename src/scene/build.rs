@@ -322,7 +322,9 @@ pub(super) fn from_obj(path: &Path) -> Result<Scene, SceneError> {
         scene.geometry.push(Geometry::Mesh(Arc::new(om.mesh)));
         scene.bindings.push(MaterialBinding::Uniform(id));
     }
-    if !scene.materials.iter().any(Material::is_emissive) {
+    // Only materials in use count: Embree's cornell_box.obj defines an emissive "light"
+    // material but its light face is commented out.
+    if !scene.effects().emissive {
         scene.background = Background::Gradient { zenith: Vec3::new(0.9, 0.95, 1.0), horizon: Vec3::splat(0.8), ground: Vec3::splat(0.25) };
     }
     Ok(scene)

@@ -36,12 +36,30 @@ impl Material {
     /// The BSDF at surface coordinates `uv`.
     #[inline]
     pub fn bsdf(&self, uv: Vec2) -> Bsdf {
+        self.bsdf_at::<true>(uv)
+    }
+
+    /// The BSDF at `uv`. With `TEX == false` the caller knows no texture is in use, so colours
+    /// are read as the constants they are, without looking at `uv`.
+    #[inline]
+    pub fn bsdf_at<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
+        let c = |t: &Texture| if TEX { t.eval(uv) } else { t.average() };
         match &self.kind {
-            MaterialKind::Diffuse { color } => Bsdf::Diffuse { albedo: color.eval(uv) },
-            MaterialKind::Metal { color, roughness } => Bsdf::Conductor { color: color.eval(uv), roughness: *roughness },
-            MaterialKind::Plastic { color, roughness } => Bsdf::Plastic { diffuse: color.eval(uv), roughness: *roughness },
+            MaterialKind::Diffuse { color } => Bsdf::Diffuse { albedo: c(color) },
+            MaterialKind::Metal { color, roughness } => Bsdf::Conductor { color: c(color), roughness: *roughness },
+            MaterialKind::Plastic { color, roughness } => Bsdf::Plastic { diffuse: c(color), roughness: *roughness },
             MaterialKind::Glass { ior, tint } => Bsdf::Dielectric { ior: *ior, tint: *tint },
             MaterialKind::Emissive => Bsdf::Diffuse { albedo: Vec3::ZERO },
+        }
+    }
+
+    /// The Lambertian BSDF of a scene whose every surface is diffuse or purely emissive (the
+    /// caller knows): the same value as [`Material::bsdf_at`] gives there, without dispatch.
+    #[inline]
+    pub fn lambert_at<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
+        match &self.kind {
+            MaterialKind::Diffuse { color } => Bsdf::Diffuse { albedo: if TEX { color.eval(uv) } else { color.average() } },
+            _ => Bsdf::Diffuse { albedo: Vec3::ZERO },
         }
     }
 

@@ -1,11 +1,13 @@
 //! Scene description: input files (TOML scenes, OBJ/MTL meshes) and the loaded [`Scene`].
 
 mod build;
+mod effects;
 mod error;
 pub mod format;
 mod material;
 mod obj;
 
+pub use effects::{DepthLimit, Effects};
 pub use error::SceneError;
 pub use material::{Material, MaterialKind};
 pub use obj::{ObjFile, ObjMesh, load_obj};
@@ -122,6 +124,11 @@ impl Scene {
     /// The scene's lights, ready for sampling.
     pub fn light_set(&self) -> LightSet {
         LightSet::new(&self.geometry, &|g, p| self.material(g, p).emission, &self.point_lights, &self.background)
+    }
+
+    /// The effects this scene calls for.
+    pub fn effects(&self) -> Effects {
+        Effects::of(self)
     }
 
     /// The material of primitive `prim` of geometry `geom`.

@@ -1,0 +1,114 @@
+//! Render kernels specialised to a scene's effects.
+//!
+//! The path tracer is one generic function; five const-generic switches remove whole blocks of
+//! it when the scene does not need them, so the compiled kernel has no per-sample branch on an
+//! absent effect. The dimensions were chosen where the code they remove runs at every sample
+//! or every bounce:
+//!
+//! - `LENS`: thin-lens sampling of the camera ray (off: pinhole rays only);
+//! - `TEX`: texture lookups and texture coordinates at each hit (off: constant colours, no
+//!   UV interpolation);
+//! - `GLOSSY`: non-Lambertian opaque BSDFs (microfacet metal, plastic, mirrors). Off together
+//!   with `GLASS`: every surface is Lambertian, and the BSDF is evaluated and sampled inline
+//!   without dispatch;
+//! - `GLASS`: refraction (off: every surface is opaque, shading-side flips are unconditional);
+//! - `MIS`: lights that BSDF sampling can also hit (area lights, sky, environment). Off: only
+//!   point lights exist, so emission is never found by BSDF-sampled rays, and neither MIS
+//!   weights nor light densities are computed.
+//!
+//! 2⁵ = 32 instances are compiled; one is chosen per render. Geometry types a scene lacks are
+//! not a dimension: they are simply not registered with the accelerator. The general kernel
+//! (every switch on) is what `--no-specialize` runs; for any scene it computes the same image
+//! as the specialised one, bit for bit, because every switch only removes work whose result
+//! is known (zero emission, constant colours, a Lambertian BSDF) and random numbers are drawn
+//! identically in both.
+
+use super::path::{PathContext, radiance};
+use crate::accel::AccelError;
+use crate::geometry::Ray;
+use crate::sampler::Rng;
+use crate::scene::Effects;
+use glam::{Vec2, Vec3};
+use std::fmt;
+
+/// The feature switches of a kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct KernelChoice {
+    pub lens: bool,
+    pub textures: bool,
+    pub glossy: bool,
+    pub glass: bool,
+    pub mis: bool,
+}
+
+impl KernelChoice {
+    /// Every switch on: correct for any scene.
+    pub const GENERAL: KernelChoice = KernelChoice { lens: true, textures: true, glossy: true, glass: true, mis: true };
+
+    /// The smallest kernel that is correct for a scene with these effects.
+    pub fn for_effects(e: &Effects) -> KernelChoice {
+        KernelChoice {
+            lens: e.depth_of_field,
+            textures: e.textures,
+            glossy: e.glossy || e.mirror,
+            glass: e.glass,
+            mis: e.non_delta_lights(),
+        }
+    }
+
+    /// The compiled kernel for these switches.
+    pub(crate) fn sample_fn(self) -> SampleFn {
+        fn lens<const L: bool>(k: KernelChoice) -> SampleFn {
+            if k.textures { tex::<L, true>(k) } else { tex::<L, false>(k) }
+        }
+        fn tex<const L: bool, const T: bool>(k: KernelChoice) -> SampleFn {
+            if k.glossy { glossy::<L, T, true>(k) } else { glossy::<L, T, false>(k) }
+        }
+        fn glossy<const L: bool, const T: bool, const G: bool>(k: KernelChoice) -> SampleFn {
+            if k.glass { glass::<L, T, G, true>(k) } else { glass::<L, T, G, false>(k) }
+        }
+        fn glass<const L: bool, const T: bool, const G: bool, const R: bool>(k: KernelChoice) -> SampleFn {
+            if k.mis { sample::<L, T, G, R, true> } else { sample::<L, T, G, R, false> }
+        }
+        if self.lens { lens::<true>(self) } else { lens::<false>(self) }
+    }
+}
+
+/// `kernel: lens off, textures off, glossy on, glass off, mis on`
+impl fmt::Display for KernelChoice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if *self == KernelChoice::GENERAL {
+            return write!(f, "general (all effects)");
+        }
+        let on = |b: bool| if b { "on" } else { "off" };
+        write!(
+            f,
+            "lens {}, textures {}, glossy {}, glass {}, mis {}",
+            on(self.lens),
+            on(self.textures),
+            on(self.glossy),
+            on(self.glass),
+            on(self.mis)
+        )
+    }
+}
+
+/// One sample of one pixel: camera ray, then the path. `rays` counts the rays traced.
+pub(crate) type SampleFn = fn(&PathContext, u32, u32, u32, &mut u64) -> Result<Vec3, AccelError>;
+
+fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const MIS: bool>(
+    ctx: &PathContext,
+    x: u32,
+    y: u32,
+    s: u32,
+    rays: &mut u64,
+) -> Result<Vec3, AccelError> {
+    let (w, h) = (ctx.settings.width, ctx.settings.height);
+    let mut rng = Rng::for_sample(ctx.settings.seed, y as u64 * w as u64 + x as u64, s as u64);
+    let film = Vec2::new((x as f32 + rng.next_f32()) / w as f32, (y as f32 + rng.next_f32()) / h as f32);
+    // Drawn in every kernel, so all kernels consume the same random numbers.
+    let lens = rng.next_2d();
+    let cam = ctx.camera;
+    let ray = if LENS { cam.ray(film, lens) } else { Ray::new(cam.position, cam.pinhole_dir(film)) };
+    radiance::<TEX, GLOSSY, GLASS, MIS>(ctx, ray, &mut rng, rays)
+}

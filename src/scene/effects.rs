@@ -1,0 +1,211 @@
+//! Scene analysis: which light-transport effects a loaded scene actually calls for. The
+//! renderer picks a kernel compiled for exactly these effects (see `integrator::kernel`), so
+//! code for effects the scene lacks is never run, and the render reports what it decided.
+//!
+//! Only what the scene *uses* counts: a material defined but bound to no primitive, or a
+//! texture on an unused material, does not switch an effect on.
+
+use super::{MaterialBinding, MaterialKind, Scene};
+use crate::geometry::Geometry;
+use crate::light::Background;
+use crate::material::Bsdf;
+use crate::texture::Texture;
+use std::fmt;
+
+/// The effects present in a scene.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Effects {
+    pub triangles: bool,
+    pub spheres: bool,
+    pub cylinders: bool,
+    /// Lambertian surfaces (diffuse, and the base of plastic).
+    pub diffuse: bool,
+    /// Rough (microfacet) reflection: rough metal, plastic.
+    pub glossy: bool,
+    /// Perfect mirrors (metal of roughness ~0).
+    pub mirror: bool,
+    /// Refraction (glass).
+    pub glass: bool,
+    /// Surfaces that emit.
+    pub emissive: bool,
+    /// Colours that vary over a surface (image or checker textures).
+    pub textures: bool,
+    /// Emitting surfaces that next-event estimation samples (triangles, spheres).
+    pub area_lights: bool,
+    pub point_lights: bool,
+    /// A constant or gradient sky.
+    pub sky: bool,
+    /// An environment image.
+    pub environment: bool,
+    /// A thin-lens camera (aperture > 0).
+    pub depth_of_field: bool,
+    /// Some surface scatters light (a non-black BSDF).
+    pub scattering: bool,
+    /// Light can reach the camera after more than one scattering event.
+    pub indirect: bool,
+    /// Some light exists (emitter, point light or non-black background).
+    pub lit: bool,
+}
+
+/// How long paths need to be for this scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthLimit {
+    /// Nothing scatters: only emitters and the background are seen (depth 0).
+    EmittersOnly,
+    /// Light scatters at most once on its way to the camera (depth 1, direct lighting).
+    DirectOnly,
+    /// Any depth may contribute.
+    Unbounded,
+}
+
+impl DepthLimit {
+    /// The bounce limit this implies, capped by the user's `max_depth`.
+    pub fn apply(self, max_depth: u32) -> u32 {
+        match self {
+            DepthLimit::EmittersOnly => 0,
+            DepthLimit::DirectOnly => max_depth.min(1),
+            DepthLimit::Unbounded => max_depth,
+        }
+    }
+}
+
+impl Effects {
+    /// Analyses `scene`.
+    pub fn of(scene: &Scene) -> Effects {
+        let mut e = Effects::default();
+        // Materials in use, how many primitives scatter light, and whether any of those
+        // transmits (light can then scatter inside one primitive more than once).
+        let mut used = vec![false; scene.materials.len()];
+        let mut scattering_prims = 0usize;
+        let mut transmissive_scatterer = false;
+        for (g, binding) in scene.geometry.iter().zip(&scene.bindings) {
+            if g.is_empty() {
+                continue;
+            }
+            match g {
+                Geometry::Mesh(_) => e.triangles = true,
+                Geometry::Spheres(_) => e.spheres = true,
+                Geometry::Cylinders(_) => e.cylinders = true,
+            }
+            let mut count = |mi: u32, prims: usize| {
+                used[mi as usize] = true;
+                let kind = &scene.materials[mi as usize].kind;
+                if scatters(kind) {
+                    scattering_prims += prims;
+                    transmissive_scatterer |= matches!(kind, MaterialKind::Glass { .. });
+                }
+            };
+            match binding {
+                MaterialBinding::Uniform(mi) => count(*mi, g.len()),
+                MaterialBinding::PerPrim(per) => per.iter().for_each(|&mi| count(mi, 1)),
+            }
+        }
+        for (m, _) in scene.materials.iter().zip(&used).filter(|(_, u)| **u) {
+            if m.is_emissive() {
+                e.emissive = true;
+            }
+            e.textures |= m.texture().is_some();
+            match &m.kind {
+                MaterialKind::Diffuse { .. } => e.diffuse = true,
+                MaterialKind::Plastic { .. } => {
+                    e.diffuse = true;
+                    e.glossy = true;
+                }
+                MaterialKind::Metal { roughness, .. } => {
+                    let mirror = Bsdf::Conductor { color: glam::Vec3::ONE, roughness: *roughness }.is_delta();
+                    if mirror {
+                        e.mirror = true;
+                    } else {
+                        e.glossy = true;
+                    }
+                }
+                MaterialKind::Glass { .. } => e.glass = true,
+                MaterialKind::Emissive => {}
+            }
+        }
+        // Emitting cylinders glow but are not sampled (the light set skips them).
+        e.area_lights = scene.geometry.iter().zip(&scene.bindings).any(|(g, b)| {
+            !matches!(g, Geometry::Cylinders(_))
+                && (0..g.len() as u32).any(|p| scene.materials[b.material(p) as usize].is_emissive())
+        });
+        e.point_lights = scene.point_lights.iter().any(|l| l.intensity.max_element() > 0.0);
+        match &scene.background {
+            b if b.is_black() => {}
+            Background::Image { .. } => e.environment = true,
+            _ => e.sky = true,
+        }
+        e.depth_of_field = scene.camera.is_some_and(|c| c.aperture > 0.0);
+        e.lit = e.emissive || e.point_lights || e.sky || e.environment;
+        e.scattering = scattering_prims > 0;
+        // One opaque primitive (a sphere, a capped cylinder, a triangle: all convex) cannot
+        // send light to itself; two primitives, or one that refracts, can.
+        e.indirect = scattering_prims > 1 || transmissive_scatterer;
+        e
+    }
+
+    /// How deep paths need to go (before the user's `--max-depth` caps it).
+    pub fn depth_limit(&self) -> DepthLimit {
+        if !self.scattering {
+            DepthLimit::EmittersOnly
+        } else if !self.indirect {
+            DepthLimit::DirectOnly
+        } else {
+            DepthLimit::Unbounded
+        }
+    }
+
+    /// Light sources that next-event estimation can hit by BSDF sampling too (so MIS applies):
+    /// area lights, emitting surfaces of any kind, sky and environment.
+    pub fn non_delta_lights(&self) -> bool {
+        self.emissive || self.sky || self.environment
+    }
+
+    /// (name, present) for every effect, in report order.
+    pub fn list(&self) -> [(&'static str, bool); 15] {
+        [
+            ("triangles", self.triangles),
+            ("spheres", self.spheres),
+            ("cylinders", self.cylinders),
+            ("diffuse", self.diffuse),
+            ("glossy", self.glossy),
+            ("mirror", self.mirror),
+            ("glass", self.glass),
+            ("emissive", self.emissive),
+            ("texture", self.textures),
+            ("area lights", self.area_lights),
+            ("point lights", self.point_lights),
+            ("sky", self.sky),
+            ("environment", self.environment),
+            ("depth of field", self.depth_of_field),
+            ("indirect light", self.indirect),
+        ]
+    }
+}
+
+/// Whether a material can scatter light at all (not black, not purely emissive).
+fn scatters(kind: &MaterialKind) -> bool {
+    match kind {
+        MaterialKind::Diffuse { color } | MaterialKind::Metal { color, .. } | MaterialKind::Plastic { color, .. } => {
+            // A plastic's coating reflects whatever its base colour.
+            !matches!(color, Texture::Constant(c) if c.max_element() <= 0.0) || matches!(kind, MaterialKind::Plastic { .. })
+        }
+        MaterialKind::Glass { .. } => true,
+        MaterialKind::Emissive => false,
+    }
+}
+
+/// `effects: triangles, diffuse, … — off: spheres, …`
+impl fmt::Display for Effects {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let on: Vec<&str> = self.list().iter().filter(|(_, p)| *p).map(|(n, _)| *n).collect();
+        let off: Vec<&str> = self.list().iter().filter(|(_, p)| !*p).map(|(n, _)| *n).collect();
+        write!(f, "effects: {}", if on.is_empty() { "none".to_string() } else { on.join(", ") })?;
+        if !off.is_empty() {
+            write!(f, " — off: {}", off.join(", "))?;
+        }
+        if !self.lit {
+            write!(f, " (no light: the image is black)")?;
+        }
+        Ok(())
+    }
+}
