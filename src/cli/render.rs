@@ -1,11 +1,13 @@
 use crate::accel::{Accel, AccelKind, EmbreeAccel, NaiveAccel};
 use crate::embree::{BuildOptions, Device};
-use crate::film::ImageFormat;
-use crate::integrator::{Estimator, RenderSettings, RenderStats, render};
+use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
+use crate::integrator::{Estimator, KernelChoice, RenderControl, RenderSettings, render_controlled};
 use crate::scene::{DepthLimit, Effects, Scene};
 use crate::scene::format::MAX_IMAGE_SIDE;
 use clap::Args;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -38,12 +40,31 @@ pub struct RenderArgs {
     /// Intersection strategy: embree or naive.
     #[arg(long, default_value = "embree")]
     pub accel: AccelKind,
+    /// Adaptive sampling: stop sampling a pixel once its estimated relative error is below
+    /// this (e.g. 0.01); --spp is then the most a pixel gets [scene's render.spp, else 1024].
+    #[arg(long, value_parser = parse_target_error)]
+    pub target_error: Option<f32>,
+    /// Continue the interrupted render whose checkpoint is next to the output
+    /// (<output>.checkpoint); scene and settings must be the same.
+    #[arg(long)]
+    pub resume: bool,
+    /// Also write the checkpoint periodically, e.g. 60s or 5m (it is always written when the
+    /// render is interrupted by Ctrl-C or SIGTERM).
+    #[arg(long)]
+    pub checkpoint_every: Option<CliDuration>,
     /// Run the general kernel instead of the one specialised to the scene's effects.
     #[arg(long)]
     pub no_specialize: bool,
     /// Estimator: nee-mis (default), nee, bsdf, bsdf-uniform.
     #[arg(long, default_value = "nee-mis")]
     pub estimator: Estimator,
+}
+
+fn parse_target_error(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(e) if e > 0.0 && e < 1.0 => Ok(e),
+        _ => Err(format!("expected a relative error between 0 and 1 (e.g. 0.01), found {s:?}")),
+    }
 }
 
 /// Settings from the command line, then the scene file, then built-in defaults.
@@ -58,7 +79,7 @@ fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> 
     Ok(RenderSettings {
         width: args.width.or(r.width).unwrap_or(d.width),
         height: args.height.or(r.height).unwrap_or(d.height),
-        spp: args.spp.or(r.spp).unwrap_or(d.spp),
+        spp: args.spp.or(r.spp).unwrap_or(if args.target_error.is_some() { 1024 } else { d.spp }),
         max_depth: args.max_depth.or(r.max_depth).unwrap_or(d.max_depth),
         rr_depth,
         seed: args.seed.or(r.seed).unwrap_or(d.seed),
@@ -66,8 +87,39 @@ fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> 
         estimator: args.estimator,
         progress: true,
         specialize: !args.no_specialize,
+        target_error: args.target_error,
         ..d
     })
+}
+
+/// The render was stopped by a signal; a checkpoint was written.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct Interrupted(pub String);
+
+/// Set by the first SIGINT/SIGTERM; a second one exits at once.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+fn install_signal_handler() {
+    let result = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            eprintln!("\ninterrupted again: quitting without a checkpoint");
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupt: finishing the pixels in flight, then writing a checkpoint (interrupt again to quit at once)");
+    });
+    if let Err(e) = result {
+        eprintln!("warning: cannot catch interrupts ({e}); an interrupted render will be lost");
+    }
+}
+
+/// The command line that continues this render.
+fn resume_command() -> String {
+    let mut args: Vec<String> = std::env::args().collect();
+    if !args.iter().any(|a| a == "--resume") {
+        args.push("--resume".into());
+    }
+    args.iter().map(|a| if a.contains(' ') { format!("'{a}'") } else { a.clone() }).collect::<Vec<_>>().join(" ")
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
@@ -77,6 +129,21 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     let settings = settings(&args, &scene)?;
+    let checkpoint = checkpoint_path(&args.output);
+    let resume = if args.resume {
+        let c = Checkpoint::load(&checkpoint)?;
+        let (_, mean, _) = c.accum.spp_range();
+        eprintln!("resuming from {} ({mean:.1} of {} spp done)", checkpoint.display(), settings.spp);
+        Some((checkpoint.as_path(), c))
+    } else {
+        if checkpoint.exists() {
+            eprintln!(
+                "warning: {} holds an interrupted render; this render starts over (use --resume to continue it)",
+                checkpoint.display()
+            );
+        }
+        None
+    };
     let device;
     let accel: Box<dyn Accel> = match args.accel {
         AccelKind::Embree => {
@@ -85,28 +152,86 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         AccelKind::Naive => Box::new(NaiveAccel::new(&scene.geometry)),
     };
-    let (film, stats) = render(&scene, accel.as_ref(), &settings)?;
-    film.save(&args.output)?;
-    eprintln!("{}", stats.effects);
-    eprintln!("{}", describe_kernel(&stats, &settings));
+    let effects = scene.effects();
+    eprintln!("{effects}");
+    let kernel = if settings.specialize { KernelChoice::for_effects(&effects) } else { KernelChoice::GENERAL };
+    eprintln!("kernel: {kernel}; path depth {}", describe_depth(&effects, settings.max_depth, settings.specialize));
+    install_signal_handler();
+    let control = RenderControl {
+        stop: Some(&STOP),
+        checkpoint: Some((checkpoint.as_path(), args.checkpoint_every.map(|d| d.0))),
+        resume,
+    };
+    let result = render_controlled(&scene, accel.as_ref(), &settings, control)?;
+    let stats = result.stats;
+    if !result.complete {
+        let (_, mean, _) = stats.spp;
+        return Err(Interrupted(format!(
+            "interrupted after {:.1} s with {mean:.1} of {} spp done; checkpoint written to {}\nresume with: {}",
+            (stats.elapsed + stats.earlier_sessions).as_secs_f64(),
+            settings.spp,
+            checkpoint.display(),
+            resume_command()
+        ))
+        .into());
+    }
+    result.accum.film().save(&args.output)?;
+    if checkpoint.exists() {
+        std::fs::remove_file(&checkpoint)
+            .map_err(|e| anyhow::anyhow!("{}: cannot remove finished checkpoint: {e}", checkpoint.display()))?;
+    }
+    let (min_spp, mean_spp, max_spp) = stats.spp;
+    let spp = if min_spp == max_spp { format!("{max_spp} spp") } else { format!("{min_spp}..{max_spp} spp (mean {mean_spp:.1})") };
     eprintln!(
-        "rendered {}x{} at {} spp in {:.2} s: {:.2} Mrays/s ({} rays, {} accel), {} non-finite samples dropped -> {}",
+        "rendered {}x{} at {spp} in {:.2} s{}: {:.2} Mrays/s ({} rays, {} accel), {} non-finite samples dropped -> {}",
         settings.width,
         settings.height,
-        settings.spp,
         stats.elapsed.as_secs_f64(),
+        if stats.earlier_sessions.is_zero() {
+            String::new()
+        } else {
+            format!(" (plus {:.2} s before the interruption)", stats.earlier_sessions.as_secs_f64())
+        },
         stats.mrays_per_s(),
         stats.rays,
         accel.name(),
         stats.nonfinite,
         args.output.display()
     );
+    let (mean_err, max_err) = stats.error_estimate;
+    match settings.target_error {
+        Some(e) => eprintln!(
+            "estimated relative error: mean {mean_err:.4}, max {max_err:.4} (target {e}; pixels stop at {} spp at most)",
+            settings.spp
+        ),
+        None => eprintln!("estimated relative error: mean {mean_err:.4}, max {max_err:.4}"),
+    }
     Ok(())
 }
 
-/// `kernel: lens off, …; path depth 1 (direct light only: …)`
-pub(crate) fn describe_kernel(stats: &RenderStats, settings: &RenderSettings) -> String {
-    format!("kernel: {}; path depth {}", stats.kernel, describe_depth(&stats.effects, settings.max_depth, settings.specialize))
+/// A duration on the command line: `90`, `90s`, `1.5m`, `2h`.
+#[derive(Clone, Copy, Debug)]
+pub struct CliDuration(pub Duration);
+
+impl std::str::FromStr for CliDuration {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (num, unit) = match s.find(|c: char| c.is_ascii_alphabetic()) {
+            Some(i) => s.split_at(i),
+            None => (s, "s"),
+        };
+        let scale = match unit {
+            "s" => 1.0,
+            "m" | "min" => 60.0,
+            "h" => 3600.0,
+            _ => return Err(format!("unknown unit {unit:?} in {s:?} (use s, m or h)")),
+        };
+        let v: f64 = num.trim().parse().map_err(|_| format!("expected a duration such as 60s or 5m, found {s:?}"))?;
+        if !(v * scale > 0.0 && v * scale < 1e9) {
+            return Err(format!("duration {s:?} must be positive"));
+        }
+        Ok(CliDuration(Duration::from_secs_f64(v * scale)))
+    }
 }
 
 /// The path depth a render uses, and why.

@@ -4,19 +4,18 @@
 
 mod kernel;
 mod path;
+mod progressive;
 mod surface;
 
 pub use kernel::KernelChoice;
 pub use path::PathContext;
+pub use progressive::{RenderControl, RenderResult};
 pub use surface::{SurfacePoint, surface_point};
 
 use crate::accel::{Accel, AccelError};
 use crate::film::Film;
 use crate::scene::{Effects, Scene};
-use glam::Vec3;
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Which estimator of the rendering equation to use.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -82,6 +81,23 @@ pub struct RenderSettings {
     pub progress: bool,
     /// Run the kernel specialised to the scene's effects (`false`: the general kernel).
     pub specialize: bool,
+    /// Adaptive sampling: a pixel stops taking samples once the estimated relative standard
+    /// error of its mean falls below this (see [`crate::film::PixelState::relative_error`]);
+    /// `spp` is then the most any pixel gets.
+    pub target_error: Option<f32>,
+}
+
+impl RenderSettings {
+    /// Everything that changes the image, as `key=value` words (thread count, progress display
+    /// and kernel choice do not change it). Checkpoints record this.
+    pub fn image_key(&self) -> String {
+        let rr = if self.rr_depth == u32::MAX { "off".to_string() } else { self.rr_depth.to_string() };
+        let te = self.target_error.map_or("none".to_string(), |e| e.to_string());
+        format!(
+            "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} target-error={te}",
+            self.width, self.height, self.spp, self.max_depth, self.seed, self.estimator
+        )
+    }
 }
 
 impl Default for RenderSettings {
@@ -97,6 +113,7 @@ impl Default for RenderSettings {
             estimator: Estimator::NeeMis,
             progress: false,
             specialize: true,
+            target_error: None,
         }
     }
 }
@@ -104,7 +121,10 @@ impl Default for RenderSettings {
 /// What a render did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderStats {
+    /// Time spent in this call (the rays and Mrays/s are this call's too).
     pub elapsed: Duration,
+    /// Time spent by earlier, interrupted sessions of a resumed render.
+    pub earlier_sessions: Duration,
     pub rays: u64,
     pub samples: u64,
     /// Samples whose value was NaN or infinite; dropped from the image.
@@ -115,18 +135,25 @@ pub struct RenderStats {
     pub kernel: KernelChoice,
     /// The bounce limit used (the user's, or less where the scene cannot use more).
     pub max_depth: u32,
+    /// (min, mean, max) samples per pixel.
+    pub spp: (u32, f64, u32),
+    /// (mean, max) over pixels of the estimated relative standard error.
+    pub error_estimate: (f64, f64),
 }
 
 impl Default for RenderStats {
     fn default() -> Self {
         RenderStats {
             elapsed: Duration::ZERO,
+            earlier_sessions: Duration::ZERO,
             rays: 0,
             samples: 0,
             nonfinite: 0,
             effects: Effects::default(),
             kernel: KernelChoice::GENERAL,
             max_depth: 0,
+            spp: (0, 0.0, 0),
+            error_estimate: (f64::INFINITY, f64::INFINITY),
         }
     }
 }
@@ -143,109 +170,32 @@ pub enum RenderError {
     Accel(#[from] AccelError),
     #[error("cannot start {0} worker threads: {1}")]
     Threads(usize, String),
+    #[error(transparent)]
+    Checkpoint(#[from] crate::film::CheckpointError),
 }
 
-const TILE: u32 = 16;
-
-/// Renders `scene` through `accel`.
+/// Renders `scene` through `accel`: every pixel gets `settings.spp` samples (or, with
+/// `target_error`, as many as it needs up to that).
 pub fn render(scene: &Scene, accel: &dyn Accel, settings: &RenderSettings) -> Result<(Film, RenderStats), RenderError> {
+    let r = render_controlled(scene, accel, settings, RenderControl::default())?;
+    Ok((r.accum.film(), r.stats))
+}
+
+/// [`render`] with a stop flag, periodic checkpoints and resumption (see [`RenderControl`]).
+pub fn render_controlled(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &RenderSettings,
+    control: RenderControl,
+) -> Result<RenderResult, RenderError> {
     match settings.threads {
         Some(n) => {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
                 .build()
                 .map_err(|e| RenderError::Threads(n, e.to_string()))?;
-            pool.install(|| render_in_pool(scene, accel, settings))
+            pool.install(|| progressive::run(scene, accel, settings, control))
         }
-        None => render_in_pool(scene, accel, settings),
+        None => progressive::run(scene, accel, settings, control),
     }
-}
-
-fn render_in_pool(scene: &Scene, accel: &dyn Accel, settings: &RenderSettings) -> Result<(Film, RenderStats), RenderError> {
-    let start = Instant::now();
-    let (w, h) = (settings.width, settings.height);
-    let camera = scene.camera(w as f32 / h as f32);
-    let lights = scene.light_set();
-    let effects = scene.effects();
-    let (kernel, max_depth) = if settings.specialize {
-        (KernelChoice::for_effects(&effects), effects.depth_limit().apply(settings.max_depth))
-    } else {
-        (KernelChoice::GENERAL, settings.max_depth)
-    };
-    if settings.specialize && !effects.lit {
-        // Nothing emits: every path carries zero radiance, so none is traced.
-        let stats = RenderStats { samples: w as u64 * h as u64 * settings.spp as u64, effects, kernel, max_depth, ..Default::default() };
-        return Ok((Film::new(w, h), RenderStats { elapsed: start.elapsed(), ..stats }));
-    }
-    let sample = kernel.sample_fn();
-    let ctx = PathContext { scene, accel, lights: &lights, camera: &camera, settings, max_depth };
-    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
-    let bar = progress_bar(settings.progress, tiles.len() as u64);
-    let rays_total = AtomicU64::new(0);
-    let results = tiles
-        .par_iter()
-        .map(|&(tx, ty)| -> Result<(u32, u32, Vec<Vec3>, u64, u64), AccelError> {
-            let (x0, y0) = (tx * TILE, ty * TILE);
-            let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
-            let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-            let (mut rays, mut bad) = (0u64, 0u64);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let mut sum = Vec3::ZERO;
-                    for s in 0..settings.spp {
-                        let v = sample(&ctx, x, y, s, &mut rays)?;
-                        if v.is_finite() {
-                            sum += v;
-                        } else {
-                            bad += 1;
-                        }
-                    }
-                    out.push(sum / settings.spp as f32);
-                }
-            }
-            let total = rays_total.fetch_add(rays, Ordering::Relaxed) + rays;
-            if let Some(b) = &bar {
-                b.inc(1);
-                let secs = start.elapsed().as_secs_f64().max(1e-9);
-                b.set_message(format!("{:.1} Mrays/s", total as f64 / secs / 1e6));
-            }
-            Ok((tx, ty, out, rays, bad))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
-    let mut film = Film::new(w, h);
-    let mut stats = RenderStats {
-        samples: w as u64 * h as u64 * settings.spp as u64,
-        effects,
-        kernel,
-        max_depth,
-        ..Default::default()
-    };
-    for (tx, ty, px, rays, bad) in results {
-        let (x0, y0) = (tx * TILE, ty * TILE);
-        let tw = (x0 + TILE).min(w) - x0;
-        for (i, v) in px.into_iter().enumerate() {
-            let (x, y) = (x0 + i as u32 % tw, y0 + i as u32 / tw);
-            film.pixels[(y * w + x) as usize] = v;
-        }
-        stats.rays += rays;
-        stats.nonfinite += bad;
-    }
-    stats.elapsed = start.elapsed();
-    Ok((film, stats))
-}
-
-fn progress_bar(wanted: bool, tiles: u64) -> Option<indicatif::ProgressBar> {
-    use std::io::IsTerminal;
-    if !wanted || !std::io::stderr().is_terminal() {
-        return None;
-    }
-    let bar = indicatif::ProgressBar::new(tiles);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40.cyan/blue} {percent:>3}% tiles {pos}/{len}  ETA {eta}  {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    Some(bar)
 }

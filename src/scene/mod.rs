@@ -3,6 +3,7 @@
 mod build;
 mod effects;
 mod error;
+mod fingerprint;
 pub mod format;
 mod material;
 mod obj;

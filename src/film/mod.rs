@@ -1,6 +1,12 @@
 //! The film: per-pixel radiance, and its output as PNG (8-bit sRGB) or OpenEXR (linear float),
 //! written atomically (temporary file in the same folder, then rename).
 
+mod accum;
+mod checkpoint;
+
+pub use accum::{Accumulator, PixelState, RELATIVE_ERROR_FLOOR};
+pub use checkpoint::{Checkpoint, CheckpointError, checkpoint_path};
+
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 

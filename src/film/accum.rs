@@ -1,0 +1,119 @@
+//! Per-pixel sample accumulation: sums in double precision, sample counts, and the second
+//! moment of luminance for a per-pixel error estimate. Samples of a pixel are always added in
+//! sample-index order, so the sums — and an image made from them — are the same however the
+//! work was split into rounds, tiles, threads or interrupted sessions.
+
+use super::Film;
+use glam::{DVec3, Vec3};
+
+/// Luminance weights (Rec. 709).
+const LUM: DVec3 = DVec3::new(0.2126, 0.7152, 0.0722);
+
+/// Below this mean luminance a pixel's error is judged in absolute terms (as if its mean were
+/// this), so near-black pixels do not demand unbounded samples.
+pub const RELATIVE_ERROR_FLOOR: f64 = 0.01;
+
+/// The running state of one pixel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelState {
+    /// Sum of the sample values (non-finite samples count as zero).
+    pub sum: DVec3,
+    /// Sum of squared sample luminances.
+    pub sum_lum_sq: f64,
+    /// Samples taken.
+    pub count: u32,
+}
+
+impl PixelState {
+    #[inline]
+    pub fn add(&mut self, v: Vec3) {
+        let v = v.as_dvec3();
+        self.sum += v;
+        let l = v.dot(LUM);
+        self.sum_lum_sq += l * l;
+        self.count += 1;
+    }
+
+    pub fn mean(&self) -> Vec3 {
+        if self.count == 0 { Vec3::ZERO } else { (self.sum / self.count as f64).as_vec3() }
+    }
+
+    /// Estimated relative standard error of the pixel's mean luminance: the sample standard
+    /// deviation over √n, divided by max(mean, [`RELATIVE_ERROR_FLOOR`]). Infinite with fewer
+    /// than two samples.
+    pub fn relative_error(&self) -> f64 {
+        if self.count < 2 {
+            return f64::INFINITY;
+        }
+        let n = self.count as f64;
+        let mean = self.sum.dot(LUM) / n;
+        let var = ((self.sum_lum_sq / n - mean * mean) * n / (n - 1.0)).max(0.0);
+        (var / n).sqrt() / mean.max(RELATIVE_ERROR_FLOOR)
+    }
+}
+
+/// Accumulated samples of a whole image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Accumulator {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first.
+    pub pixels: Vec<PixelState>,
+}
+
+impl Accumulator {
+    pub fn new(width: u32, height: u32) -> Accumulator {
+        Accumulator { width, height, pixels: vec![PixelState::default(); width as usize * height as usize] }
+    }
+
+    /// The image: each pixel's mean.
+    pub fn film(&self) -> Film {
+        Film { width: self.width, height: self.height, pixels: self.pixels.iter().map(PixelState::mean).collect() }
+    }
+
+    /// Total samples taken.
+    pub fn samples(&self) -> u64 {
+        self.pixels.iter().map(|p| p.count as u64).sum()
+    }
+
+    /// (min, mean, max) samples per pixel.
+    pub fn spp_range(&self) -> (u32, f64, u32) {
+        let min = self.pixels.iter().map(|p| p.count).min().unwrap_or(0);
+        let max = self.pixels.iter().map(|p| p.count).max().unwrap_or(0);
+        (min, self.samples() as f64 / self.pixels.len().max(1) as f64, max)
+    }
+
+    /// (mean, max) of the pixels' estimated relative errors.
+    pub fn error_estimate(&self) -> (f64, f64) {
+        let errs = self.pixels.iter().map(PixelState::relative_error);
+        let (sum, max) = errs.fold((0.0, 0.0f64), |(s, m), e| (s + e, m.max(e)));
+        (sum / self.pixels.len().max(1) as f64, max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_error_is_the_standard_error_over_the_mean() {
+        let mut p = PixelState::default();
+        // Luminance alternates 0.5 and 1.5: mean 1, sample variance 0.25·n/(n−1).
+        for i in 0..100 {
+            p.add(Vec3::splat(if i % 2 == 0 { 0.5 } else { 1.5 }));
+        }
+        let expected = (0.25f64 * 100.0 / 99.0 / 100.0).sqrt();
+        assert!((p.relative_error() - expected).abs() < 1e-9, "{} vs {expected}", p.relative_error());
+        assert_eq!(p.mean(), Vec3::ONE);
+    }
+
+    #[test]
+    fn black_pixels_are_judged_against_the_floor() {
+        let mut p = PixelState::default();
+        for _ in 0..4 {
+            p.add(Vec3::ZERO);
+        }
+        assert_eq!(p.relative_error(), 0.0);
+        assert_eq!(PixelState::default().relative_error(), f64::INFINITY);
+    }
+}

@@ -1,0 +1,216 @@
+//! The render loop: rounds of samples over 16×16 tiles in parallel, accumulated per pixel.
+//!
+//! Without a target error there is one round: every pixel goes to `spp`. With one, rounds
+//! double the sample count (16, 32, 64, … up to `spp`) of the pixels whose estimated error is
+//! still above the target. A pixel's samples are always taken in index order and its decision
+//! depends only on its own samples, so the image is the same whatever the thread count, and
+//! whether or not the render was interrupted and resumed: work stops only at pixel boundaries
+//! (a pixel finishes the samples of its round), and each pixel's state is saved exactly.
+
+use super::kernel::KernelChoice;
+use super::path::PathContext;
+use super::{RenderError, RenderSettings, RenderStats};
+use crate::accel::Accel;
+use rayon::prelude::*;
+use crate::film::{Accumulator, Checkpoint, PixelState};
+use crate::scene::Scene;
+use std::path::Path;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+const TILE: u32 = 16;
+/// Samples every pixel takes before its error estimate is trusted (adaptive sampling).
+const MIN_ADAPTIVE_SPP: u32 = 16;
+
+/// Control over a long render.
+#[derive(Default)]
+pub struct RenderControl<'a> {
+    /// When set, the render finishes the pixels in flight and returns early.
+    pub stop: Option<&'a AtomicBool>,
+    /// Write a checkpoint here when stopped early, and also every `Duration` while rendering.
+    pub checkpoint: Option<(&'a Path, Option<Duration>)>,
+    /// Continue from this checkpoint (checked against the scene and settings).
+    pub resume: Option<(&'a Path, Checkpoint)>,
+}
+
+/// The outcome of [`super::render_controlled`].
+pub struct RenderResult {
+    pub accum: Accumulator,
+    pub stats: RenderStats,
+    /// False when the render was stopped before every pixel was done.
+    pub complete: bool,
+}
+
+/// How many samples pixel state `p` should have at the end of round `round`, or `None` if it
+/// takes no part in that round.
+fn round_target(settings: &RenderSettings, round: u32, p: &PixelState) -> Option<u32> {
+    let Some(e) = settings.target_error else {
+        return (round == 0 && p.count < settings.spp).then_some(settings.spp);
+    };
+    let min = MIN_ADAPTIVE_SPP.min(settings.spp);
+    let target = min.saturating_mul(1u32.checked_shl(round).unwrap_or(u32::MAX)).min(settings.spp);
+    let needs = p.count < min || p.relative_error() > e as f64;
+    (p.count < target && needs).then_some(target)
+}
+
+fn rounds(settings: &RenderSettings) -> u32 {
+    match settings.target_error {
+        None => 1,
+        Some(_) => {
+            let min = MIN_ADAPTIVE_SPP.min(settings.spp).max(1);
+            // Doublings from `min` until `spp` is reached, plus the first round.
+            1 + (settings.spp.div_ceil(min)).next_power_of_two().trailing_zeros()
+        }
+    }
+}
+
+pub(super) fn run(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &RenderSettings,
+    control: RenderControl,
+) -> Result<RenderResult, RenderError> {
+    let start = Instant::now();
+    let (w, h) = (settings.width, settings.height);
+    let fingerprint = if control.checkpoint.is_some() || control.resume.is_some() { scene.fingerprint() } else { 0 };
+    let key = settings.image_key();
+    let (mut accum, prior_elapsed, prior_nonfinite) = match control.resume {
+        Some((path, c)) => {
+            c.check_matches(path, fingerprint, &key)?;
+            (c.accum, c.elapsed, c.nonfinite)
+        }
+        None => (Accumulator::new(w, h), Duration::ZERO, 0),
+    };
+    let camera = scene.camera(w as f32 / h as f32);
+    let lights = scene.light_set();
+    let effects = scene.effects();
+    let (kernel, max_depth) = if settings.specialize {
+        (KernelChoice::for_effects(&effects), effects.depth_limit().apply(settings.max_depth))
+    } else {
+        (KernelChoice::GENERAL, settings.max_depth)
+    };
+    let mut stats = RenderStats { effects, kernel, max_depth, ..Default::default() };
+    let finish = |accum: Accumulator, mut stats: RenderStats, nonfinite: u64, complete: bool| {
+        stats.elapsed = start.elapsed();
+        stats.earlier_sessions = prior_elapsed;
+        stats.samples = accum.samples();
+        stats.nonfinite = prior_nonfinite + nonfinite;
+        stats.spp = accum.spp_range();
+        stats.error_estimate = accum.error_estimate();
+        RenderResult { accum, stats, complete }
+    };
+    if settings.specialize && !effects.lit {
+        // Nothing emits: every path carries zero radiance, so none is traced; each pixel's
+        // samples are all exactly zero.
+        for p in &mut accum.pixels {
+            while round_target(settings, 0, p).is_some_and(|t| p.count < t) {
+                p.add(glam::Vec3::ZERO);
+            }
+        }
+        return Ok(finish(accum, stats, 0, true));
+    }
+    let sample = kernel.sample_fn();
+    let ctx = PathContext { scene, accel, lights: &lights, camera: &camera, settings, max_depth };
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
+    let n_rounds = rounds(settings);
+    let bar = progress_bar(settings.progress, tiles.len() as u64 * n_rounds as u64);
+    let rays_total = AtomicU64::new(0);
+    let nonfinite = AtomicU64::new(0);
+    let stopped = AtomicBool::new(false);
+    let shared = Mutex::new(accum);
+    let last_checkpoint = Mutex::new(Instant::now());
+    let stop_requested = || control.stop.is_some_and(|s| s.load(Ordering::Relaxed));
+    let save_checkpoint = |accum: &Accumulator, nonfinite: u64| -> Result<(), RenderError> {
+        if let Some((path, _)) = control.checkpoint {
+            let c = Checkpoint {
+                scene: fingerprint,
+                settings: key.clone(),
+                nonfinite: prior_nonfinite + nonfinite,
+                elapsed: prior_elapsed + start.elapsed(),
+                accum: accum.clone(),
+            };
+            c.save(path)?;
+        }
+        Ok(())
+    };
+
+    for round in 0..n_rounds {
+        tiles.par_iter().try_for_each(|&(tx, ty)| -> Result<(), RenderError> {
+            if stop_requested() {
+                stopped.store(true, Ordering::Relaxed);
+                return Ok(());
+            }
+            let (x0, y0) = (tx * TILE, ty * TILE);
+            let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+            let mut rays = 0u64;
+            'pixels: for y in y0..y1 {
+                for x in x0..x1 {
+                    if stop_requested() {
+                        stopped.store(true, Ordering::Relaxed);
+                        break 'pixels;
+                    }
+                    let i = (y * w + x) as usize;
+                    // During a round, a pixel belongs to the one task rendering its tile.
+                    let mut p = shared.lock().unwrap_or_else(|e| e.into_inner()).pixels[i];
+                    let Some(target) = round_target(settings, round, &p) else { continue };
+                    let mut pixel_bad = 0;
+                    for s in p.count..target {
+                        let v = sample(&ctx, x, y, s, &mut rays).map_err(RenderError::from)?;
+                        if v.is_finite() {
+                            p.add(v);
+                        } else {
+                            pixel_bad += 1;
+                            p.add(glam::Vec3::ZERO);
+                        }
+                    }
+                    let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
+                    a.pixels[i] = p;
+                    // Counted under the lock, so a checkpoint's count matches its pixels.
+                    let total_bad = nonfinite.fetch_add(pixel_bad, Ordering::Relaxed) + pixel_bad;
+                    if let Some((_, Some(every))) = control.checkpoint
+                        && let Ok(mut last) = last_checkpoint.try_lock()
+                        && last.elapsed() >= every
+                    {
+                        save_checkpoint(&a, total_bad)?;
+                        *last = Instant::now();
+                    }
+                }
+            }
+            let total = rays_total.fetch_add(rays, Ordering::Relaxed) + rays;
+            if let Some(b) = &bar {
+                b.inc(1);
+                let secs = start.elapsed().as_secs_f64().max(1e-9);
+                b.set_message(format!("round {}/{n_rounds}  {:.1} Mrays/s", round + 1, total as f64 / secs / 1e6));
+            }
+            Ok(())
+        })?;
+        if stopped.load(Ordering::Relaxed) {
+            break;
+        }
+    }
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let accum = shared.into_inner().unwrap_or_else(|e| e.into_inner());
+    let bad = nonfinite.load(Ordering::Relaxed);
+    let complete = !stopped.load(Ordering::Relaxed);
+    if !complete {
+        save_checkpoint(&accum, bad)?;
+    }
+    stats.rays = rays_total.load(Ordering::Relaxed);
+    Ok(finish(accum, stats, bad, complete))
+}
+
+fn progress_bar(wanted: bool, tiles: u64) -> Option<indicatif::ProgressBar> {
+    use std::io::IsTerminal;
+    if !wanted || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let bar = indicatif::ProgressBar::new(tiles);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40.cyan/blue} {percent:>3}% tiles {pos}/{len}  ETA {eta}  {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    Some(bar)
+}
