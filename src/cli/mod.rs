@@ -1,6 +1,7 @@
 //! The `ember` command line: argument parsing and the sub-commands. `main.rs` only calls
 //! [`main`].
 
+mod converge;
 mod info;
 mod render;
 
@@ -20,6 +21,9 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Print primitive counts, bounds and BVH build time of a scene or mesh.
     Info(info::InfoArgs),
+    /// Measure error against a high-spp reference at 1, 2, 4, … spp for several estimator
+    /// variants: converge.csv, error_vs_spp.png, error_vs_time.png, time to reach a target.
+    Converge(converge::ConvergeArgs),
 }
 
 /// Runs the command line; errors are printed as `error: …` and give exit code 2.
@@ -28,6 +32,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(a) => render::run(a),
         Command::Info(a) => info::run(a),
+        Command::Converge(a) => converge::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

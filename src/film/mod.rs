@@ -25,6 +25,8 @@ pub enum FilmError {
     UnsupportedFormat { path: PathBuf },
     #[error("{path}: cannot write: {reason}")]
     Write { path: PathBuf, reason: String },
+    #[error("{path}: cannot read: {reason}")]
+    Read { path: PathBuf, reason: String },
 }
 
 /// Output formats.
@@ -115,7 +117,7 @@ impl Film {
                 film.pixels[pos.y() * w + pos.x()] = Vec3::new(r, g, b);
             },
         )
-        .map_err(|e| FilmError::Write { path: path.to_path_buf(), reason: e.to_string() })?;
+        .map_err(|e| FilmError::Read { path: path.to_path_buf(), reason: e.to_string() })?;
         Ok(image.layer_data.channel_data.pixels)
     }
 }
