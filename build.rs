@@ -1,7 +1,9 @@
 //! Generates Embree 3 bindings with bindgen from Debian's headers and links `embree3`.
 //!
-//! With the `embree4` feature the bindings come from the `embree4-sys` crate instead and this
-//! script does nothing but say so.
+//! With the `embree4` feature the bindings come from the `embree4-sys` crate instead (it links
+//! `embree4` without a search path); this script then only locates `libembree4.so`: in
+//! `EMBREE_DIR` if set (link search path plus an rpath, so binaries run without
+//! `LD_LIBRARY_PATH`), else on the standard library path.
 
 use std::env;
 use std::path::{Path, PathBuf};
@@ -12,6 +14,7 @@ fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=EMBREE3_INCLUDE_DIR");
     if env::var_os("CARGO_FEATURE_EMBREE4").is_some() {
+        locate_embree4();
         return;
     }
 
@@ -43,6 +46,40 @@ fn main() {
     }
     println!("cargo:rerun-if-env-changed=EMBREE3_LIB_DIR");
     println!("cargo:rustc-link-lib=dylib=embree3");
+}
+
+const EMBREE4_HINT: &str = "set EMBREE_DIR to the folder holding libembree4.so \
+     (`export EMBREE_DIR=\"$(scripts/fetch-embree4.sh)\"` fetches Embree 4.4 for Debian 12), \
+     or install Embree 4 from your distribution (Debian 13, Ubuntu 24.04: sudo apt-get install libembree-dev)";
+
+/// Finds `libembree4.so` for the `embree4` feature: `EMBREE_DIR`, then the standard path.
+fn locate_embree4() {
+    println!("cargo:rerun-if-env-changed=EMBREE_DIR");
+    println!("cargo:rerun-if-env-changed=LIBRARY_PATH");
+    if let Some(dir) = env::var_os("EMBREE_DIR").filter(|d| !d.is_empty()) {
+        let dir = PathBuf::from(dir);
+        let lib = dir.join("libembree4.so");
+        if !lib.exists() {
+            fail(&format!("EMBREE_DIR is {}, but {} does not exist; {EMBREE4_HINT}", dir.display(), lib.display()));
+        }
+        let dir = dir.canonicalize().unwrap_or(dir);
+        println!("cargo:rerun-if-changed={}", lib.display());
+        println!("cargo:rustc-link-search=native={}", dir.display());
+        // Binaries, tests and benches find the library (and its TBB, through the library's own
+        // rpath) at run time without LD_LIBRARY_PATH.
+        println!("cargo:rustc-link-arg=-Wl,-rpath,{}", dir.display());
+        return;
+    }
+    let mut dirs: Vec<PathBuf> = env::var_os("LIBRARY_PATH")
+        .map(|p| env::split_paths(&p).collect())
+        .unwrap_or_default();
+    let multiarch = format!("/usr/lib/{}-linux-gnu", env::var("CARGO_CFG_TARGET_ARCH").unwrap_or_default());
+    for d in ["/usr/local/lib", multiarch.as_str(), "/usr/lib", "/usr/lib64", "/lib"] {
+        dirs.push(PathBuf::from(d));
+    }
+    if !dirs.iter().any(|d| d.join("libembree4.so").exists()) {
+        fail(&format!("libembree4.so was not found on the standard library path; {EMBREE4_HINT}"));
+    }
 }
 
 fn generate(include_dir: &Path, header: &Path) -> Result<bindgen::Bindings, bindgen::BindgenError> {

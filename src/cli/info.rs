@@ -30,7 +30,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         "bounds:     ({:.4}, {:.4}, {:.4}) .. ({:.4}, {:.4}, {:.4})",
         b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
     );
-    println!("embree:     {}", device.version());
+    println!("embree:     {} ({} bindings, {})", device.version(), device.backend(), device.ray_hit_layout());
     let effects = scene.effects();
     let max_depth = scene.render.max_depth.unwrap_or(crate::integrator::RenderSettings::default().max_depth);
     println!("{effects}");

@@ -1,5 +1,6 @@
 use super::error::{EmbreeError, ErrorCode};
-use super::sys;
+use super::ffi;
+use super::layout::{EmbreeVersion, RayHitLayout};
 use std::ffi::{CStr, CString, c_char, c_void};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::{Arc, Mutex};
@@ -12,7 +13,10 @@ pub struct Device {
 }
 
 pub(super) struct DeviceInner {
-    pub(super) raw: sys::RTCDevice,
+    pub(super) raw: ffi::RTCDevice,
+    /// The running library's version and, decided from it, its ray-hit layout.
+    version: EmbreeVersion,
+    pub(super) layout: RayHitLayout,
     /// Where the error callback records errors. Boxed: Embree holds a pointer to it.
     sink: Box<ErrorSink>,
 }
@@ -34,14 +38,14 @@ impl Drop for DeviceInner {
         // SAFETY: `raw` is a valid device we own one reference to; the error callback is unset
         // first so that Embree never calls into the sink after this box is freed.
         unsafe {
-            sys::rtcSetDeviceErrorFunction(self.raw, None, std::ptr::null_mut());
-            sys::rtcReleaseDevice(self.raw);
+            ffi::rtcSetDeviceErrorFunction(self.raw, None, std::ptr::null_mut());
+            ffi::rtcReleaseDevice(self.raw);
         }
     }
 }
 
 /// Called by Embree on any thread when an API call fails. Never unwinds.
-unsafe extern "C" fn on_error(user: *mut c_void, code: sys::RTCError, message: *const c_char) {
+unsafe extern "C" fn on_error(user: *mut c_void, code: u32, message: *const c_char) {
     let _ = catch_unwind(AssertUnwindSafe(|| {
         if user.is_null() {
             return;
@@ -69,68 +73,102 @@ impl Device {
     }
 
     /// A device with an Embree configuration string such as `"threads=2,verbose=0"`.
+    ///
+    /// Fails with [`EmbreeError::UnsupportedVersion`] if the running library is not a version
+    /// whose ray-hit layout this build knows (see [`RayHitLayout::for_library`]).
     pub fn with_config(config: &str) -> Result<Device, EmbreeError> {
         let c = CString::new(config).map_err(|_| EmbreeError::DeviceCreation {
             config: config.to_string(),
-            code: ErrorCode(sys::RTC_ERROR_INVALID_ARGUMENT),
+            code: ErrorCode(ffi::ERROR_INVALID_ARGUMENT),
         })?;
         // SAFETY: `c` is a valid NUL-terminated string for the duration of the call.
-        let raw = unsafe { sys::rtcNewDevice(c.as_ptr()) };
+        let raw = unsafe { ffi::rtcNewDevice(c.as_ptr()) };
         if raw.is_null() {
             // SAFETY: with a NULL device Embree returns the error of the failed creation on
             // this thread.
-            let code = unsafe { sys::rtcGetDeviceError(std::ptr::null_mut()) };
+            let code = unsafe { ffi::rtcGetDeviceError(std::ptr::null_mut()) };
             return Err(EmbreeError::DeviceCreation { config: config.to_string(), code: ErrorCode(code) });
         }
+        let property = |prop| {
+            // SAFETY: `raw` is a valid device and `prop` a property defined by the header.
+            let v = unsafe { ffi::rtcGetDeviceProperty(raw, prop) };
+            u32::try_from(v).unwrap_or(u32::MAX)
+        };
+        let version = EmbreeVersion::new(
+            property(ffi::PROPERTY_VERSION_MAJOR),
+            property(ffi::PROPERTY_VERSION_MINOR),
+            property(ffi::PROPERTY_VERSION_PATCH),
+        );
+        let layout = match RayHitLayout::for_library(ffi::MAJOR, version) {
+            Ok(layout) => layout,
+            Err(e) => {
+                // SAFETY: `raw` is a valid device we own the only reference to; nothing was
+                // built on it.
+                unsafe { ffi::rtcReleaseDevice(raw) };
+                return Err(e);
+            }
+        };
         let sink = Box::new(ErrorSink::default());
         // SAFETY: `raw` is valid; the sink pointer stays valid (boxed, owned by DeviceInner)
-        // until the callback is unset in Drop.
+        // until the callback is unset in Drop. `on_error` has the C signature of
+        // RTCErrorFunction, with the enum code as the u32 it is.
         unsafe {
-            sys::rtcSetDeviceErrorFunction(raw, Some(on_error), &*sink as *const ErrorSink as *mut c_void);
+            ffi::rtcSetDeviceErrorFunction(raw, Some(on_error), &*sink as *const ErrorSink as *mut c_void);
         }
-        Ok(Device { inner: Arc::new(DeviceInner { raw, sink }) })
+        Ok(Device { inner: Arc::new(DeviceInner { raw, version, layout, sink }) })
     }
 
     /// Takes the first error Embree reported since the last call, if any.
     pub(super) fn take_error(&self) -> Result<(), EmbreeError> {
         let recorded = self.inner.sink.first.lock().unwrap_or_else(|e| e.into_inner()).take();
         // SAFETY: `raw` is a valid device; this reads and clears its error code.
-        let code = unsafe { sys::rtcGetDeviceError(self.inner.raw) };
+        let code = unsafe { ffi::rtcGetDeviceError(self.inner.raw) };
         match recorded {
             Some(e) => Err(e),
-            None if code != sys::RTC_ERROR_NONE => {
+            None if code != ffi::ERROR_NONE => {
                 Err(EmbreeError::Api { code: ErrorCode(code), message: String::from("(no message)") })
             }
             None => Ok(()),
         }
     }
 
-    fn property(&self, prop: sys::RTCDeviceProperty) -> isize {
+    fn property(&self, prop: ffi::RTCDeviceProperty) -> isize {
         // SAFETY: `raw` is a valid device and `prop` a property defined by the header.
-        unsafe { sys::rtcGetDeviceProperty(self.inner.raw, prop) }
+        unsafe { ffi::rtcGetDeviceProperty(self.inner.raw, prop) }
     }
 
-    /// The Embree library version as "major.minor.patch", read from the running library.
+    /// The Embree library version as "major.minor.patch", read from the running library
+    /// (`rtcGetDeviceProperty`) when the device was created.
     pub fn version(&self) -> String {
-        format!(
-            "{}.{}.{}",
-            self.property(sys::RTC_DEVICE_PROPERTY_VERSION_MAJOR),
-            self.property(sys::RTC_DEVICE_PROPERTY_VERSION_MINOR),
-            self.property(sys::RTC_DEVICE_PROPERTY_VERSION_PATCH)
-        )
+        self.inner.version.to_string()
+    }
+
+    /// The running library's version as numbers.
+    pub fn embree_version(&self) -> EmbreeVersion {
+        self.inner.version
+    }
+
+    /// The ray-hit memory layout of the running library, decided from its version.
+    pub fn ray_hit_layout(&self) -> RayHitLayout {
+        self.inner.layout
+    }
+
+    /// Which bindings this build uses: `"embree3"` (bindgen, Debian's headers) or `"embree4"`
+    /// (`embree4-sys`, cargo feature `embree4`).
+    pub fn backend(&self) -> &'static str {
+        ffi::NAME
     }
 
     /// Whether the library was built with the ROBUST-capable intersectors, user geometry and
     /// triangle support this crate relies on.
     pub fn supports_required_features(&self) -> bool {
-        self.property(sys::RTC_DEVICE_PROPERTY_TRIANGLE_GEOMETRY_SUPPORTED) != 0
-            && self.property(sys::RTC_DEVICE_PROPERTY_USER_GEOMETRY_SUPPORTED) != 0
+        self.property(ffi::PROPERTY_TRIANGLES) != 0 && self.property(ffi::PROPERTY_USER_GEOMETRY) != 0
     }
 }
 
 impl std::fmt::Debug for Device {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "Device(Embree {})", self.version())
+        write!(f, "Device(Embree {}, {})", self.version(), self.inner.layout)
     }
 }
 
@@ -142,13 +180,17 @@ mod tests {
     fn embree_api_errors_arrive_with_code_and_message() {
         let d = Device::new().unwrap();
         assert_eq!(d.take_error(), Ok(()));
-        // SAFETY: a valid device; an invalid geometry type makes Embree report an error
-        // through the callback and return NULL.
-        let g = unsafe { sys::rtcNewGeometry(d.inner.raw, 9999) };
-        assert!(g.is_null());
+        // SAFETY: a valid device; a triangle geometry is not a user geometry, so setting its
+        // user primitive count makes Embree report an error through the callback.
+        unsafe {
+            let g = ffi::rtcNewGeometry(d.inner.raw, ffi::GEOMETRY_TYPE_TRIANGLE);
+            assert!(!g.is_null());
+            ffi::rtcSetGeometryUserPrimitiveCount(g, 1);
+            ffi::rtcReleaseGeometry(g);
+        }
         match d.take_error() {
             Err(EmbreeError::Api { code, message }) => {
-                assert_ne!(code, ErrorCode(sys::RTC_ERROR_NONE));
+                assert_ne!(code, ErrorCode(ffi::ERROR_NONE));
                 assert!(!message.is_empty());
                 eprintln!("Embree said: {message}");
             }

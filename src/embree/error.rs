@@ -1,4 +1,4 @@
-use super::sys;
+use super::ffi;
 use std::fmt;
 
 /// An `RTCError` code.
@@ -8,13 +8,13 @@ pub struct ErrorCode(pub u32);
 impl ErrorCode {
     pub fn name(self) -> &'static str {
         match self.0 {
-            sys::RTC_ERROR_NONE => "RTC_ERROR_NONE",
-            sys::RTC_ERROR_UNKNOWN => "RTC_ERROR_UNKNOWN",
-            sys::RTC_ERROR_INVALID_ARGUMENT => "RTC_ERROR_INVALID_ARGUMENT",
-            sys::RTC_ERROR_INVALID_OPERATION => "RTC_ERROR_INVALID_OPERATION",
-            sys::RTC_ERROR_OUT_OF_MEMORY => "RTC_ERROR_OUT_OF_MEMORY",
-            sys::RTC_ERROR_UNSUPPORTED_CPU => "RTC_ERROR_UNSUPPORTED_CPU",
-            sys::RTC_ERROR_CANCELLED => "RTC_ERROR_CANCELLED",
+            ffi::ERROR_NONE => "RTC_ERROR_NONE",
+            ffi::ERROR_UNKNOWN => "RTC_ERROR_UNKNOWN",
+            ffi::ERROR_INVALID_ARGUMENT => "RTC_ERROR_INVALID_ARGUMENT",
+            ffi::ERROR_INVALID_OPERATION => "RTC_ERROR_INVALID_OPERATION",
+            ffi::ERROR_OUT_OF_MEMORY => "RTC_ERROR_OUT_OF_MEMORY",
+            ffi::ERROR_UNSUPPORTED_CPU => "RTC_ERROR_UNSUPPORTED_CPU",
+            ffi::ERROR_CANCELLED => "RTC_ERROR_CANCELLED",
             _ => "RTC_ERROR (unknown code)",
         }
     }
@@ -39,6 +39,13 @@ pub enum EmbreeError {
     /// empty box) instead and the scene should not be trusted.
     #[error("a user-geometry callback panicked: {0}")]
     CallbackPanic(String),
+    /// The running library's version is not one whose ray-hit memory layout this build knows
+    /// (see `layout.rs`); using it could let Embree write past the memory the layer hands it.
+    #[error(
+        "Embree {version} is not a version this build knows the ray-hit layout of \
+         (the {backend} build knows {known}); refusing to use it rather than risk memory corruption"
+    )]
+    UnsupportedVersion { version: String, backend: String, known: String },
     /// Input rejected before it reached Embree.
     #[error("invalid geometry: {0}")]
     InvalidInput(String),

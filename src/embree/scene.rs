@@ -1,6 +1,7 @@
 use super::device::Device;
 use super::error::EmbreeError;
-use super::sys;
+use super::ffi;
+use super::layout::{RayHitLayout, RayHitMem, rtc_ray};
 use super::user::{self, CallbackFailure, UserData};
 use crate::geometry::{Aabb, Hit, Ray, Shape};
 use glam::Vec3;
@@ -28,9 +29,11 @@ pub struct BuildOptions {
 
 /// The owned scene handle plus everything Embree may call back into. Dropped as one: the
 /// scene is released before the user data it points to.
-struct RawScene {
-    raw: sys::RTCScene,
-    failure: Arc<CallbackFailure>,
+pub(super) struct RawScene {
+    pub(super) raw: ffi::RTCScene,
+    /// The device's ray-hit layout (copied: read on every query).
+    pub(super) layout: RayHitLayout,
+    pub(super) failure: Arc<CallbackFailure>,
     _user_data: Vec<Box<dyn Any + Send + Sync>>,
     device: Device,
 }
@@ -39,18 +42,18 @@ impl Drop for RawScene {
     fn drop(&mut self) {
         // SAFETY: `raw` is a scene we hold the only reference to; after this no callback can
         // run, and only then are the user data (fields) dropped.
-        unsafe { sys::rtcReleaseScene(self.raw) };
+        unsafe { ffi::rtcReleaseScene(self.raw) };
     }
 }
 
 /// An owned geometry handle, released on drop (the scene keeps its own reference once
 /// attached).
-struct GeomHandle(sys::RTCGeometry);
+struct GeomHandle(ffi::RTCGeometry);
 
 impl Drop for GeomHandle {
     fn drop(&mut self) {
         // SAFETY: we own one reference to this valid geometry.
-        unsafe { sys::rtcReleaseGeometry(self.0) };
+        unsafe { ffi::rtcReleaseGeometry(self.0) };
     }
 }
 
@@ -66,7 +69,7 @@ unsafe impl Send for SceneBuilder {}
 
 /// A committed scene: immutable, answers ray queries.
 pub struct Scene {
-    scene: RawScene,
+    pub(super) scene: RawScene,
     bounds: Aabb,
 }
 
@@ -82,33 +85,28 @@ impl SceneBuilder {
     pub fn new(device: &Device, options: BuildOptions) -> Result<SceneBuilder, EmbreeError> {
         // SAFETY: the device handle is valid for the device's lifetime, which the scene extends
         // by holding a clone.
-        let raw = unsafe { sys::rtcNewScene(device.inner.raw) };
+        let raw = unsafe { ffi::rtcNewScene(device.inner.raw) };
         device.take_error()?;
         if raw.is_null() {
             return Err(EmbreeError::InvalidInput("rtcNewScene returned NULL".into()));
         }
         let scene = RawScene {
             raw,
+            layout: device.inner.layout,
             failure: Arc::new(CallbackFailure::default()),
             _user_data: Vec::new(),
             device: device.clone(),
         };
         let quality = match options.quality {
-            BuildQuality::Low => sys::RTC_BUILD_QUALITY_LOW,
-            BuildQuality::Medium => sys::RTC_BUILD_QUALITY_MEDIUM,
-            BuildQuality::High => sys::RTC_BUILD_QUALITY_HIGH,
+            BuildQuality::Low => ffi::BUILD_QUALITY_LOW,
+            BuildQuality::Medium => ffi::BUILD_QUALITY_MEDIUM,
+            BuildQuality::High => ffi::BUILD_QUALITY_HIGH,
         };
-        let mut flags = sys::RTC_SCENE_FLAG_NONE;
-        if options.robust {
-            flags |= sys::RTC_SCENE_FLAG_ROBUST;
-        }
-        if options.compact {
-            flags |= sys::RTC_SCENE_FLAG_COMPACT;
-        }
+        let flags = ffi::scene_flags(options.robust, options.compact);
         // SAFETY: `raw` is a valid, uncommitted scene; quality and flags are header constants.
         unsafe {
-            sys::rtcSetSceneBuildQuality(raw, quality);
-            sys::rtcSetSceneFlags(raw, flags);
+            ffi::rtcSetSceneBuildQuality(raw, quality);
+            ffi::rtcSetSceneFlags(raw, flags);
         }
         device.take_error()?;
         Ok(SceneBuilder { scene, next_id: 0 })
@@ -118,9 +116,9 @@ impl SceneBuilder {
         &self.scene.device
     }
 
-    fn new_geometry(&self, kind: sys::RTCGeometryType) -> Result<GeomHandle, EmbreeError> {
+    fn new_geometry(&self, kind: ffi::RTCGeometryType) -> Result<GeomHandle, EmbreeError> {
         // SAFETY: valid device; `kind` is a header constant.
-        let g = unsafe { sys::rtcNewGeometry(self.device().inner.raw, kind) };
+        let g = unsafe { ffi::rtcNewGeometry(self.device().inner.raw, kind) };
         self.device().take_error()?;
         if g.is_null() {
             return Err(EmbreeError::InvalidInput("rtcNewGeometry returned NULL".into()));
@@ -134,8 +132,8 @@ impl SceneBuilder {
         // SAFETY: `g` is a valid geometry with all its buffers/callbacks set; the scene takes
         // its own reference, ours is released when `g` drops.
         unsafe {
-            sys::rtcCommitGeometry(g.0);
-            sys::rtcAttachGeometryByID(self.scene.raw, g.0, id);
+            ffi::rtcCommitGeometry(g.0);
+            ffi::rtcAttachGeometryByID(self.scene.raw, g.0, id);
         }
         self.device().take_error()?;
         self.next_id += 1;
@@ -158,11 +156,11 @@ impl SceneBuilder {
                 vertices.len()
             )));
         }
-        let g = self.new_geometry(sys::RTC_GEOMETRY_TYPE_TRIANGLE)?;
+        let g = self.new_geometry(ffi::GEOMETRY_TYPE_TRIANGLE)?;
         // SAFETY: `g` is a valid triangle geometry; Embree allocates `vertices.len()` items of
         // 12 bytes (plus padding) and returns a pointer to them, or NULL with an error.
         let vb = unsafe {
-            sys::rtcSetNewGeometryBuffer(g.0, sys::RTC_BUFFER_TYPE_VERTEX, 0, sys::RTC_FORMAT_FLOAT3, 12, vertices.len())
+            ffi::rtcSetNewGeometryBuffer(g.0, ffi::BUFFER_TYPE_VERTEX, 0, ffi::FORMAT_FLOAT3, 12, vertices.len())
         } as *mut f32;
         self.device().take_error()?;
         if vb.is_null() {
@@ -170,7 +168,7 @@ impl SceneBuilder {
         }
         // SAFETY: as above, for the index buffer of `indices.len()` UINT3 items.
         let ib = unsafe {
-            sys::rtcSetNewGeometryBuffer(g.0, sys::RTC_BUFFER_TYPE_INDEX, 0, sys::RTC_FORMAT_UINT3, 12, indices.len())
+            ffi::rtcSetNewGeometryBuffer(g.0, ffi::BUFFER_TYPE_INDEX, 0, ffi::FORMAT_UINT3, 12, indices.len())
         } as *mut u32;
         self.device().take_error()?;
         if ib.is_null() {
@@ -200,18 +198,18 @@ impl SceneBuilder {
         }
         let count = u32::try_from(shapes.len())
             .map_err(|_| EmbreeError::InvalidInput(format!("{} primitives exceed 2^32", shapes.len())))?;
-        let g = self.new_geometry(sys::RTC_GEOMETRY_TYPE_USER)?;
-        let data = Box::new(UserData { shapes, failure: self.scene.failure.clone() });
+        let g = self.new_geometry(ffi::GEOMETRY_TYPE_USER)?;
+        let data = Box::new(UserData { shapes, failure: self.scene.failure.clone(), layout: self.scene.layout });
         let ptr = &*data as *const UserData<S> as *mut std::ffi::c_void;
         // SAFETY: `g` is a valid user geometry. `ptr` points into a box the scene owns until
         // after it is released (RawScene field order), so it is stable and outlives every
         // callback. The callbacks are instantiated for exactly this `S`.
         unsafe {
-            sys::rtcSetGeometryUserPrimitiveCount(g.0, count);
-            sys::rtcSetGeometryUserData(g.0, ptr);
-            sys::rtcSetGeometryBoundsFunction(g.0, Some(user::bounds::<S>), std::ptr::null_mut());
-            sys::rtcSetGeometryIntersectFunction(g.0, Some(user::intersect::<S>));
-            sys::rtcSetGeometryOccludedFunction(g.0, Some(user::occluded::<S>));
+            ffi::rtcSetGeometryUserPrimitiveCount(g.0, count);
+            ffi::rtcSetGeometryUserData(g.0, ptr);
+            ffi::rtcSetGeometryBoundsFunction(g.0, Some(user::bounds::<S>), std::ptr::null_mut());
+            ffi::rtcSetGeometryIntersectFunction(g.0, Some(user::intersect::<S>));
+            ffi::rtcSetGeometryOccludedFunction(g.0, Some(user::occluded::<S>));
         }
         self.scene._user_data.push(data);
         self.device().take_error()?;
@@ -227,44 +225,14 @@ impl SceneBuilder {
     pub fn commit(self) -> Result<Scene, EmbreeError> {
         let scene = self.scene;
         // SAFETY: `raw` is a valid scene owned exclusively by us.
-        unsafe { sys::rtcCommitScene(scene.raw) };
+        unsafe { ffi::rtcCommitScene(scene.raw) };
         scene.device.take_error()?;
         scene.failure.check()?;
-        let mut b = sys::RTCBounds::default();
+        let mut b = ffi::RTCBounds::default();
         // SAFETY: committed scene; `b` is a writable RTCBounds.
-        unsafe { sys::rtcGetSceneBounds(scene.raw, &mut b) };
+        unsafe { ffi::rtcGetSceneBounds(scene.raw, &mut b) };
         let bounds = Aabb::new(Vec3::new(b.lower_x, b.lower_y, b.lower_z), Vec3::new(b.upper_x, b.upper_y, b.upper_z));
         Ok(Scene { scene, bounds })
-    }
-}
-
-/// A fresh intersection context, as `rtcInitIntersectContext` (force-inlined in the header,
-/// so bindgen cannot bind it) would make it.
-#[inline]
-fn context() -> sys::RTCIntersectContext {
-    sys::RTCIntersectContext {
-        flags: sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
-        filter: None,
-        instID: [sys::RTC_INVALID_GEOMETRY_ID; 1],
-    }
-}
-
-#[inline]
-fn rtc_ray(ray: &Ray, tmin: f32, tmax: f32) -> sys::RTCRay {
-    sys::RTCRay {
-        org_x: ray.o.x,
-        org_y: ray.o.y,
-        org_z: ray.o.z,
-        tnear: tmin,
-        dir_x: ray.d.x,
-        dir_y: ray.d.y,
-        dir_z: ray.d.z,
-        time: 0.0,
-        tfar: tmax,
-        // A mask of 0 would hit nothing; every geometry keeps Embree's default mask.
-        mask: u32::MAX,
-        id: 0,
-        flags: 0,
     }
 }
 
@@ -277,42 +245,28 @@ impl Scene {
     /// Closest hit with `tmin <= t <= tmax`.
     #[inline]
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, EmbreeError> {
-        let mut ctx = context();
-        let mut rh = sys::RTCRayHit {
-            ray: rtc_ray(ray, tmin, tmax),
-            hit: sys::RTCHit {
-                geomID: sys::RTC_INVALID_GEOMETRY_ID,
-                primID: sys::RTC_INVALID_GEOMETRY_ID,
-                instID: [sys::RTC_INVALID_GEOMETRY_ID; 1],
-                ..Default::default()
-            },
-        };
-        // SAFETY: committed scene (Scene is only made by commit); `ctx` and `rh` are valid,
-        // initialised and `rh` has the 16-byte alignment the header requires (bindgen repr).
-        unsafe { sys::rtcIntersect1(self.scene.raw, &mut ctx, &mut rh) };
+        let mut mem = RayHitMem::new(ray, tmin, tmax);
+        // SAFETY: committed scene (Scene is only made by commit); `mem` is initialised,
+        // 16-byte aligned and as large as the running library's RTCRayHit (layout.rs).
+        unsafe { ffi::intersect1(self.scene.raw, &mut mem) };
         self.scene.failure.check()?;
-        if rh.hit.geomID == sys::RTC_INVALID_GEOMETRY_ID {
-            return Ok(None);
-        }
-        Ok(Some(Hit {
-            t: rh.ray.tfar,
-            geom: rh.hit.geomID,
-            prim: rh.hit.primID,
-            u: rh.hit.u,
-            v: rh.hit.v,
-            ng: Vec3::new(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z),
-        }))
+        Ok(mem.hit())
     }
 
     /// Whether anything is hit with `tmin <= t <= tmax`.
     #[inline]
     pub fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, EmbreeError> {
-        let mut ctx = context();
         let mut r = rtc_ray(ray, tmin, tmax);
-        // SAFETY: as in `intersect`.
-        unsafe { sys::rtcOccluded1(self.scene.raw, &mut ctx, &mut r) };
+        // SAFETY: committed scene; `r` is an initialised RTCRay (the same 48 bytes in every
+        // Embree version).
+        unsafe { ffi::occluded1(self.scene.raw, &mut r) };
         self.scene.failure.check()?;
         Ok(r.tfar == f32::NEG_INFINITY)
+    }
+
+    /// The ray-hit layout of the library this scene runs on.
+    pub fn ray_hit_layout(&self) -> RayHitLayout {
+        self.scene.layout
     }
 
     /// The device this scene was built on.

@@ -2,7 +2,8 @@
 //! [`Shape`] methods, never unwind into C, and record panics for the scene to report.
 
 use super::error::EmbreeError;
-use super::sys;
+use super::ffi;
+use super::layout::{HIT_WORD, RayHitLayout, TFAR_WORD};
 use crate::geometry::{Ray, Shape};
 use glam::Vec3;
 use std::any::Any;
@@ -47,6 +48,8 @@ impl CallbackFailure {
 pub(super) struct UserData<S> {
     pub(super) shapes: Arc<[S]>,
     pub(super) failure: Arc<CallbackFailure>,
+    /// The running library's ray-hit layout: which hit words a hit writes.
+    pub(super) layout: RayHitLayout,
 }
 
 /// Index of 32-bit word `k` of lane `i` in an `RTCRayN`/`RTCRayHitN` block of width `n`.
@@ -55,12 +58,13 @@ fn word(k: usize, i: usize, n: usize) -> usize {
     k * n + i
 }
 
-// Word numbers of RTCRayN (12 words) followed by RTCHitN.
+// Word numbers of RTCRayN (12 words) followed by RTCHitN: Ng_x, Ng_y, Ng_z, u, v, primID,
+// geomID, instID[0], and instPrimID[0] in the layout that has it.
 const ORG: usize = 0;
 const TNEAR: usize = 3;
 const DIR: usize = 4;
-const TFAR: usize = 8;
-const HIT: usize = 12; // Ng_x, Ng_y, Ng_z, u, v, primID, geomID, instID[0]
+const TFAR: usize = TFAR_WORD;
+const HIT: usize = HIT_WORD;
 
 /// Reads lane `i` of a ray block.
 ///
@@ -76,7 +80,7 @@ unsafe fn read_ray(p: *const f32, i: usize, n: usize) -> (Ray, f32, f32) {
     }
 }
 
-pub(super) unsafe extern "C" fn bounds<S: Shape>(args: *const sys::RTCBoundsFunctionArguments) {
+pub(super) unsafe extern "C" fn bounds<S: Shape>(args: *const ffi::RTCBoundsFunctionArguments) {
     // SAFETY: Embree passes valid arguments whose user pointer is the `UserData<S>` this
     // function was registered with (see `SceneBuilder::add_shapes`).
     let args = unsafe { &*args };
@@ -103,16 +107,17 @@ pub(super) unsafe extern "C" fn bounds<S: Shape>(args: *const sys::RTCBoundsFunc
     }
 }
 
-pub(super) unsafe extern "C" fn intersect<S: Shape>(args: *const sys::RTCIntersectFunctionNArguments) {
+pub(super) unsafe extern "C" fn intersect<S: Shape>(args: *const ffi::RTCIntersectFunctionNArguments) {
     // SAFETY: Embree passes valid arguments: `valid` has N entries, `rayhit` is an RTCRayHitN
-    // of width N, and the user pointer is our `UserData<S>`.
+    // of width N in the library's layout, and the user pointer is our `UserData<S>`.
     let args = unsafe { &*args };
     let data = unsafe { &*(args.geometryUserPtr as *const UserData<S>) };
     let n = args.N as usize;
     let prim = args.primID;
     let Some(shape) = data.shapes.get(prim as usize) else { return };
-    // SAFETY: the context pointer is valid for the call; instID[0] is the instance id to report.
-    let inst = unsafe { (*args.context).instID[0] };
+    let layout = data.layout;
+    // SAFETY: these are intersect-callback arguments and `layout` is the library's.
+    let (inst, inst_prim) = unsafe { ffi::hit_instance(args, layout) };
     let p = args.rayhit as *mut f32;
     let r = catch_unwind(AssertUnwindSafe(|| {
         for i in 0..n {
@@ -123,7 +128,8 @@ pub(super) unsafe extern "C" fn intersect<S: Shape>(args: *const sys::RTCInterse
             // SAFETY: `p` is an RTCRayHitN of width n (12·n ray words, then the hit words).
             let (ray, tnear, tfar) = unsafe { read_ray(p, i, n) };
             if let Some(h) = shape.intersect(&ray, tnear, tfar) {
-                // SAFETY: as above; hit words start at 12·n.
+                // SAFETY: as above; hit words start at 12·n, and the block has the
+                // `layout.hit_words()` hit words written here, no more.
                 unsafe {
                     *p.add(word(TFAR, i, n)) = h.t;
                     *p.add(word(HIT, i, n)) = h.ng.x;
@@ -135,16 +141,24 @@ pub(super) unsafe extern "C" fn intersect<S: Shape>(args: *const sys::RTCInterse
                     *q.add(word(HIT + 5, i, n)) = prim;
                     *q.add(word(HIT + 6, i, n)) = args.geomID;
                     *q.add(word(HIT + 7, i, n)) = inst;
+                    if layout.has_inst_prim_id() {
+                        *q.add(word(HIT + 8, i, n)) = inst_prim;
+                    }
                 }
+            } else if ffi::MISS_CLEARS_VALID {
+                // SAFETY: `valid` has n entries; Embree 4 reads a lane left at -1 as a hit.
+                unsafe { *args.valid.add(i) = 0 };
             }
         }
     }));
     if let Err(payload) = r {
         data.failure.record("intersect", payload);
+        // SAFETY: `valid` has n entries; the query is reported as failed anyway.
+        unsafe { report_misses(args.valid, n) };
     }
 }
 
-pub(super) unsafe extern "C" fn occluded<S: Shape>(args: *const sys::RTCOccludedFunctionNArguments) {
+pub(super) unsafe extern "C" fn occluded<S: Shape>(args: *const ffi::RTCOccludedFunctionNArguments) {
     // SAFETY: Embree passes valid arguments: `valid` has N entries, `ray` is an RTCRayN of
     // width N, and the user pointer is our `UserData<S>`.
     let args = unsafe { &*args };
@@ -163,10 +177,28 @@ pub(super) unsafe extern "C" fn occluded<S: Shape>(args: *const sys::RTCOccluded
             if shape.occludes(&ray, tnear, tfar) {
                 // SAFETY: as above; tfar = -inf is Embree's "occluded" mark.
                 unsafe { *p.add(word(TFAR, i, n)) = f32::NEG_INFINITY };
+            } else if ffi::MISS_CLEARS_VALID {
+                // SAFETY: `valid` has n entries; Embree 4 reads a lane left at -1 as occluded.
+                unsafe { *args.valid.add(i) = 0 };
             }
         }
     }));
     if let Err(payload) = r {
         data.failure.record("occluded", payload);
+        // SAFETY: `valid` has n entries.
+        unsafe { report_misses(args.valid, n) };
+    }
+}
+
+/// After a panic, reports every lane as a miss to a library that reads `valid` (Embree 4).
+///
+/// # Safety
+/// `valid` points to `n` writable ints.
+unsafe fn report_misses(valid: *mut std::ffi::c_int, n: usize) {
+    if ffi::MISS_CLEARS_VALID {
+        for i in 0..n {
+            // SAFETY: per the contract.
+            unsafe { *valid.add(i) = 0 };
+        }
     }
 }
