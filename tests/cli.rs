@@ -212,3 +212,19 @@ fn environment_image_background_lights_the_scene() {
     // The framing camera sees the sphere in the middle; it must be lit (not black).
     assert!(film.get(8, 8).max_element() > 0.05, "{:?}", film.get(8, 8));
 }
+
+#[test]
+fn degenerate_triangles_are_skipped_with_a_warning() {
+    let d = tmpdir("degenerate");
+    let p = write(&d, "deg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 2 2\nv nan 0 0\nf 1 2 3\nf 1 1 2\nf 1 4 5\nf 4 4 4\n");
+    let o = ember(&["info", p.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("triangles:  1\n"), "{}", String::from_utf8_lossy(&o.stdout));
+    let e = stderr(&o);
+    assert!(e.starts_with(&format!("warning: {}: object", p.display())) && e.contains("skipped 3 degenerate triangle(s)"), "{e}");
+    // Only degenerate triangles: an error, not an empty scene.
+    let p = write(&d, "all.obj", "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n");
+    let o = ember(&["info", p.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("no triangles"), "{}", stderr(&o));
+}
