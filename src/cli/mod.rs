@@ -1,6 +1,7 @@
 //! The `ember` command line: argument parsing and the sub-commands. `main.rs` only calls
 //! [`main`].
 
+mod check;
 mod info;
 mod render;
 
@@ -20,17 +21,21 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Print primitive counts, bounds and BVH build time of a scene or mesh.
     Info(info::InfoArgs),
+    /// Run the hard-case suite (numerical robustness) and print a table; exit code 1 if a
+    /// case fails.
+    Check(check::CheckArgs),
 }
 
 /// Runs the command line; errors are printed as `error: …` and give exit code 2.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(a) => render::run(a),
-        Command::Info(a) => info::run(a),
+        Command::Render(a) => render::run(a).map(|()| ExitCode::SUCCESS),
+        Command::Info(a) => info::run(a).map(|()| ExitCode::SUCCESS),
+        Command::Check(a) => check::run(a),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
