@@ -143,3 +143,22 @@ fn user_geometry_through_embree_gives_the_same_answers() {
         }
     }
 }
+
+#[test]
+fn cylinder_is_watertight_at_its_rim() {
+    // In the plane of the axis, through the rim circle of the first cap: the side test (height
+    // in range) and the cap test (radius in range) can both fail by rounding there; the
+    // entry must still be found at t = √2, not the far side at 2√2.
+    let c = Cylinder::new(Vec3::new(-2.0, 3.0, 0.5), Vec3::new(2.0, 3.0, 0.5), 0.5);
+    let ray = Ray::new(Vec3::new(-3.0, 3.0, -1.0), Vec3::new(1.0, 0.0, 1.0).normalize());
+    let h = c.intersect(&ray, 0.0, f32::INFINITY).unwrap();
+    assert!(rel(h.t, std::f32::consts::SQRT_2) < 1e-6, "t = {}", h.t);
+    // A fan of rays through points of the rim, from outside: every one hits near the rim.
+    for k in 0..64 {
+        let phi = k as f32 / 64.0 * std::f32::consts::TAU;
+        let rim = Vec3::new(-2.0, 3.0 + 0.5 * phi.cos(), 0.5 + 0.5 * phi.sin());
+        let o = rim + Vec3::new(-1.0, 0.7 * phi.cos(), 0.7 * phi.sin());
+        let h = c.intersect(&Ray::new(o, rim - o), 0.0, f32::INFINITY).unwrap_or_else(|| panic!("rim ray {k} missed"));
+        assert!((h.t - 1.0).abs() < 1e-5, "rim ray {k}: t = {}", h.t);
+    }
+}
