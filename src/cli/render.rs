@@ -41,6 +41,9 @@ pub struct RenderArgs {
     /// Estimator: nee-mis (default), nee, bsdf, bsdf-uniform.
     #[arg(long, default_value = "nee-mis")]
     pub estimator: Estimator,
+    /// Fail (exit 2, no image written) if any sample was NaN or infinite.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 /// Settings from the command line, then the scene file, then built-in defaults.
@@ -82,6 +85,18 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         AccelKind::Naive => Box::new(NaiveAccel::new(&scene.geometry)),
     };
     let (film, stats) = render(&scene, accel.as_ref(), &settings)?;
+    // A pixel can overflow to infinity even when every sample was finite (a sum of huge values).
+    let bad_pixels = film.pixels.iter().filter(|p| !p.is_finite()).count();
+    if args.strict && (stats.nonfinite > 0 || bad_pixels > 0) {
+        anyhow::bail!(
+            "{}: {} of {} samples were NaN or infinite (dropped) and {} pixels are not finite; --strict allows none, so {} was not written",
+            args.scene.display(),
+            stats.nonfinite,
+            stats.samples,
+            bad_pixels,
+            args.output.display()
+        );
+    }
     film.save(&args.output)?;
     eprintln!(
         "rendered {}x{} at {} spp in {:.2} s: {:.2} Mrays/s ({} rays, {} accel), {} non-finite samples dropped -> {}",
