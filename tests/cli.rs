@@ -213,6 +213,32 @@ fn environment_image_background_lights_the_scene() {
     assert!(film.get(8, 8).max_element() > 0.05, "{:?}", film.get(8, 8));
 }
 
+#[test]
+fn check_runs_cases_and_prints_a_table() {
+    let o = ember(&["check", "--quick", "grazing-plane", "inside-sphere"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}{}", stderr(&o));
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(lines[1].starts_with("case") && lines[1].contains("result") && lines[1].contains("non-finite"), "{out}");
+    for name in ["grazing-plane", "inside-sphere"] {
+        let row = lines.iter().find(|l| l.starts_with(name)).unwrap_or_else(|| panic!("no row for {name}: {out}"));
+        assert!(row.split_whitespace().nth(1) == Some("pass"), "{row}");
+    }
+    assert!(lines.last().unwrap().starts_with("2 cases, 2 passed, 0 failed"), "{out}");
+}
+
+#[test]
+fn check_lists_cases_and_refuses_unknown_ones() {
+    let o = ember(&["check", "--list"]);
+    assert!(o.status.success());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(out.lines().count(), ember::check::catalog().len(), "{out}");
+    assert!(out.contains("self-intersection"), "{out}");
+    let o = ember(&["check", "no-such-case"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).starts_with("error: unknown case \"no-such-case\""), "{}", stderr(&o));
+}
+
 /// A 4 × 4 emitter of radiance 3e38 half a unit above a floor: next-event estimation
 /// overflows f32 (samples become infinite) and so do pixel sums.
 const OVERFLOW: &str = "[camera]\nposition = [0.0, 0.3, 3.0]\nlook_at = [0.0, 0.0, 0.0]\n\
