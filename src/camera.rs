@@ -33,7 +33,8 @@ impl Camera {
         focus_distance: f32,
     ) -> Camera {
         let forward = (look_at - position).normalize_or(Vec3::NEG_Z);
-        let mut right = forward.cross(up);
+        // Normalised first, so that the parallel test below does not depend on up's length.
+        let mut right = forward.cross(up.normalize_or_zero());
         if right.length_squared() < 1e-12 {
             // Up parallel to the view: pick any perpendicular.
             let alt = if forward.x.abs() < 0.9 { Vec3::X } else { Vec3::Z };

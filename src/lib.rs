@@ -8,6 +8,7 @@
 
 pub mod accel;
 pub mod camera;
+pub mod check;
 pub mod cli;
 pub mod embree;
 pub mod film;

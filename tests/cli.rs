@@ -212,3 +212,80 @@ fn environment_image_background_lights_the_scene() {
     // The framing camera sees the sphere in the middle; it must be lit (not black).
     assert!(film.get(8, 8).max_element() > 0.05, "{:?}", film.get(8, 8));
 }
+
+#[test]
+fn check_runs_cases_and_prints_a_table() {
+    let o = ember(&["check", "--quick", "grazing-plane", "inside-sphere"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}{}", stderr(&o));
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(lines[1].starts_with("case") && lines[1].contains("result") && lines[1].contains("non-finite"), "{out}");
+    for name in ["grazing-plane", "inside-sphere"] {
+        let row = lines.iter().find(|l| l.starts_with(name)).unwrap_or_else(|| panic!("no row for {name}: {out}"));
+        assert!(row.split_whitespace().nth(1) == Some("pass"), "{row}");
+    }
+    assert!(lines.last().unwrap().starts_with("2 cases, 2 passed, 0 failed"), "{out}");
+}
+
+#[test]
+fn check_lists_cases_and_refuses_unknown_ones() {
+    let o = ember(&["check", "--list"]);
+    assert!(o.status.success());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(out.lines().count(), ember::check::catalog().len(), "{out}");
+    assert!(out.contains("self-intersection"), "{out}");
+    let o = ember(&["check", "no-such-case"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).starts_with("error: unknown case \"no-such-case\""), "{}", stderr(&o));
+}
+
+/// A 4 × 4 emitter of radiance 3e38 half a unit above a floor: next-event estimation
+/// overflows f32 (samples become infinite) and so do pixel sums.
+const OVERFLOW: &str = "[camera]\nposition = [0.0, 0.3, 3.0]\nlook_at = [0.0, 0.0, 0.0]\n\
+    [materials.floor]\ntype = \"diffuse\"\n[materials.hot]\ntype = \"emissive\"\nemission = [3.0e38, 3.0e38, 3.0e38]\n\
+    [[quads]]\ncorner = [-2.0, 0.0, -2.0]\nedge1 = [0.0, 0.0, 4.0]\nedge2 = [4.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
+    [[quads]]\ncorner = [-2.0, 0.5, -2.0]\nedge1 = [4.0, 0.0, 0.0]\nedge2 = [0.0, 0.0, 4.0]\nmaterial = \"hot\"\n";
+
+#[test]
+fn strict_fails_on_non_finite_samples_and_writes_nothing() {
+    let d = tmpdir("strict");
+    let scene = write(&d, "hot.toml", OVERFLOW);
+    let out = d.join("hot.png");
+    let args = ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "16", "--height", "16", "--spp", "4"];
+    // Without --strict: rendered, and the summary counts the dropped samples.
+    let o = ember(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary = stderr(&o);
+    let count: u64 = summary.split(" non-finite samples dropped").next().unwrap().rsplit(' ').next().unwrap().parse().unwrap();
+    assert!(count > 0, "{summary}");
+    std::fs::remove_file(&out).unwrap();
+    // With --strict: exit 2, a message naming the scene and the count, no image.
+    let mut strict = args.to_vec();
+    strict.push("--strict");
+    let o = ember(&strict);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.starts_with(&format!("error: {}: {count} of 1024 samples were NaN or infinite", scene.display())), "{e}");
+    assert!(e.contains("--strict allows none"), "{e}");
+    assert!(!out.exists());
+    // A clean scene passes --strict.
+    let o = ember(&["render", common::scene_path("spheres.toml").to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "16", "--height", "12", "--spp", "2", "--strict"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains(" 0 non-finite samples dropped"), "{}", stderr(&o));
+}
+
+#[test]
+fn degenerate_triangles_are_skipped_with_a_warning() {
+    let d = tmpdir("degenerate");
+    let p = write(&d, "deg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 2 2\nv nan 0 0\nf 1 2 3\nf 1 1 2\nf 1 4 5\nf 4 4 4\n");
+    let o = ember(&["info", p.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("triangles:  1\n"), "{}", String::from_utf8_lossy(&o.stdout));
+    let e = stderr(&o);
+    assert!(e.starts_with(&format!("warning: {}: object", p.display())) && e.contains("skipped 3 degenerate triangle(s)"), "{e}");
+    // Only degenerate triangles: an error, not an empty scene.
+    let p = write(&d, "all.obj", "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n");
+    let o = ember(&["info", p.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("no triangles"), "{}", stderr(&o));
+}

@@ -127,6 +127,15 @@ fn one_convex_object_needs_direct_light_only() {
 }
 
 #[test]
+fn a_camera_inside_the_one_sphere_needs_deep_paths() {
+    // From inside, a sphere's surface sees itself (hard case inside-sphere).
+    let inside = ONE_SPHERE.replace("position = [0, 0, 4]", "position = [0, 0, 0.5]");
+    let e = scene_from("inside-sphere.toml", &inside).effects();
+    assert!(e.indirect);
+    assert_eq!(e.depth_limit(), DepthLimit::Unbounded);
+}
+
+#[test]
 fn a_glass_sphere_alone_needs_deep_paths() {
     let glass = ONE_SPHERE.replace("type = \"diffuse\"\ncolor = [0.7, 0.7, 0.7]", "type = \"glass\"\nior = 1.5");
     let e = scene_from("glass-sphere.toml", &glass).effects();

@@ -143,3 +143,58 @@ fn user_geometry_through_embree_gives_the_same_answers() {
         }
     }
 }
+
+#[test]
+fn cylinder_is_watertight_at_its_rim() {
+    // In the plane of the axis, through the rim circle of the first cap: the side test (height
+    // in range) and the cap test (radius in range) can both fail by rounding there; the
+    // entry must still be found at t = √2, not the far side at 2√2.
+    let c = Cylinder::new(Vec3::new(-2.0, 3.0, 0.5), Vec3::new(2.0, 3.0, 0.5), 0.5);
+    let ray = Ray::new(Vec3::new(-3.0, 3.0, -1.0), Vec3::new(1.0, 0.0, 1.0).normalize());
+    let h = c.intersect(&ray, 0.0, f32::INFINITY).unwrap();
+    assert!(rel(h.t, std::f32::consts::SQRT_2) < 1e-6, "t = {}", h.t);
+    // A fan of rays through points of the rim, from outside: every one hits near the rim.
+    for k in 0..64 {
+        let phi = k as f32 / 64.0 * std::f32::consts::TAU;
+        let rim = Vec3::new(-2.0, 3.0 + 0.5 * phi.cos(), 0.5 + 0.5 * phi.sin());
+        let o = rim + Vec3::new(-1.0, 0.7 * phi.cos(), 0.7 * phi.sin());
+        let h = c.intersect(&Ray::new(o, rim - o), 0.0, f32::INFINITY).unwrap_or_else(|| panic!("rim ray {k} missed"));
+        assert!((h.t - 1.0).abs() < 1e-5, "rim ray {k}: t = {}", h.t);
+    }
+}
+
+#[test]
+fn near_tangent_hits_have_normals_facing_the_ray() {
+    // Rays a few float steps from tangency, far from the origin: the normal computed from
+    // the rounded hit point can face either way; an entering hit must face the ray.
+    let s = Sphere::new(Vec3::new(123.4, -56.7, 89.1), 1.0);
+    let c = Cylinder::new(Vec3::new(123.4, -58.7, 89.1), Vec3::new(123.4, -54.7, 89.1), 1.0);
+    let (mut sphere_hits, mut cylinder_hits) = (0, 0);
+    for k in -200..200 {
+        let o = Vec3::new(123.4 + 1.0 + k as f32 * 2e-6, -56.7, 89.1 + 6.0);
+        let ray = Ray::new(o, -Vec3::Z);
+        if let Some(h) = s.intersect(&ray, 0.0, f32::INFINITY) {
+            sphere_hits += 1;
+            assert!(h.ng.dot(ray.d) < 0.0, "sphere, offset {k}: {h:?}");
+        }
+        if let Some(h) = c.intersect(&ray, 0.0, f32::INFINITY) {
+            cylinder_hits += 1;
+            assert!(h.ng.dot(ray.d) < 0.0, "cylinder, offset {k}: {h:?}");
+        }
+    }
+    assert!(sphere_hits > 100 && cylinder_hits > 100, "{sphere_hits} {cylinder_hits}");
+}
+
+#[test]
+fn cylinder_projection_lands_on_the_surface() {
+    let c = Cylinder::new(Vec3::new(0.2, -1.0, 0.1), Vec3::new(0.3, 1.2, -0.2), 1.0);
+    let a = (c.p1 - c.p0).normalize();
+    let side = c.p0 + 1.1 * a + 1.0003 * a.any_orthonormal_vector();
+    let (q, err) = c.project(side, side - (c.p0 + 1.1 * a));
+    let r = q - c.p0 - (q - c.p0).dot(a) * a;
+    assert!((r.length() - 1.0).abs() < 1e-6 && ((q - c.p0).dot(a) - 1.1).abs() < 1e-6, "{q}");
+    assert!(err.max_element() > 0.0 && err.max_element() < 1e-5, "{err}");
+    let cap = c.p1 + 0.5 * a.any_orthonormal_vector() + 2e-4 * a;
+    let (q, _) = c.project(cap, a);
+    assert!((q - c.p1).dot(a).abs() < 1e-6, "{q}");
+}

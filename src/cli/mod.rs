@@ -1,6 +1,7 @@
 //! The `ember` command line: argument parsing and the sub-commands. `main.rs` only calls
 //! [`main`].
 
+mod check;
 mod converge;
 mod info;
 mod render;
@@ -24,18 +25,22 @@ pub enum Command {
     /// Measure error against a high-spp reference at 1, 2, 4, … spp for several estimator
     /// variants: converge.csv, error_vs_spp.png, error_vs_time.png, time to reach a target.
     Converge(converge::ConvergeArgs),
+    /// Run the hard-case suite (numerical robustness) and print a table; exit code 1 if a
+    /// case fails.
+    Check(check::CheckArgs),
 }
 
 /// Runs the command line; errors are printed as `error: …` and give exit code 2.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(a) => render::run(a),
-        Command::Info(a) => info::run(a),
-        Command::Converge(a) => converge::run(a),
+        Command::Render(a) => render::run(a).map(|()| ExitCode::SUCCESS),
+        Command::Info(a) => info::run(a).map(|()| ExitCode::SUCCESS),
+        Command::Converge(a) => converge::run(a).map(|()| ExitCode::SUCCESS),
+        Command::Check(a) => check::run(a),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) if e.is::<render::Interrupted>() => {
             eprintln!("{e}");
             ExitCode::from(130)

@@ -58,6 +58,9 @@ pub struct RenderArgs {
     /// Estimator: nee-mis (default), nee, bsdf, bsdf-uniform.
     #[arg(long, default_value = "nee-mis")]
     pub estimator: Estimator,
+    /// Fail (exit 2, no image written) if any sample was NaN or infinite.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 fn parse_target_error(s: &str) -> Result<f32, String> {
@@ -175,7 +178,20 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
-    result.accum.film().save(&args.output)?;
+    let film = result.accum.film();
+    // A pixel can overflow to infinity even when every sample was finite (a sum of huge values).
+    let bad_pixels = film.pixels.iter().filter(|p| !p.is_finite()).count();
+    if args.strict && (stats.nonfinite > 0 || bad_pixels > 0) {
+        anyhow::bail!(
+            "{}: {} of {} samples were NaN or infinite (dropped) and {} pixels are not finite; --strict allows none, so {} was not written",
+            args.scene.display(),
+            stats.nonfinite,
+            stats.samples,
+            bad_pixels,
+            args.output.display()
+        );
+    }
+    film.save(&args.output)?;
     if checkpoint.exists() {
         std::fs::remove_file(&checkpoint)
             .map_err(|e| anyhow::anyhow!("{}: cannot remove finished checkpoint: {e}", checkpoint.display()))?;

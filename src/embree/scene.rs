@@ -17,14 +17,23 @@ pub enum BuildQuality {
     High,
 }
 
-/// How a scene is built.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// How a scene is built. The default is medium quality, robust, not compact.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BuildOptions {
     pub quality: BuildQuality,
-    /// `RTC_SCENE_FLAG_ROBUST`: avoid optimisations that reduce arithmetic accuracy.
+    /// `RTC_SCENE_FLAG_ROBUST`: avoid optimisations that reduce arithmetic accuracy. On by
+    /// default: without it Embree 3.13 misses rays passing exactly through a shared edge of a
+    /// closed mesh (a light leak; hard case `axis-parallel-rays`). Its cost is measured by
+    /// `ember bench` (robust vs. non-robust strategies).
     pub robust: bool,
     /// `RTC_SCENE_FLAG_COMPACT`: a smaller BVH at some tracing cost.
     pub compact: bool,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions { quality: BuildQuality::default(), robust: true, compact: false }
+    }
 }
 
 /// The owned scene handle plus everything Embree may call back into. Dropped as one: the

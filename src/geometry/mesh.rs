@@ -63,6 +63,32 @@ impl TriMesh {
         [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
     }
 
+    /// Whether triangle `i` cannot be hit: a corner is NaN or infinite, or its area is exactly
+    /// zero (a repeated corner, or three collinear corners).
+    pub fn is_degenerate(&self, i: usize) -> bool {
+        let [a, b, c] = self.triangle(i);
+        if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+            return true;
+        }
+        (b - a).cross(c - a) == glam::Vec3::ZERO
+    }
+
+    /// Drops the degenerate triangles (see [`is_degenerate`](Self::is_degenerate)) and
+    /// returns their indices as they were before. Vertices are kept, so normals and texture
+    /// coordinates stay valid.
+    pub fn remove_degenerate(&mut self) -> Vec<usize> {
+        let bad: Vec<usize> = (0..self.triangle_count()).filter(|&i| self.is_degenerate(i)).collect();
+        if !bad.is_empty() {
+            let mut k = 0;
+            self.indices.retain(|_| {
+                let keep = bad.binary_search(&k).is_err();
+                k += 1;
+                keep
+            });
+        }
+        bad
+    }
+
     /// Bounds of the vertices used by triangles (finite ones only).
     pub fn bounds(&self) -> Aabb {
         self.indices

@@ -15,7 +15,7 @@ pub use cylinder::{Cylinder, CylinderPart};
 pub use frame::Frame;
 pub use mesh::{MeshError, TriMesh};
 pub use ray::{Hit, Ray, ShapeHit};
-pub use spawn::{offset_ray_origin, offset_toward};
+pub use spawn::{POINT_ERROR_ULPS, offset_ray_origin, offset_ray_origin_bounded, offset_toward, offset_toward_bounded, point_error};
 pub use sphere::Sphere;
 pub use triangle::{TriangleTest, WatertightRay};
 

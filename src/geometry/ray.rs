@@ -50,3 +50,23 @@ impl Hit {
         Hit { t: h.t, geom, prim, u: h.u, v: h.v, ng: h.ng }
     }
 }
+
+/// `n` corrected, if rounding put it on the wrong side, to face against `d` at a hit where the
+/// ray enters a closed surface (`entering`), or along `d` where it leaves. At a near-tangent
+/// hit the normal computed from the rounded hit point can point either way; a normal facing
+/// the wrong way makes the surface look as if seen from inside. The correction removes the
+/// component along the ray and leaves a tiny one (2⁻²⁰ of |n|) on the right side, so it only
+/// ever turns the normal by a rounding-level angle.
+#[inline]
+pub(crate) fn face_ray(n: Vec3, d: Vec3, entering: bool) -> Vec3 {
+    let dh = d.normalize_or_zero();
+    let c = n.dot(dh);
+    let tau = n.length() * (1.0 / 1_048_576.0);
+    if entering && c > -tau {
+        n - (c + tau) * dh
+    } else if !entering && c < tau {
+        n - (c - tau) * dh
+    } else {
+        n
+    }
+}

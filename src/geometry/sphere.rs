@@ -1,3 +1,4 @@
+use super::ray::face_ray;
 use super::{Aabb, Ray, Shape, ShapeHit};
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -47,10 +48,11 @@ impl Sphere {
         (u, v)
     }
 
-    fn hit_at(&self, ray: &Ray, t: f32) -> ShapeHit {
+    /// The hit at `t`; `entering`: `t` is the smaller root (the ray comes from outside).
+    fn hit_at(&self, ray: &Ray, t: f32, entering: bool) -> ShapeHit {
         let n = (ray.at(t) - self.center) / self.radius;
         let (u, v) = Sphere::uv(n.normalize_or_zero());
-        ShapeHit { t, u, v, ng: n }
+        ShapeHit { t, u, v, ng: face_ray(n, ray.d, entering) }
     }
 }
 
@@ -66,9 +68,9 @@ impl Shape for Sphere {
     fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<ShapeHit> {
         let (t0, t1) = self.roots(ray)?;
         if t0 > tmin && t0 < tmax {
-            Some(self.hit_at(ray, t0))
+            Some(self.hit_at(ray, t0, true))
         } else if t1 > tmin && t1 < tmax {
-            Some(self.hit_at(ray, t1))
+            Some(self.hit_at(ray, t1, false))
         } else {
             None
         }

@@ -152,6 +152,10 @@ pub(crate) fn radiance<const TEX: bool, const GLOSSY: bool, const GLASS: bool, c
         if beta == Vec3::ZERO || !beta.is_finite() {
             break;
         }
+        if !MIS && depth >= ctx.max_depth {
+            // The next hit could only add emission, and nothing BSDF sampling can find emits.
+            break;
+        }
         ray = Ray::new(offset_toward(sp.p, ng, wi), wi);
     }
     Ok(l)

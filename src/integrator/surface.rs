@@ -45,10 +45,15 @@ pub fn surface_point_at<'a, const TEX: bool>(scene: &'a Scene, ray: &Ray, hit: &
         }
         Geometry::Spheres(s) => {
             let s = &s[hit.prim as usize];
-            // Re-projected onto the sphere.
-            let n = (ray.at(hit.t) - s.center).normalize_or(ng);
+            // Re-projected onto the sphere along the hit's normal (which the sphere has already
+            // turned to face the ray at near-tangent hits, where o + t·d rounds to the far side).
+            let n = ng;
             SurfacePoint { p: s.center + s.radius * n, ng: n, ns: n, uv: Vec2::new(hit.u, hit.v), material }
         }
-        Geometry::Cylinders(_) => SurfacePoint { p: ray.at(hit.t), ng, ns: ng, uv: Vec2::new(hit.u, hit.v), material },
+        Geometry::Cylinders(c) => {
+            // o + t·d carries the rounding error of a distant origin: project onto the surface.
+            let (p, _) = c[hit.prim as usize].project(ray.at(hit.t), ng);
+            SurfacePoint { p, ng, ns: ng, uv: Vec2::new(hit.u, hit.v), material }
+        }
     }
 }

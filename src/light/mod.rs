@@ -284,12 +284,24 @@ fn cone_one_minus_cos(radius: f32, d2: f32) -> f32 {
     sin2 / (1.0 + cos)
 }
 
+/// Whether `p` is inside the sphere or on its surface within rounding. A shading point on
+/// the sphere itself (a camera inside a glowing sphere) is computed with an error of a few
+/// float steps of the coordinates, so it lands outside about half the time; there the cone
+/// toward the sphere degenerates to a half-space whose near intersection is `p` itself, and
+/// light from the sphere would be lost. Sampling by area is valid from anywhere (only
+/// noisier), so it is used within that rounding margin.
+fn inside_or_on(s: &Sphere, p: Vec3) -> bool {
+    let magnitude = s.center.abs().max_element().max(p.abs().max_element()) + s.radius;
+    let r = s.radius + 8.0 * f32::EPSILON * magnitude;
+    (s.center - p).length_squared() <= r * r
+}
+
 /// Samples a point on a sphere as seen from `p`: uniformly in the subtended cone when outside
-/// (solid-angle density 1 / (2π(1 − cosθmax))), uniformly by area when inside.
+/// (solid-angle density 1 / (2π(1 − cosθmax))), uniformly by area when inside or on it.
 fn sample_sphere(s: &Sphere, p: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
     let to_c = s.center - p;
     let d2 = to_c.length_squared();
-    if d2 <= s.radius * s.radius {
+    if inside_or_on(s, p) {
         let n = uniform_sphere(u);
         let q = s.center + s.radius * n;
         let d = q - p;
@@ -314,7 +326,7 @@ fn sample_sphere(s: &Sphere, p: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
 
 fn pdf_sphere(s: &Sphere, p: Vec3, q: Vec3, n: Vec3) -> f32 {
     let d2 = (s.center - p).length_squared();
-    if d2 <= s.radius * s.radius {
+    if inside_or_on(s, p) {
         let d = q - p;
         let dd = d.length_squared();
         let cos = n.normalize().dot(d / dd.sqrt()).abs();

@@ -101,6 +101,15 @@ pub(super) fn from_toml(path: &Path) -> Result<Scene, SceneError> {
         for om in obj.meshes {
             let mut mesh = om.mesh;
             mesh.transform(transform);
+            // A transform can collapse triangles too (a tiny scale underflows to zero area).
+            let dropped = mesh.remove_degenerate();
+            if !dropped.is_empty() {
+                let warning = super::obj::degenerate_warning(&obj_path, &mesh.name, &dropped, mesh.triangle_count());
+                scene.warnings.push(format!("{warning}, after the scene's scale/rotate/translate"));
+                if mesh.triangle_count() == 0 {
+                    continue;
+                }
+            }
             if m.smooth && mesh.normals.is_empty() {
                 mesh.compute_vertex_normals();
             }

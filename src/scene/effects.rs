@@ -78,6 +78,7 @@ impl Effects {
         let mut used = vec![false; scene.materials.len()];
         let mut scattering_prims = 0usize;
         let mut transmissive_scatterer = false;
+        let mut scatterer_bounds = crate::geometry::Aabb::EMPTY;
         for (g, binding) in scene.geometry.iter().zip(&scene.bindings) {
             if g.is_empty() {
                 continue;
@@ -91,6 +92,7 @@ impl Effects {
                 used[mi as usize] = true;
                 let kind = &scene.materials[mi as usize].kind;
                 if scatters(kind) {
+                    scatterer_bounds = scatterer_bounds.union(&g.bounds());
                     scattering_prims += prims;
                     transmissive_scatterer |= matches!(kind, MaterialKind::Glass { .. });
                 }
@@ -138,8 +140,15 @@ impl Effects {
         e.lit = e.emissive || e.point_lights || e.sky || e.environment;
         e.scattering = scattering_prims > 0;
         // One opaque primitive (a sphere, a capped cylinder, a triangle: all convex) cannot
-        // send light to itself; two primitives, or one that refracts, can.
-        e.indirect = scattering_prims > 1 || transmissive_scatterer;
+        // send light to itself seen from outside; two primitives, or one that refracts, can ...
+        // ... unless the camera is inside it (then its inner surface sees itself): a camera
+        // within the scatterer's bounds, lens included, counts as inside.
+        let camera_inside = scene.camera.is_some_and(|c| {
+            let r = c.aperture.max(0.0);
+            let (lo, hi) = (scatterer_bounds.min - glam::Vec3::splat(r), scatterer_bounds.max + glam::Vec3::splat(r));
+            c.position.cmpge(lo).all() && c.position.cmple(hi).all()
+        });
+        e.indirect = scattering_prims > 1 || transmissive_scatterer || (scattering_prims == 1 && camera_inside);
         e
     }
 

@@ -11,7 +11,7 @@ mod obj;
 pub use effects::{DepthLimit, Effects};
 pub use error::SceneError;
 pub use material::{Material, MaterialKind};
-pub use obj::{ObjFile, ObjMesh, load_obj};
+pub use obj::{ObjFile, ObjMesh, load_obj, parse_obj};
 
 use crate::camera::Camera;
 use crate::geometry::{Aabb, Geometry};

@@ -32,12 +32,19 @@ impl ObjFile {
 pub fn load_obj(path: &Path) -> Result<ObjFile, SceneError> {
     let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, &e))?;
     let text = String::from_utf8_lossy(&bytes);
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    parse_obj(path, &text, &dir)
+}
+
+/// OBJ text already in memory: `path` names it in messages and MTL files are looked up in
+/// `dir`. Degenerate triangles (a NaN or infinite corner, zero area) are dropped with a
+/// warning; an object left with none is skipped.
+pub fn parse_obj(path: &Path, text: &str, dir: &Path) -> Result<ObjFile, SceneError> {
     // tobj reports no line numbers; check the lines ourselves first so the message can name one.
-    if let Some((line, problem)) = first_bad_line(&text) {
+    if let Some((line, problem)) = first_bad_line(text) {
         return Err(SceneError::new(path, Some(line), problem));
     }
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut warnings = Vec::new();
     let mut reader = std::io::BufReader::new(text.as_bytes());
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
@@ -64,14 +71,37 @@ pub fn load_obj(path: &Path) -> Result<ObjFile, SceneError> {
         let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(|p| Vec2::new(p[0], p[1])).collect();
         let indices: Vec<[u32; 3]> = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
         let material = mesh.material_id.filter(|&i| i < materials.len());
-        let tri = TriMesh::new(m.name, positions, indices, normals, uvs)
+        let mut tri = TriMesh::new(m.name, positions, indices, normals, uvs)
             .map_err(|e| SceneError::new(path, None, e.to_string()))?;
+        let dropped = tri.remove_degenerate();
+        if !dropped.is_empty() {
+            warnings.push(degenerate_warning(path, &tri.name, &dropped, tri.triangle_count()));
+            if tri.triangle_count() == 0 {
+                continue;
+            }
+        }
         meshes.push(ObjMesh { mesh: tri, material });
     }
     if meshes.is_empty() {
-        return Err(SceneError::new(path, None, "no triangles: the file has no faces"));
+        return Err(SceneError::new(path, None, "no triangles: the file has no faces (or only degenerate ones)"));
     }
     Ok(ObjFile { meshes, materials, warnings })
+}
+
+/// The warning for triangles dropped by [`TriMesh::remove_degenerate`]: how many, which (the
+/// first few, counted from 1 within the object) and what is left.
+pub(super) fn degenerate_warning(path: &Path, object: &str, dropped: &[usize], left: usize) -> String {
+    let mut which: Vec<String> = dropped.iter().take(5).map(|i| (i + 1).to_string()).collect();
+    if dropped.len() > 5 {
+        which.push("...".into());
+    }
+    let rest = if left == 0 { "nothing left; object skipped".to_string() } else { format!("{left} kept") };
+    format!(
+        "{}: object {object:?}: skipped {} degenerate triangle(s) (zero area or a NaN/infinite corner): {} ({rest})",
+        path.display(),
+        dropped.len(),
+        which.join(", ")
+    )
 }
 
 /// Finds the first line tobj would reject (or silently misread), with a message saying why.

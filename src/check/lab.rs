@@ -1,0 +1,97 @@
+//! Where a case runs: an Embree device, the quality level, render helpers, and the count of
+//! non-finite values seen (every case must see none).
+
+use super::{CheckError, Quality};
+use crate::accel::{Accel, EmbreeAccel, NaiveAccel};
+use crate::embree::{BuildOptions, Device};
+use crate::film::Film;
+use crate::geometry::Geometry;
+use crate::integrator::{Estimator, RenderSettings, render};
+use crate::scene::Scene;
+use glam::Vec3;
+use std::cell::Cell;
+
+pub struct Lab {
+    pub device: Device,
+    pub quality: Quality,
+    nonfinite: Cell<u64>,
+}
+
+impl Lab {
+    pub fn new(quality: Quality) -> Result<Lab, CheckError> {
+        Ok(Lab { device: Device::new()?, quality, nonfinite: Cell::new(0) })
+    }
+
+    /// `quick` for `--quick`, else `full`.
+    pub fn pick<T>(&self, quick: T, full: T) -> T {
+        match self.quality {
+            Quality::Quick => quick,
+            Quality::Full => full,
+        }
+    }
+
+    /// Non-finite samples, pixels or hit values seen so far.
+    pub fn nonfinite(&self) -> u64 {
+        self.nonfinite.get()
+    }
+
+    /// Records `n` non-finite values found by a case's own queries.
+    pub fn add_nonfinite(&self, n: u64) {
+        self.nonfinite.set(self.nonfinite.get() + n);
+    }
+
+    /// Settings for a `w` × `h` image at `spp`; seed 7, all threads, no progress bar.
+    pub fn settings(&self, w: u32, h: u32, spp: u32) -> RenderSettings {
+        RenderSettings { width: w, height: h, spp, seed: 7, progress: false, ..RenderSettings::default() }
+    }
+
+    /// One-bounce furnace settings: BSDF sampling only, one bounce, no Russian roulette.
+    pub fn bsdf_settings(&self, w: u32, h: u32, spp: u32, max_depth: u32) -> RenderSettings {
+        RenderSettings { estimator: Estimator::BsdfOnly, max_depth, rr_depth: u32::MAX, ..self.settings(w, h, spp) }
+    }
+
+    pub fn embree(&self, scene: &Scene) -> Result<EmbreeAccel, CheckError> {
+        self.embree_geometry(&scene.geometry)
+    }
+
+    pub fn embree_geometry(&self, geometry: &[Geometry]) -> Result<EmbreeAccel, CheckError> {
+        Ok(EmbreeAccel::new(&self.device, geometry, BuildOptions::default())?)
+    }
+
+    /// Renders through `accel`, counting dropped samples and non-finite pixels.
+    pub fn render_with(&self, scene: &Scene, accel: &dyn Accel, s: &RenderSettings) -> Result<Film, CheckError> {
+        let (film, stats) = render(scene, accel, s)?;
+        let bad_pixels = film.pixels.iter().filter(|p| !p.is_finite()).count() as u64;
+        self.add_nonfinite(stats.nonfinite + bad_pixels);
+        Ok(film)
+    }
+
+    /// Renders with Embree.
+    pub fn render(&self, scene: &Scene, s: &RenderSettings) -> Result<Film, CheckError> {
+        let accel = self.embree(scene)?;
+        self.render_with(scene, &accel, s)
+    }
+
+    /// Renders with the naive all-primitive loop.
+    pub fn render_naive(&self, scene: &Scene, s: &RenderSettings) -> Result<Film, CheckError> {
+        self.render_with(scene, &NaiveAccel::new(&scene.geometry), s)
+    }
+
+    /// Renders with `k` seeds; returns the per-pixel mean and the standard error of that mean
+    /// (grey values), for statistical tolerances.
+    pub fn render_seeds(&self, scene: &Scene, s: &RenderSettings, k: u64) -> Result<(Film, Vec<f64>), CheckError> {
+        let accel = self.embree(scene)?;
+        let films: Vec<Film> =
+            (0..k).map(|seed| self.render_with(scene, &accel, &RenderSettings { seed: 1000 + seed, ..s.clone() })).collect::<Result<_, _>>()?;
+        let mut mean = Film::new(s.width, s.height);
+        let mut se = vec![0.0; mean.pixels.len()];
+        for (i, (m_px, se_px)) in mean.pixels.iter_mut().zip(&mut se).enumerate() {
+            let vals: Vec<f64> = films.iter().map(|f| super::pixel::grey(f.pixels[i])).collect();
+            let m = vals.iter().sum::<f64>() / k as f64;
+            let var = vals.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (k as f64 - 1.0).max(1.0);
+            *se_px = (var / k as f64).sqrt();
+            *m_px = films.iter().map(|f| f.pixels[i]).sum::<Vec3>() / k as f32;
+        }
+        Ok((mean, se))
+    }
+}

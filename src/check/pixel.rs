@@ -1,0 +1,165 @@
+//! What each pixel should hold when the answer is known in closed form.
+//!
+//! The renderer averages samples jittered uniformly over each pixel, so a pixel's expected
+//! value is the average of the closed-form radiance over the pixel's area. [`Reference`]
+//! approximates that average on an n × n grid of sub-pixel positions and also records how
+//! much the radiance varies inside the pixel (its standard deviation and range): that is
+//! the jitter noise a render with a finite sample count shows at edges and shadow
+//! boundaries, and the grid's own error there is at most about range / n.
+
+use crate::film::Film;
+use glam::Vec2;
+use rayon::prelude::*;
+
+/// One pixel's reference: mean over the pixel, standard deviation and range inside it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelRef {
+    pub mean: f64,
+    pub sd: f64,
+    pub range: f64,
+}
+
+/// Per-pixel references for a `width` × `height` image.
+#[derive(Clone, Debug)]
+pub struct Reference {
+    pub width: u32,
+    pub height: u32,
+    /// Sub-pixel grid size per axis.
+    pub grid: u32,
+    pub pixels: Vec<PixelRef>,
+}
+
+impl Reference {
+    /// `f(film)` is the closed-form value at film position `film` in [0, 1]² (x right, y
+    /// down), the same convention as [`crate::camera::Camera::ray`].
+    pub fn new(width: u32, height: u32, grid: u32, f: impl Fn(Vec2) -> f64 + Sync) -> Reference {
+        let at = |x: u32, y: u32, fx: f32, fy: f32| Vec2::new((x as f32 + fx) / width as f32, (y as f32 + fy) / height as f32);
+        let pixels = (0..width * height)
+            .into_par_iter()
+            .map(|i| {
+                let (x, y) = (i % width, i / width);
+                let (mut sum, mut sum2, mut lo, mut hi) = (0.0, 0.0, f64::INFINITY, f64::NEG_INFINITY);
+                for j in 0..grid {
+                    for k in 0..grid {
+                        let v = f(at(x, y, (k as f32 + 0.5) / grid as f32, (j as f32 + 0.5) / grid as f32));
+                        sum += v;
+                        sum2 += v * v;
+                        lo = lo.min(v);
+                        hi = hi.max(v);
+                    }
+                }
+                // The border at four times the density: an edge that only clips the pixel
+                // between grid points still shows in the range.
+                let m = 4 * grid;
+                for k in 0..=m {
+                    let s = k as f32 / m as f32;
+                    for (fx, fy) in [(s, 0.0), (s, 1.0), (0.0, s), (1.0, s)] {
+                        let v = f(at(x, y, fx, fy));
+                        lo = lo.min(v);
+                        hi = hi.max(v);
+                    }
+                }
+                let n = (grid * grid) as f64;
+                let mean = sum / n;
+                PixelRef { mean, sd: (sum2 / n - mean * mean).max(0.0).sqrt(), range: hi - lo }
+            })
+            .collect();
+        Reference { width, height, grid, pixels }
+    }
+
+    /// Whether the pixel's value is the same over its whole area (no edge inside it).
+    pub fn is_flat(&self, i: usize) -> bool {
+        self.pixels[i].range <= 1e-9 * self.pixels[i].mean.abs()
+    }
+}
+
+/// How a render compares with a [`Reference`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Comparison {
+    /// Pixels whose error exceeds `rel` × expected plus what jitter explains.
+    pub off: usize,
+    pub total: usize,
+    /// Largest relative error |got − expected| / expected over pixels with no edge inside.
+    pub worst_flat: f64,
+    /// Largest error in units of the allowance (≤ 1 means within tolerance everywhere).
+    pub worst_ratio: f64,
+}
+
+impl Comparison {
+    pub fn off_fraction(&self) -> f64 {
+        self.off as f64 / self.total.max(1) as f64
+    }
+}
+
+/// Compares the grey value (mean of the channels) of each pixel of `film`, rendered with
+/// `spp` samples per pixel, with `r`. A pixel is off when
+/// |got − mean| > rel·mean + sigmas·sd'/√spp + range/grid + 1e-5·mean (float rounding),
+/// i.e. by more than `rel` beyond the jitter noise and the grid's own error, where
+/// sd' = max(sd, range·√(q(1 − q))), q = 1/grid, allows for an edge the grid missed.
+pub fn compare(film: &Film, r: &Reference, spp: u32, rel: f64, sigmas: f64) -> Comparison {
+    assert_eq!((film.width, film.height), (r.width, r.height), "reference size");
+    let (mut off, mut worst_flat, mut worst_ratio) = (0, 0.0f64, 0.0f64);
+    for (i, (p, e)) in film.pixels.iter().zip(&r.pixels).enumerate() {
+        let got = (p.x as f64 + p.y as f64 + p.z as f64) / 3.0;
+        let err = (got - e.mean).abs();
+        // An edge can hide between grid points in up to about 1/grid of the pixel: the jitter
+        // spread is at least that of a pixel split 1/grid : (grid − 1)/grid.
+        let q = 1.0 / r.grid as f64;
+        let sd = e.sd.max(e.range * (q * (1.0 - q)).sqrt());
+        let allow = rel * e.mean + sigmas * sd / (spp as f64).sqrt() + e.range / r.grid as f64 + 1e-5 * e.mean + 1e-30;
+        if !(err <= allow) {
+            off += 1;
+        }
+        worst_ratio = worst_ratio.max(if err.is_nan() { f64::INFINITY } else { err / allow });
+        if r.is_flat(i) {
+            let rel_err = if e.mean > 0.0 { err / e.mean } else { err };
+            worst_flat = worst_flat.max(if rel_err.is_nan() { f64::INFINITY } else { rel_err });
+        }
+    }
+    Comparison { off, total: film.pixels.len(), worst_flat, worst_ratio }
+}
+
+/// Grey value of a pixel.
+pub fn grey(p: glam::Vec3) -> f64 {
+    (p.x as f64 + p.y as f64 + p.z as f64) / 3.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn film(w: u32, h: u32, f: impl Fn(u32, u32) -> f32) -> Film {
+        let mut film = Film::new(w, h);
+        for y in 0..h {
+            for x in 0..w {
+                film.pixels[(y * w + x) as usize] = Vec3::splat(f(x, y));
+            }
+        }
+        film
+    }
+
+    #[test]
+    fn an_edge_is_seen_and_an_error_is_caught() {
+        // Left half 1, right half 0, the edge at x = 0.5 + 0.01 (inside pixel 4 of 8).
+        let r = Reference::new(8, 2, 8, |p| if p.x < 0.51 { 1.0 } else { 0.0 });
+        assert!(r.is_flat(0) && !r.is_flat(4) && r.is_flat(7));
+        assert!((r.pixels[4].mean - 0.125).abs() < 1e-9, "{:?}", r.pixels[4]);
+        let exact = film(8, 2, |x, _| [1.0, 1.0, 1.0, 1.0, 0.125, 0.0, 0.0, 0.0][x as usize]);
+        assert_eq!(compare(&exact, &r, 16, 0.01, 4.0).off, 0);
+        // 2% too bright in one flat pixel: caught at 1%, not at 5%.
+        let bright = film(8, 2, |x, y| if (x, y) == (1, 1) { 1.02 } else { exact.get(x, y).x });
+        assert_eq!(compare(&bright, &r, 16, 0.01, 4.0).off, 1);
+        assert_eq!(compare(&bright, &r, 16, 0.05, 4.0).off, 0);
+        // A NaN is always off.
+        let nan = film(8, 2, |x, _| if x == 6 { f32::NAN } else { exact.get(x, 0).x });
+        assert_eq!(compare(&nan, &r, 16, 0.05, 4.0).off, 2);
+    }
+
+    #[test]
+    fn an_edge_clipping_the_border_counts_as_an_edge() {
+        // The edge lies within 1/64 of pixel 1's left border, between its interior grid points.
+        let r = Reference::new(4, 1, 8, |p| if p.x < 0.25 + 0.004 { 1.0 } else { 0.0 });
+        assert!(!r.is_flat(1), "{:?}", r.pixels[1]);
+    }
+}
