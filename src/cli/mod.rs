@@ -1,6 +1,7 @@
 //! The `ember` command line: argument parsing and the sub-commands. `main.rs` only calls
 //! [`main`].
 
+mod bench;
 mod info;
 mod render;
 
@@ -20,6 +21,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Print primitive counts, bounds and BVH build time of a scene or mesh.
     Info(info::InfoArgs),
+    /// Measure intersection strategies, the path tracer against Embree alone, and kernels.
+    Bench(bench::BenchArgs),
 }
 
 /// Runs the command line; errors are printed as `error: …` and give exit code 2.
@@ -28,6 +31,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(a) => render::run(a),
         Command::Info(a) => info::run(a),
+        Command::Bench(a) => bench::run_bench(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -2,5 +2,7 @@
 //! writes files atomically (see [`crate::output`]).
 
 mod plot;
+mod table;
 
 pub use plot::{PlotError, Series, log_log_plot};
+pub use table::Table;
