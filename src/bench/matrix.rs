@@ -82,13 +82,15 @@ pub struct Measurement {
     pub kind: RayKind,
     /// Rays timed (the subsample for the naive loop).
     pub rays: usize,
-    /// Best pass over those rays.
+    /// Best pass over those rays: wall time, and (separately) CPU time of all threads.
     pub time: Duration,
+    pub cpu: Option<Duration>,
     pub hits: usize,
     pub threads: usize,
     /// The naive loop's subsample size and time per ray on this workload.
     pub naive_rays: usize,
     pub naive_ns_per_ray: f64,
+    pub naive_cpu_ns_per_ray: Option<f64>,
     pub agreement: Agreement,
 }
 
@@ -101,9 +103,20 @@ impl Measurement {
         self.rays as f64 / self.time.as_secs_f64().max(1e-12) / 1e6
     }
 
-    /// Time per ray of the naive loop over this strategy's.
+    /// CPU time per ray (all threads), when it could be read.
+    pub fn cpu_ns_per_ray(&self) -> Option<f64> {
+        self.cpu.map(|c| c.as_secs_f64() * 1e9 / self.rays.max(1) as f64)
+    }
+
+    /// Wall time per ray of the naive loop over this strategy's.
     pub fn speedup(&self) -> f64 {
         self.naive_ns_per_ray / self.ns_per_ray()
+    }
+
+    /// CPU time per ray of the naive loop over this strategy's: less sensitive than
+    /// [`Self::speedup`] to other work on the machine.
+    pub fn cpu_speedup(&self) -> Option<f64> {
+        Some(self.naive_cpu_ns_per_ray? / self.cpu_ns_per_ray()?)
     }
 }
 
@@ -164,11 +177,12 @@ pub fn run_scene(
     // The naive loop on a subsample of each workload: its time per ray and reference answers.
     let naive = NaiveAccel::new(&scene.geometry);
     let mut out = Vec::new();
-    let mut reference: HashMap<RayKind, (Vec<Query>, Vec<Answer>, f64)> = HashMap::new();
+    let mut reference: HashMap<RayKind, (Vec<Query>, Vec<Answer>, f64, Option<f64>)> = HashMap::new();
     for (kind, queries) in &work.sets {
         let sub = rays::subsample(queries, cfg.naive_rays(primitives, queries.len()));
         let (t, ans) = time_answers(&naive, &sub, kind.closest())?;
-        let ns = t.as_secs_f64() * 1e9 / sub.len().max(1) as f64;
+        let per_ray = |d: Duration| d.as_secs_f64() * 1e9 / sub.len().max(1) as f64;
+        let (ns, cpu_ns) = (per_ray(t.wall), t.cpu.map(per_ray));
         out.push(Measurement {
             scene: scene.name.clone(),
             family: scene.family,
@@ -179,14 +193,16 @@ pub fn run_scene(
             build: None,
             kind: *kind,
             rays: sub.len(),
-            time: t,
+            time: t.wall,
+            cpu: t.cpu,
             hits: ans.iter().filter(|a| a.is_hit()).count(),
             threads,
             naive_rays: sub.len(),
             naive_ns_per_ray: ns,
+            naive_cpu_ns_per_ray: cpu_ns,
             agreement: Agreement::default(),
         });
-        reference.insert(*kind, (sub, ans, ns));
+        reference.insert(*kind, (sub, ans, ns, cpu_ns));
     }
 
     // Reference answers for the tessellated geometry: the naive loop over its triangles, on
@@ -194,12 +210,12 @@ pub fn run_scene(
     let mut tess_reference: HashMap<RayKind, (Vec<Query>, Vec<Answer>)> = HashMap::new();
     let tess_naive = tessellated.as_ref().map(|g| NaiveAccel::new(g));
 
-    for strategy in Strategy::for_scene(scene.shapes() > 0).into_iter().skip(1) {
+    for strategy in Strategy::for_scene(scene.shapes() > 0).into_iter().filter(|s| *s != Strategy::Naive) {
         let geometry = if strategy.tessellated() { tessellated.as_deref().unwrap_or(&scene.geometry) } else { &scene.geometry };
         let (accel, build_time) = build(strategy, device, geometry)?;
         for (kind, queries) in &work.sets {
             let (time, hits) = time_queries(accel.as_ref(), queries, kind.closest(), cfg.timing)?;
-            let (sub, ref_answers, naive_ns) = &reference[kind];
+            let (sub, ref_answers, naive_ns, naive_cpu_ns) = &reference[kind];
             let agreement = match (&tess_naive, strategy.tessellated()) {
                 (Some(tn), true) => {
                     if !tess_reference.contains_key(kind) {
@@ -230,11 +246,13 @@ pub fn run_scene(
                 build: build_time,
                 kind: *kind,
                 rays: queries.len(),
-                time,
+                time: time.wall,
+                cpu: time.cpu,
                 hits,
                 threads,
                 naive_rays: sub.len(),
                 naive_ns_per_ray: *naive_ns,
+                naive_cpu_ns_per_ray: *naive_cpu_ns,
                 agreement,
             });
         }
@@ -266,6 +284,7 @@ fn primitives_cell(m: &Measurement) -> String {
 }
 
 /// The terminal table: one row per scene and strategy, the three workloads side by side.
+/// Mrays/s are from wall time; ×naive from CPU time per ray where it can be read (else wall).
 pub fn summary_table(ms: &[Measurement]) -> Table {
     let mut t = Table::new([
         "scene",
@@ -301,7 +320,7 @@ pub fn summary_table(ms: &[Measurement]) -> Table {
             match by(k) {
                 Some(m) => {
                     cells.push(sig(m.mrays_per_s()));
-                    cells.push(format!("{}×", sig(m.speedup())));
+                    cells.push(format!("{}×", sig(m.cpu_speedup().unwrap_or_else(|| m.speedup()))));
                 }
                 None => cells.extend(["-".to_string(), "-".to_string()]),
             }
@@ -322,7 +341,7 @@ pub fn summary_table(ms: &[Measurement]) -> Table {
 }
 
 /// Column names of bench.csv.
-pub const CSV_COLUMNS: [&str; 22] = [
+pub const CSV_COLUMNS: [&str; 25] = [
     "scene",
     "family",
     "strategy",
@@ -340,6 +359,9 @@ pub const CSV_COLUMNS: [&str; 22] = [
     "naive_ray_count",
     "naive_ns_per_ray",
     "speedup_vs_naive",
+    "cpu_ns_per_ray",
+    "naive_cpu_ns_per_ray",
+    "cpu_speedup_vs_naive",
     "checked",
     "mismatches",
     "mismatches_at_edges",
@@ -369,6 +391,9 @@ pub fn csv_table(ms: &[Measurement]) -> Table {
             m.naive_rays.to_string(),
             format!("{:.1}", m.naive_ns_per_ray),
             format!("{:.2}", m.speedup()),
+            m.cpu_ns_per_ray().map_or(String::new(), |x| format!("{x:.2}")),
+            m.naive_cpu_ns_per_ray.map_or(String::new(), |x| format!("{x:.1}")),
+            m.cpu_speedup().map_or(String::new(), |x| format!("{x:.2}")),
             m.agreement.checked.to_string(),
             m.agreement.mismatches.to_string(),
             m.agreement.at_edges.to_string(),
@@ -381,10 +406,13 @@ pub fn csv_table(ms: &[Measurement]) -> Table {
 
 /// Time per ray against triangle count, log-log: the naive loop and Embree (medium) on each
 /// workload, over the procedural family (or every triangle scene measured when the run has
-/// no procedural scene).
+/// no procedural scene). The time is CPU time per ray (all threads) when it could be read for
+/// every point, as for the ×naive column; else wall time per ray.
 pub fn scaling_plot(path: &Path, ms: &[Measurement]) -> Result<(), BenchError> {
     let procedural = ms.iter().any(|m| m.family == Family::Procedural);
     let keep = |m: &&Measurement| if procedural { m.family == Family::Procedural } else { m.shapes == 0 || m.triangles > 0 };
+    let cpu = ms.iter().filter(keep).all(|m| m.cpu.is_some());
+    let per_ray = |m: &Measurement| if cpu { m.cpu_ns_per_ray().unwrap_or(f64::NAN) } else { m.ns_per_ray() };
     let mut series = Vec::new();
     for strategy in ["naive", "embree-medium"] {
         for kind in RayKind::ALL {
@@ -392,7 +420,7 @@ pub fn scaling_plot(path: &Path, ms: &[Measurement]) -> Result<(), BenchError> {
                 .iter()
                 .filter(keep)
                 .filter(|m| m.strategy == strategy && m.kind == kind)
-                .map(|m| (m.traced_triangles as f64, m.ns_per_ray()))
+                .map(|m| (m.traced_triangles as f64, per_ray(m)))
                 .collect();
             points.sort_by(|a, b| a.0.total_cmp(&b.0));
             if !points.is_empty() {
@@ -406,7 +434,7 @@ pub fn scaling_plot(path: &Path, ms: &[Measurement]) -> Result<(), BenchError> {
         path,
         &format!("Time per ray vs triangles ({what}, {threads} threads)"),
         "triangles",
-        "ns per ray (wall time / rays)",
+        if cpu { "CPU ns per ray (all threads)" } else { "ns per ray (wall time / rays)" },
         &series,
     )?;
     Ok(())

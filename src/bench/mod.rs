@@ -5,6 +5,7 @@
 //! loop's on the rays both trace.
 
 pub mod check;
+pub mod cputime;
 pub mod matrix;
 pub mod measure;
 pub mod procedural;

@@ -2,18 +2,19 @@
 //! (the path tracer's rays/s over Embree's rays/s on the very rays the path tracer traced),
 //! and how samples/s scale from one thread to two.
 //!
-//! The path tracer renders the scene three times with identical settings: once through a
-//! recording wrapper (every intersect/occluded query kept, in each worker's order), then timed
-//! with 1 and with 2 threads. Rendering is deterministic, so the timed renders trace exactly
+//! The path tracer renders the scene with identical settings through a recording wrapper
+//! (every intersect/occluded query kept, in each worker's order), then timed with 1 and with 2
+//! threads. Rendering is deterministic, so the timed renders trace exactly
 //! the recorded rays; the recorded queries are then replayed through the same Embree scene
 //! (one `rtcIntersect1`/`rtcOccluded1` each, via ember's safe wrapper) on 2 threads.
 
 use super::BenchError;
-use super::measure::Timing;
+use super::cputime::cpu_of;
+use super::measure::{Times, Timing};
 use super::record::{RecordedQuery, RecordingAccel, replay};
-use crate::accel::{Accel, EmbreeAccel};
+use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
-use crate::integrator::{RenderSettings, RenderStats, render};
+use crate::integrator::{RenderSettings, render};
 use crate::report::Table;
 use crate::scene::Scene;
 use std::path::Path;
@@ -72,8 +73,11 @@ pub struct RenderMeasurement {
     /// Best render times with 1 and 2 threads.
     pub one_thread: Duration,
     pub two_threads: Duration,
-    /// Best replay of the recorded queries on 2 threads.
+    /// CPU time of the best 2-thread render (least over the renders).
+    pub two_threads_cpu: Option<Duration>,
+    /// Best replay of the recorded queries on 2 threads, and its CPU time.
     pub replay: Duration,
+    pub replay_cpu: Option<Duration>,
 }
 
 impl RenderMeasurement {
@@ -99,33 +103,54 @@ impl RenderMeasurement {
         self.recorded() as f64 / self.replay.as_secs_f64().max(1e-12) / 1e6
     }
 
-    /// The path tracer's rays/s as a percentage of Embree's on the same rays.
+    /// The path tracer's rays/s as a percentage of Embree's on the same rays (wall time).
     pub fn efficiency_percent(&self) -> f64 {
         100.0 * self.path_tracer_mrays_per_s() / self.embree_mrays_per_s()
     }
-}
 
-fn best_render(scene: &Scene, accel: &dyn Accel, settings: &RenderSettings, timing: Timing) -> Result<RenderStats, BenchError> {
-    let (mut best, mut total, mut passes) = (None::<RenderStats>, Duration::ZERO, 0);
-    while passes < timing.min_passes || total < timing.min_total {
-        let (_, stats) = render(scene, accel, settings)?;
-        total += stats.elapsed;
-        passes += 1;
-        if best.is_none_or(|b| stats.elapsed < b.elapsed) {
-            best = Some(stats);
-        }
+    /// The same from CPU time (the same rays, so Embree's CPU time over the path tracer's):
+    /// less sensitive to other work on the machine.
+    pub fn cpu_efficiency_percent(&self) -> Option<f64> {
+        Some(100.0 * self.replay_cpu?.as_secs_f64() / self.two_threads_cpu?.as_secs_f64().max(1e-12))
     }
-    Ok(best.expect("at least one pass"))
 }
 
-/// Measures one scene file.
+/// Best of repeated `f` runs by wall time (each returning its own wall time), with the
+/// least CPU time of the pool's threads over the runs.
+fn best_of<T>(timing: Timing, mut f: impl FnMut() -> Result<(T, Duration), BenchError>) -> Result<(T, Times), BenchError> {
+    let (mut best, mut times, mut total, mut passes) = (None::<T>, Times { wall: Duration::MAX, cpu: None }, Duration::ZERO, 0);
+    while passes < timing.min_passes.max(1) || total < timing.min_total {
+        let (r, cpu) = cpu_of(&mut f);
+        let (value, wall) = r?;
+        total += wall;
+        passes += 1;
+        if wall < times.wall {
+            times.wall = wall;
+            best = Some(value);
+        }
+        times.cpu = match (times.cpu, cpu) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+    }
+    Ok((best.expect("at least one pass"), times))
+}
+
+fn pool(threads: usize) -> Result<rayon::ThreadPool, BenchError> {
+    rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| BenchError::Invalid(e.to_string()))
+}
+
+/// Measures one scene file. Everything runs in thread pools made here (renders with
+/// `threads: None` use the pool they run in), so their threads live through each measurement
+/// and their CPU time can be read.
 pub fn measure_scene(path: &Path, device: &Device, cfg: &RenderConfig) -> Result<RenderMeasurement, BenchError> {
     let scene = Scene::load(path)?;
     let accel = EmbreeAccel::new(device, &scene.geometry, BuildOptions::default())?;
+    let settings = cfg.settings(&scene, None);
+    let (one, two) = (pool(1)?, pool(2)?);
 
-    let settings2 = cfg.settings(&scene, Some(2));
     let recorder = RecordingAccel::new(&accel, 2);
-    let (_, recorded_stats) = render(&scene, &recorder, &settings2)?;
+    let (_, recorded_stats) = two.install(|| render(&scene, &recorder, &settings))?;
     let queries: Vec<RecordedQuery> = recorder.into_queries();
     if queries.len() as u64 != recorded_stats.rays {
         return Err(BenchError::Invalid(format!(
@@ -136,46 +161,50 @@ pub fn measure_scene(path: &Path, device: &Device, cfg: &RenderConfig) -> Result
         )));
     }
 
-    let one = best_render(&scene, &accel, &cfg.settings(&scene, Some(1)), cfg.timing)?;
-    let two = best_render(&scene, &accel, &settings2, cfg.timing)?;
-    if one.rays != two.rays || two.rays != recorded_stats.rays {
+    let timed_render = |p: &rayon::ThreadPool| {
+        p.install(|| {
+            best_of(cfg.timing, || {
+                let (_, stats) = render(&scene, &accel, &settings)?;
+                Ok((stats, stats.elapsed))
+            })
+        })
+    };
+    let (stats1, t1) = timed_render(&one)?;
+    let (stats2, t2) = timed_render(&two)?;
+    if stats1.rays != stats2.rays || stats2.rays != recorded_stats.rays {
         return Err(BenchError::Invalid(format!(
             "{}: renders with the same settings traced {} / {} / {} rays",
             path.display(),
             recorded_stats.rays,
-            one.rays,
-            two.rays
+            stats1.rays,
+            stats2.rays
         )));
     }
 
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().map_err(|e| BenchError::Invalid(e.to_string()))?;
-    let replay_time = pool.install(|| -> Result<Duration, BenchError> {
-        let (mut best, mut total, mut passes) = (Duration::MAX, Duration::ZERO, 0);
-        while passes < cfg.timing.min_passes.max(1) || total < cfg.timing.min_total {
+    let ((), replay_times) = two.install(|| {
+        best_of(cfg.timing, || {
             let start = Instant::now();
             std::hint::black_box(replay(&accel, &queries)?);
-            let t = start.elapsed();
-            best = best.min(t);
-            total += t;
-            passes += 1;
-        }
-        Ok(best)
+            Ok(((), start.elapsed()))
+        })
     })?;
 
     let occlusion_queries = queries.iter().filter(|q| q.occlusion).count();
     let name = path.file_name().map_or(path.display().to_string(), |n| n.to_string_lossy().into_owned());
     Ok(RenderMeasurement {
         scene: name,
-        width: settings2.width,
-        height: settings2.height,
-        spp: settings2.spp,
-        samples: two.samples,
-        rays: two.rays,
+        width: settings.width,
+        height: settings.height,
+        spp: settings.spp,
+        samples: stats2.samples,
+        rays: stats2.rays,
         closest_queries: queries.len() - occlusion_queries,
         occlusion_queries,
-        one_thread: one.elapsed,
-        two_threads: two.elapsed,
-        replay: replay_time,
+        one_thread: t1.wall,
+        two_threads: t2.wall,
+        two_threads_cpu: t2.cpu,
+        replay: replay_times.wall,
+        replay_cpu: replay_times.cpu,
     })
 }
 
@@ -191,6 +220,7 @@ pub fn summary_table(ms: &[RenderMeasurement]) -> Table {
         "path tracer Mrays/s",
         "Embree alone Mrays/s",
         "path tracer/Embree",
+        "same, CPU time",
     ]);
     for m in ms {
         t.push([
@@ -203,13 +233,14 @@ pub fn summary_table(ms: &[RenderMeasurement]) -> Table {
             format!("{:.2}", m.path_tracer_mrays_per_s()),
             format!("{:.2}", m.embree_mrays_per_s()),
             format!("{:.0}%", m.efficiency_percent()),
+            m.cpu_efficiency_percent().map_or("-".into(), |p| format!("{p:.0}%")),
         ]);
     }
     t
 }
 
 /// Column names of render.csv.
-pub const CSV_COLUMNS: [&str; 16] = [
+pub const CSV_COLUMNS: [&str; 19] = [
     "scene",
     "width",
     "height",
@@ -226,6 +257,9 @@ pub const CSV_COLUMNS: [&str; 16] = [
     "path_tracer_mrays_per_s_2t",
     "embree_replay_mrays_per_s_2t",
     "path_tracer_percent_of_embree",
+    "two_threads_cpu_s",
+    "replay_cpu_s",
+    "path_tracer_percent_of_embree_cpu",
 ];
 
 pub fn csv_table(ms: &[RenderMeasurement]) -> Table {
@@ -248,6 +282,9 @@ pub fn csv_table(ms: &[RenderMeasurement]) -> Table {
             format!("{:.3}", m.path_tracer_mrays_per_s()),
             format!("{:.3}", m.embree_mrays_per_s()),
             format!("{:.1}", m.efficiency_percent()),
+            m.two_threads_cpu.map_or(String::new(), |c| format!("{:.6}", c.as_secs_f64())),
+            m.replay_cpu.map_or(String::new(), |c| format!("{:.6}", c.as_secs_f64())),
+            m.cpu_efficiency_percent().map_or(String::new(), |p| format!("{p:.1}")),
         ]);
     }
     t

@@ -95,10 +95,11 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
         println!();
         println!(
             "Intersection matrix, {threads} threads. Rays per scene: {}² camera rays (coherent), {} random rays in the \
-             bounds (incoherent), shadow rays from the visible camera hits to a square light (occlusion). Mrays/s from \
-             the best of >= {} passes; the naive loop runs once on an evenly spaced subsample (column \"rays\", its row) \
-             of about {:.0e} primitive tests, {}..{} rays; ×naive = naive time per ray / strategy time per ray. \
-             Mismatches: answers differing from the naive loop's on that subsample.",
+             bounds (incoherent), shadow rays from the visible camera hits to a square light (occlusion). Mrays/s: \
+             rays / wall time of the best of >= {} passes. The naive loop runs once on an evenly spaced subsample \
+             (column \"rays\" of its row) of about {:.1e} primitive tests, {}..{} rays. ×naive = naive CPU time per \
+             ray / strategy CPU time per ray (all threads; wall time where CPU time cannot be read), robust to other \
+             load on the machine. Mismatches: answers differing from the naive loop's on that subsample.",
             cfg.image_side,
             cfg.incoherent,
             cfg.timing.min_passes,
