@@ -83,7 +83,7 @@ mod tests {
         let mut t = Table::new(["scene", "Mrays/s"]);
         t.push(["teapot", "12.5"]);
         t.push(["a, \"b\"", "3"]);
-        assert_eq!(t.to_text(), "scene    Mrays/s\n-------  -------\nteapot      12.5\na, \"b\"         3\n");
+        assert_eq!(t.to_text(), "scene   Mrays/s\n------  -------\nteapot     12.5\na, \"b\"        3\n");
         assert_eq!(t.to_csv(), "scene,Mrays/s\nteapot,12.5\n\"a, \"\"b\"\"\",3\n");
     }
 
