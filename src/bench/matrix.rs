@@ -160,6 +160,14 @@ impl Workloads {
     }
 }
 
+/// The naive loop's run on a workload's subsample.
+struct NaiveReference {
+    queries: Vec<Query>,
+    answers: Vec<Answer>,
+    ns_per_ray: f64,
+    cpu_ns_per_ray: Option<f64>,
+}
+
 /// Runs every strategy on `scene`; `log` receives progress and mismatch reports.
 pub fn run_scene(
     scene: &BenchScene,
@@ -177,7 +185,7 @@ pub fn run_scene(
     // The naive loop on a subsample of each workload: its time per ray and reference answers.
     let naive = NaiveAccel::new(&scene.geometry);
     let mut out = Vec::new();
-    let mut reference: HashMap<RayKind, (Vec<Query>, Vec<Answer>, f64, Option<f64>)> = HashMap::new();
+    let mut reference: HashMap<RayKind, NaiveReference> = HashMap::new();
     for (kind, queries) in &work.sets {
         let sub = rays::subsample(queries, cfg.naive_rays(primitives, queries.len()));
         let (t, ans) = time_answers(&naive, &sub, kind.closest())?;
@@ -202,7 +210,7 @@ pub fn run_scene(
             naive_cpu_ns_per_ray: cpu_ns,
             agreement: Agreement::default(),
         });
-        reference.insert(*kind, (sub, ans, ns, cpu_ns));
+        reference.insert(*kind, NaiveReference { queries: sub, answers: ans, ns_per_ray: ns, cpu_ns_per_ray: cpu_ns });
     }
 
     // Reference answers for the tessellated geometry: the naive loop over its triangles, on
@@ -215,7 +223,8 @@ pub fn run_scene(
         let (accel, build_time) = build(strategy, device, geometry)?;
         for (kind, queries) in &work.sets {
             let (time, hits) = time_queries(accel.as_ref(), queries, kind.closest(), cfg.timing)?;
-            let (sub, ref_answers, naive_ns, naive_cpu_ns) = &reference[kind];
+            let NaiveReference { queries: sub, answers: ref_answers, ns_per_ray: naive_ns, cpu_ns_per_ray: naive_cpu_ns } =
+                &reference[kind];
             let agreement = match (&tess_naive, strategy.tessellated()) {
                 (Some(tn), true) => {
                     if !tess_reference.contains_key(kind) {
