@@ -7,6 +7,7 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod accel;
+pub mod bench;
 pub mod camera;
 pub mod check;
 pub mod cli;

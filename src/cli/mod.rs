@@ -1,6 +1,7 @@
 //! The `ember` command line: argument parsing and the sub-commands. `main.rs` only calls
 //! [`main`].
 
+mod bench;
 mod check;
 mod converge;
 mod info;
@@ -22,6 +23,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Print primitive counts, bounds and BVH build time of a scene or mesh.
     Info(info::InfoArgs),
+    /// Measure intersection strategies, the path tracer against Embree alone, and kernels.
+    Bench(bench::BenchArgs),
     /// Measure error against a high-spp reference at 1, 2, 4, … spp for several estimator
     /// variants: converge.csv, error_vs_spp.png, error_vs_time.png, time to reach a target.
     Converge(converge::ConvergeArgs),
@@ -36,6 +39,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(a) => render::run(a).map(|()| ExitCode::SUCCESS),
         Command::Info(a) => info::run(a).map(|()| ExitCode::SUCCESS),
+        Command::Bench(a) => bench::run_bench(a).map(|()| ExitCode::SUCCESS),
         Command::Converge(a) => converge::run(a).map(|()| ExitCode::SUCCESS),
         Command::Check(a) => check::run(a),
     };

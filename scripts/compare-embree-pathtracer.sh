@@ -1,0 +1,93 @@
+#!/usr/bin/env bash
+# Renders Embree's Cornell box with Intel's Embree `pathtracer` tutorial (Debian package
+# embree-tools) and with ember (scenes/cornell.toml, the same scene), one run each on this
+# machine, and prints both wall times and their ratio.
+#
+# Equal path semantics: 512x512, 64 spp, path length 8 (the tutorial's --max-path-length counts
+# bounces, each with one shadow ray per light; ember's --max-depth 8 is the same), 2 threads,
+# and no Russian roulette in ember (the tutorial has none).
+#
+# Usage: scripts/compare-embree-pathtracer.sh [OUT_DIR]   (default: target/compare-embree)
+# Environment: SIZE (512), SPP (64), DEPTH (8), THREADS (2).
+#
+# Images: OUT_DIR/pathtracer.ppm (the tutorial writes linear values, clamped, without the sRGB
+# curve) and OUT_DIR/ember.png (sRGB). When python3 with Pillow is available, the mean linear
+# RGB of both is printed, which should agree within noise and 8-bit rounding.
+set -euo pipefail
+
+root=$(cd "$(dirname "$0")/.." && pwd)
+out=${1:-$root/target/compare-embree}
+size=${SIZE:-512}
+spp=${SPP:-64}
+depth=${DEPTH:-8}
+threads=${THREADS:-2}
+
+if ! command -v pathtracer >/dev/null; then
+    echo "error: pathtracer not found (apt-get install embree-tools)" >&2
+    exit 2
+fi
+ecs=$(dpkg -L embree-tools 2>/dev/null | grep '/cornell_box\.ecs$' | head -n 1 || true)
+ecs=${ecs:-/usr/share/doc/embree3/models/cornell_box.ecs}
+if [ ! -f "$ecs" ]; then
+    echo "error: $ecs: no such file (the scene ships with embree-tools)" >&2
+    exit 2
+fi
+mkdir -p "$out"
+
+(cd "$root" && cargo build --release --quiet)
+ember=$root/target/release/ember
+
+# Prints "wall user system" seconds of a command; its own output goes to the log file.
+TIMEFORMAT='%R %U %S'
+timed() {
+    local log=$1 times
+    shift
+    if ! times=$( { time "$@" >"$log" 2>&1; } 2>&1 ); then
+        echo "error: $1 failed, see $log" >&2
+        exit 2
+    fi
+    echo "$times"
+}
+
+echo "scene: $ecs = $root/scenes/cornell.toml; ${size}x${size}, $spp spp, path length $depth, $threads threads"
+echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
+
+pt_times=$(timed "$out/pathtracer.log" \
+    pathtracer -c "$ecs" --size "$size" "$size" --spp "$spp" --max-path-length "$depth" \
+    --threads "$threads" -o "$out/pathtracer.ppm")
+em_times=$(timed "$out/ember.log" \
+    "$ember" render "$root/scenes/cornell.toml" -o "$out/ember.png" --width "$size" --height "$size" \
+    --spp "$spp" --max-depth "$depth" --rr-depth off --threads "$threads")
+read -r pt_wall pt_user pt_sys <<<"$pt_times"
+read -r em_wall em_user em_sys <<<"$em_times"
+
+echo "load average after:  $(cut -d' ' -f1-3 /proc/loadavg)"
+printf 'pathtracer (Embree tutorial): %7.2f s wall, %7.2f s CPU\n' "$pt_wall" "$(echo "$pt_user $pt_sys" | awk '{print $1 + $2}')"
+printf 'ember:                        %7.2f s wall, %7.2f s CPU\n' "$em_wall" "$(echo "$em_user $em_sys" | awk '{print $1 + $2}')"
+awk -v p="$pt_wall" -v e="$em_wall" -v pc="$pt_user $pt_sys" -v ec="$em_user $em_sys" 'BEGIN {
+    split(pc, a, " "); split(ec, b, " ");
+    printf "ratio pathtracer/ember: %.2f (wall), %.2f (CPU); above 1 means ember is faster\n", p / e, (a[1] + a[2]) / (b[1] + b[2]);
+}'
+sed -n 's/^rendered/ember: rendered/p' "$out/ember.log"
+
+if python3 -c 'import PIL' 2>/dev/null; then
+    python3 - "$out/pathtracer.ppm" "$out/ember.png" <<'EOF'
+import sys
+from PIL import Image
+
+def srgb_to_linear(c):
+    c /= 255.0
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+def mean_linear(path, decode):
+    im = Image.open(path).convert("RGB")
+    h = im.histogram()  # 256 counts per channel
+    n = im.width * im.height
+    return [sum(h[256 * k + v] * decode(v) for v in range(256)) / n for k in range(3)]
+
+pt = mean_linear(sys.argv[1], lambda v: v / 255.0)  # the tutorial writes linear values
+em = mean_linear(sys.argv[2], srgb_to_linear)
+print("mean linear RGB: pathtracer (%.4f, %.4f, %.4f), ember (%.4f, %.4f, %.4f)" % (*pt, *em))
+EOF
+fi
+echo "images: $out/pathtracer.ppm (linear), $out/ember.png (sRGB)"

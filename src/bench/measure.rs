@@ -1,0 +1,116 @@
+//! Timing ray queries: parallel passes over a query list on the current rayon pool, best pass
+//! kept (the least disturbed by other work on the machine), in wall time and in CPU time.
+
+use super::cputime::cpu_of;
+use super::rays::Query;
+use crate::accel::{Accel, AccelError};
+use crate::geometry::Hit;
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// How long to measure: at least `min_passes` passes and at least `min_total` in all.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Timing {
+    pub min_passes: u32,
+    pub min_total: Duration,
+}
+
+/// Queries per parallel work item: large enough to amortise scheduling, small enough to
+/// balance two threads on small sets.
+const CHUNK: usize = 512;
+
+/// The answer to one query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Answer {
+    Closest(Option<Hit>),
+    Occluded(bool),
+}
+
+impl Answer {
+    pub fn is_hit(&self) -> bool {
+        match self {
+            Answer::Closest(h) => h.is_some(),
+            Answer::Occluded(o) => *o,
+        }
+    }
+}
+
+/// One pass over `queries` (closest hit or any hit); returns the number of hits.
+pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool) -> Result<usize, AccelError> {
+    queries.par_chunks(CHUNK).try_fold(
+        || 0usize,
+        |mut hits, chunk| {
+            for q in chunk {
+                let hit = if closest {
+                    accel.intersect(&q.ray, 0.0, q.tmax)?.is_some()
+                } else {
+                    accel.occluded(&q.ray, 0.0, q.tmax)?
+                };
+                hits += hit as usize;
+            }
+            Ok(hits)
+        },
+    )
+    .try_reduce(|| 0, |a, b| Ok(a + b))
+}
+
+/// Wall and CPU time of a measurement.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Times {
+    pub wall: Duration,
+    /// CPU time of all threads (`None` where it cannot be read).
+    pub cpu: Option<Duration>,
+}
+
+/// The best pass over `queries` (wall time and, separately, CPU time of the pool's threads),
+/// and the hit count (the same every pass).
+pub fn time_queries(accel: &dyn Accel, queries: &[Query], closest: bool, timing: Timing) -> Result<(Times, usize), AccelError> {
+    let (mut best, mut total, mut passes, mut hits) = (Times { wall: Duration::MAX, cpu: None }, Duration::ZERO, 0u32, 0usize);
+    if queries.is_empty() {
+        return Ok((Times::default(), 0));
+    }
+    while passes < timing.min_passes || total < timing.min_total {
+        let ((h, t), cpu) = cpu_of(|| {
+            let start = Instant::now();
+            (pass(accel, queries, closest), start.elapsed())
+        });
+        hits = h?;
+        best.wall = best.wall.min(t);
+        best.cpu = match (best.cpu, cpu) {
+            (Some(b), Some(c)) => Some(b.min(c)),
+            (b, c) => b.or(c),
+        };
+        total += t;
+        passes += 1;
+    }
+    Ok((best, hits))
+}
+
+fn answer(accel: &dyn Accel, q: &Query, closest: bool) -> Result<Answer, AccelError> {
+    Ok(if closest {
+        Answer::Closest(accel.intersect(&q.ray, 0.0, q.tmax)?)
+    } else {
+        Answer::Occluded(accel.occluded(&q.ray, 0.0, q.tmax)?)
+    })
+}
+
+/// Every query's answer (in parallel, not timed).
+pub fn answers(accel: &dyn Accel, queries: &[Query], closest: bool) -> Result<Vec<Answer>, AccelError> {
+    queries.par_iter().map(|q| answer(accel, q, closest)).collect()
+}
+
+/// Times one pass of collecting every answer: the naive loop is measured this way, so its
+/// slow pass also yields the reference answers. Work items are small (subsamples are short and
+/// each query is slow), so both threads stay busy to the end.
+pub fn time_answers(accel: &dyn Accel, queries: &[Query], closest: bool) -> Result<(Times, Vec<Answer>), AccelError> {
+    let chunk = CHUNK.min(queries.len().div_ceil(rayon::current_num_threads() * 4)).max(1);
+    let ((a, wall), cpu) = cpu_of(|| {
+        let start = Instant::now();
+        let a = queries
+            .par_chunks(chunk)
+            .map(|c| c.iter().map(|q| answer(accel, q, closest)).collect::<Result<Vec<_>, AccelError>>())
+            .collect::<Result<Vec<_>, _>>();
+        (a, start.elapsed())
+    });
+    Ok((Times { wall, cpu }, a?.into_iter().flatten().collect()))
+}

@@ -1,0 +1,63 @@
+//! The intersection strategies compared by the matrix.
+
+use crate::accel::{Accel, EmbreeAccel, NaiveAccel};
+use crate::embree::{BuildOptions, BuildQuality, Device, EmbreeError};
+use crate::geometry::Geometry;
+use std::time::Duration;
+
+/// One way of answering ray queries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strategy {
+    /// Every primitive for every ray ([`NaiveAccel`]).
+    Naive,
+    /// Embree; `tessellated`: spheres and cylinders as triangles instead of user geometry.
+    Embree { quality: BuildQuality, robust: bool, tessellated: bool },
+}
+
+impl Strategy {
+    /// The strategies for a scene: the naive loop, Embree at low, medium and high build
+    /// quality, medium with the robust flag, and, when the scene has spheres or cylinders,
+    /// medium with them tessellated.
+    pub fn for_scene(has_shapes: bool) -> Vec<Strategy> {
+        let e = |quality, robust, tessellated| Strategy::Embree { quality, robust, tessellated };
+        let mut v = vec![
+            Strategy::Naive,
+            e(BuildQuality::Low, false, false),
+            e(BuildQuality::Medium, false, false),
+            e(BuildQuality::High, false, false),
+            e(BuildQuality::Medium, true, false),
+        ];
+        if has_shapes {
+            v.push(e(BuildQuality::Medium, false, true));
+        }
+        v
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Strategy::Naive => "naive",
+            Strategy::Embree { tessellated: true, .. } => "embree-tess",
+            Strategy::Embree { robust: true, .. } => "embree-robust",
+            Strategy::Embree { quality: BuildQuality::Low, .. } => "embree-low",
+            Strategy::Embree { quality: BuildQuality::Medium, .. } => "embree-medium",
+            Strategy::Embree { quality: BuildQuality::High, .. } => "embree-high",
+        }
+    }
+
+    pub fn tessellated(self) -> bool {
+        matches!(self, Strategy::Embree { tessellated: true, .. })
+    }
+
+    /// Builds the accelerator over `geometry` (already tessellated if the strategy says so).
+    /// Embree's build time (registration and BVH) is returned; the naive loop has none.
+    pub fn build(self, device: &Device, geometry: &[Geometry]) -> Result<(Box<dyn Accel>, Option<Duration>), EmbreeError> {
+        Ok(match self {
+            Strategy::Naive => (Box::new(NaiveAccel::new(geometry)), None),
+            Strategy::Embree { quality, robust, .. } => {
+                let a = EmbreeAccel::new(device, geometry, BuildOptions { quality, robust, compact: false })?;
+                let t = a.build_time();
+                (Box::new(a), Some(t))
+            }
+        })
+    }
+}

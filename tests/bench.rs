@@ -1,0 +1,158 @@
+//! `ember bench`: a quick run writes the promised files with the promised rows and columns,
+//! and every Embree strategy answers the benchmark rays as the naive loop does. No timing is
+//! asserted (speed is measured, not tested).
+
+use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn ember(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ember")).args(args).output().expect("ember runs")
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ember-bench-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn scenes_dir() -> String {
+    format!("{}/scenes", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A CSV file as (header, rows of column name → value).
+fn read_csv(path: &PathBuf) -> (Vec<String>, Vec<HashMap<String, String>>) {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().expect("header").split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            assert_eq!(cells.len(), header.len(), "row {l:?}");
+            header.iter().cloned().zip(cells.into_iter().map(String::from)).collect()
+        })
+        .collect();
+    (header, rows)
+}
+
+fn num(row: &HashMap<String, String>, col: &str) -> f64 {
+    row[col].parse().unwrap_or_else(|_| panic!("{col} = {:?} is not a number", row[col]))
+}
+
+#[test]
+fn quick_run_writes_the_matrix_plot_and_render_table() {
+    let out = tmpdir("quick");
+    let o = ember(&["bench", "--quick", "--out", out.to_str().unwrap(), "--scenes-dir", &scenes_dir()]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}\n{}", stdout, String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("Embree 3.13"), "{stdout}");
+
+    let (header, rows) = read_csv(&out.join("bench.csv"));
+    for col in ["scene", "strategy", "triangles", "build_ms", "rays", "ray_count", "mrays_per_s", "ns_per_ray", "naive_ray_count", "speedup_vs_naive", "checked", "mismatches", "mismatches_at_edges"] {
+        assert!(header.iter().any(|h| h == col), "bench.csv lacks {col}: {header:?}");
+    }
+    // Every strategy × workload of the quick set, once each.
+    let triangles = [("teapot", 6320), ("blob-1k", 972), ("blob-10k", 10_092), ("shapes-100", 0)];
+    let mut expected = HashSet::new();
+    for (scene, _) in triangles {
+        let mut strategies = vec!["naive", "embree-low", "embree-medium", "embree-high", "embree-robust"];
+        if scene == "shapes-100" {
+            strategies.push("embree-tess");
+        }
+        for s in strategies {
+            for k in ["coherent", "incoherent", "occlusion"] {
+                expected.insert((scene.to_string(), s.to_string(), k.to_string()));
+            }
+        }
+    }
+    let got: Vec<(String, String, String)> =
+        rows.iter().map(|r| (r["scene"].clone(), r["strategy"].clone(), r["rays"].clone())).collect();
+    assert_eq!(got.len(), expected.len(), "{got:?}");
+    assert_eq!(got.iter().cloned().collect::<HashSet<_>>(), expected);
+
+    for r in &rows {
+        let what = format!("{} {} {}", r["scene"], r["strategy"], r["rays"]);
+        let tris = triangles.iter().find(|(s, _)| *s == r["scene"]).unwrap().1;
+        assert_eq!(num(r, "triangles") as usize, tris, "{what}");
+        assert!(num(r, "ray_count") > 0.0 && num(r, "mrays_per_s") > 0.0, "{what}");
+        if r["strategy"] == "naive" {
+            assert_eq!(num(r, "speedup_vs_naive"), 1.0, "{what}");
+            assert_eq!(r["ray_count"], r["naive_ray_count"], "{what}");
+        } else {
+            assert!(!r["build_ms"].is_empty(), "{what}");
+            // Embree answers the naive loop's subsample as the naive loop does, apart from
+            // rays through triangle edges or grazing curved surfaces.
+            assert!(num(r, "checked") > 0.0, "{what}");
+            assert_eq!(r["mismatches"], r["mismatches_at_edges"], "{what}: a mismatch away from any edge");
+        }
+    }
+    // Hits are the same whatever the build quality (same rays, same geometry), up to edge rays.
+    for scene in ["teapot", "blob-1k", "blob-10k"] {
+        for k in ["coherent", "incoherent", "occlusion"] {
+            let hits: Vec<f64> = rows
+                .iter()
+                .filter(|r| r["scene"] == scene && r["rays"] == k && r["strategy"].starts_with("embree"))
+                .map(|r| num(r, "hits"))
+                .collect();
+            let (lo, hi) = hits.iter().fold((f64::MAX, 0.0f64), |(a, b), &h| (a.min(h), b.max(h)));
+            assert!(hi - lo <= 0.001 * hi + 2.0, "{scene} {k}: hits {hits:?}");
+        }
+    }
+
+    let png = image::open(out.join("scaling.png")).expect("scaling.png is an image");
+    assert_eq!((png.width(), png.height()), (900, 600));
+
+    let (header, rows) = read_csv(&out.join("render.csv"));
+    for col in ["scene", "rays", "closest_queries", "occlusion_queries", "samples_per_s_1t", "samples_per_s_2t", "thread_scaling", "path_tracer_percent_of_embree"] {
+        assert!(header.iter().any(|h| h == col), "render.csv lacks {col}: {header:?}");
+    }
+    assert_eq!(rows.iter().map(|r| r["scene"].as_str()).collect::<Vec<_>>(), ["cornell.toml", "teapot.toml"]);
+    for r in &rows {
+        // Every ray the path tracer counted was recorded and replayed.
+        assert_eq!(num(r, "rays"), num(r, "closest_queries") + num(r, "occlusion_queries"));
+        assert!(num(r, "occlusion_queries") > 0.0 && num(r, "path_tracer_percent_of_embree") > 0.0);
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn specialize_table_has_every_scene_file() {
+    let out = tmpdir("specialize");
+    let o = ember(&["bench", "--quick", "--specialize", "--out", out.to_str().unwrap(), "--scenes-dir", &scenes_dir()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_, rows) = read_csv(&out.join("specialize.csv"));
+    let mut want: Vec<String> = std::fs::read_dir(scenes_dir())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".toml"))
+        .collect();
+    want.sort();
+    assert_eq!(rows.iter().map(|r| r["scene"].clone()).collect::<Vec<_>>(), want);
+    for r in &rows {
+        assert!(num(r, "general_us_per_sample") > 0.0 && num(r, "specialized_us_per_sample") > 0.0);
+    }
+    assert!(!out.join("bench.csv").exists(), "--specialize runs only its own table");
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn bad_bench_input_is_exit_2_and_names_the_problem() {
+    let o = ember(&["bench", "--scene", "nosuch", "--out", "/tmp/never-used"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.starts_with("error: --scene: unknown scene \"nosuch\""), "{err}");
+
+    let out = tmpdir("missing");
+    let o = ember(&["bench", "--scene", "no/such/model.obj", "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(String::from_utf8_lossy(&o.stderr).trim(), "error: no/such/model.obj: no such file");
+    assert!(!out.join("bench.csv").exists());
+
+    let file = std::env::temp_dir().join(format!("ember-bench-file-{}", std::process::id()));
+    std::fs::write(&file, "x").unwrap();
+    let o = ember(&["bench", "--quick", "--out", file.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not a folder"));
+    std::fs::remove_file(&file).unwrap();
+    let _ = std::fs::remove_dir_all(&out);
+}
