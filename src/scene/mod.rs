@@ -11,7 +11,7 @@ mod obj;
 pub use effects::{DepthLimit, Effects};
 pub use error::SceneError;
 pub use material::{Material, MaterialKind};
-pub use obj::{ObjFile, ObjMesh, load_obj};
+pub use obj::{ObjFile, ObjMesh, load_obj, parse_obj};
 
 use crate::camera::Camera;
 use crate::geometry::{Aabb, Geometry};
@@ -92,6 +92,13 @@ impl Scene {
                 Err(SceneError::new(path, None, "unknown scene format (expected .toml or .obj)"))
             }
         }
+    }
+
+    /// Parses the text of a TOML scene file. `path` names the file in messages, and the files
+    /// the scene refers to (meshes, textures) are found relative to its folder. [`Scene::load`]
+    /// reads `path` and calls this for `.toml` files.
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+        build::from_toml_str(text, path)
     }
 
     pub fn bounds(&self) -> Aabb {

@@ -31,7 +31,18 @@ impl ObjFile {
 /// Loads an OBJ file and the MTL files it names (relative to the OBJ's folder).
 pub fn load_obj(path: &Path) -> Result<ObjFile, SceneError> {
     let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, &e))?;
-    let text = String::from_utf8_lossy(&bytes);
+    parse_obj(&bytes, path, &|mtl| std::fs::read(mtl))
+}
+
+/// Parses the text of an OBJ file. `path` names the file in messages and its folder is where
+/// MTL files are looked for; `read_mtl` reads one (given that folder joined with the name the
+/// OBJ gives). [`load_obj`] is this with the file system.
+pub fn parse_obj(
+    bytes: &[u8],
+    path: &Path,
+    read_mtl: &dyn Fn(&Path) -> std::io::Result<Vec<u8>>,
+) -> Result<ObjFile, SceneError> {
+    let text = String::from_utf8_lossy(bytes);
     // tobj reports no line numbers; check the lines ourselves first so the message can name one.
     if let Some((line, problem)) = first_bad_line(&text) {
         return Err(SceneError::new(path, Some(line), problem));
@@ -41,8 +52,10 @@ pub fn load_obj(path: &Path) -> Result<ObjFile, SceneError> {
     let mut warnings = Vec::new();
     let mut reader = std::io::BufReader::new(text.as_bytes());
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
-        let full = dir.join(mtl);
-        tobj::load_mtl(&full)
+        match read_mtl(&dir.join(mtl)) {
+            Ok(b) => tobj::load_mtl_buf(&mut &b[..]),
+            Err(_) => Err(tobj::LoadError::OpenFileFailed),
+        }
     })
     .map_err(|e| SceneError::new(path, None, format!("malformed OBJ: {e}")))?;
     let materials = match materials {
