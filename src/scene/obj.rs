@@ -49,15 +49,22 @@ pub fn parse_obj(
     }
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut warnings = Vec::new();
+    // MTL problems do not stop loading (the meshes get default materials) but are reported.
+    let mtl_problems = std::cell::RefCell::new(Vec::new());
     let mut reader = std::io::BufReader::new(text.as_bytes());
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
-        match read_mtl(&dir.join(mtl)) {
-            Ok(b) => tobj::load_mtl_buf(&mut &b[..]),
-            Err(_) => Err(tobj::LoadError::OpenFileFailed),
+        let full = dir.join(mtl);
+        let bytes = read_mtl(&full).map_err(|_| tobj::LoadError::OpenFileFailed)?;
+        let mtl_text = String::from_utf8_lossy(&bytes);
+        // tobj panics on some malformed lines (`Kd 1 0`) and names none: check them first.
+        if let Some((line, problem)) = first_bad_mtl_line(&mtl_text) {
+            mtl_problems.borrow_mut().push(format!("{}:{line}: {problem}", full.display()));
+            return Err(tobj::LoadError::MaterialParseError);
         }
+        tobj::load_mtl_buf(&mut mtl_text.as_bytes())
     })
     .map_err(|e| SceneError::new(path, None, format!("malformed OBJ: {e}")))?;
+    let mut warnings = mtl_problems.into_inner();
     let materials = match materials {
         Ok(m) => m,
         Err(e) => {
@@ -98,9 +105,13 @@ fn first_bad_line(text: &str) -> Option<(usize, String)> {
         let mut tok = line.split_whitespace();
         let Some(kw) = tok.next() else { continue };
         let args: Vec<&str> = tok.collect();
-        let floats = |min: usize, max: usize, what: &str| -> Result<(), String> {
-            if args.len() < min || args.len() > max {
-                return Err(format!("{what} needs {min} to {max} numbers, found {}", args.len()));
+        // The counts tobj accepts.
+        let floats = |counts: &[usize], what: &str| -> Result<(), String> {
+            if !counts.contains(&args.len()) {
+                let allowed: Vec<String> = counts.iter().map(usize::to_string).collect();
+                let (last, rest) = allowed.split_last().expect("at least one count");
+                let allowed = if rest.is_empty() { last.clone() } else { format!("{} or {last}", rest.join(", ")) };
+                return Err(format!("{what} needs {allowed} numbers, found {}", args.len()));
             }
             for a in &args {
                 a.parse::<f32>().map_err(|_| format!("{what}: {a:?} is not a number"))?;
@@ -108,10 +119,13 @@ fn first_bad_line(text: &str) -> Option<(usize, String)> {
             Ok(())
         };
         let r = match kw {
-            // x y z [w], optionally followed by r g b vertex colours
-            "v" => floats(3, 7, "vertex position").map(|_| nv += 1),
-            "vt" => floats(1, 3, "texture coordinate").map(|_| nt += 1),
-            "vn" => floats(3, 3, "vertex normal").map(|_| nn += 1),
+            // x y z, x y z w (w not 0), or x y z r g b (vertex colours)
+            "v" => floats(&[3, 4, 6], "vertex position").and_then(|_| match args.get(3) {
+                Some(w) if args.len() == 4 && w.parse::<f32>() == Ok(0.0) => Err("vertex position: w must not be 0".into()),
+                _ => Ok(nv += 1),
+            }),
+            "vt" => floats(&[2, 3], "texture coordinate").map(|_| nt += 1),
+            "vn" => floats(&[3], "vertex normal").map(|_| nn += 1),
             "f" => check_face(&args, nv, nt, nn),
             _ => Ok(()),
         };
@@ -147,6 +161,45 @@ fn check_face(args: &[&str], nv: i64, nt: i64, nn: i64) -> Result<(), String> {
     Ok(())
 }
 
+/// Finds the first MTL line tobj would reject or panic on, with a message saying why.
+fn first_bad_mtl_line(text: &str) -> Option<(usize, String)> {
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.trim();
+        let mut tok = line.split_whitespace();
+        let Some(kw) = tok.next() else { continue };
+        let args: Vec<&str> = tok.collect();
+        let numbers = |n: usize| -> Result<(), String> {
+            if args.len() < n {
+                return Err(format!("{kw} needs {n} number{}, found {}", if n == 1 { "" } else { "s" }, args.len()));
+            }
+            match args[..n].iter().find(|a| a.parse::<f32>().is_err()) {
+                Some(a) => Err(format!("{kw}: {a:?} is not a number")),
+                None => Ok(()),
+            }
+        };
+        let r = match kw {
+            "Ka" | "Kd" | "Ks" | "Ke" => numbers(3),
+            "Ns" | "Ni" | "d" => numbers(1),
+            "illum" => match args.first() {
+                Some(a) if a.parse::<u8>().is_ok() => Ok(()),
+                Some(a) => Err(format!("illum: {a:?} is not an illumination model (0 to 10)")),
+                None => Err("illum needs an illumination model number".to_string()),
+            },
+            "newmtl" | "map_Ka" | "map_Kd" | "map_Ks" | "map_Bump" | "map_bump" | "map_Ns" | "map_ns" | "map_NS"
+            | "bump" | "map_d"
+                if args.is_empty() =>
+            {
+                Err(format!("{kw} needs a name"))
+            }
+            _ => Ok(()),
+        };
+        if let Err(e) = r {
+            return Some((i + 1, e));
+        }
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -162,5 +215,20 @@ mod tests {
         assert_eq!(first_bad_line("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n").map(|x| x.0), Some(4));
         assert_eq!(first_bad_line("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n").map(|x| x.0), Some(4));
         assert_eq!(first_bad_line("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"), None);
+        // Counts tobj accepts: 3, 4 (w) or 6 (colours) for v, 2 or 3 for vt.
+        assert_eq!(first_bad_line("v 0 0 0 1\nv 1 0 0 1 1 1\nvt 0 0\nvt 0 0 0\n"), None);
+        assert_eq!(first_bad_line("v 0 0 0 1 1\n"), Some((1, "vertex position needs 3, 4 or 6 numbers, found 5".into())));
+        assert_eq!(first_bad_line("v 0 0 0 0\n").map(|x| x.0), Some(1));
+        assert_eq!(first_bad_line("v 0 0 0\nvt 0.5\n").map(|x| x.0), Some(2));
+    }
+
+    #[test]
+    fn bad_mtl_lines_are_located() {
+        assert_eq!(first_bad_mtl_line("newmtl a\nKd 1 1 1\nKs 0 0 0\nNs 10\nillum 2\nmap_Kd x.png\n"), None);
+        assert_eq!(first_bad_mtl_line("newmtl a\nKd 1 0\n"), Some((2, "Kd needs 3 numbers, found 2".into())));
+        assert_eq!(first_bad_mtl_line("newmtl a\nKa 1 x 0\n").map(|x| x.0), Some(2));
+        assert_eq!(first_bad_mtl_line("newmtl a\n\nNs\n").map(|x| x.0), Some(3));
+        assert_eq!(first_bad_mtl_line("newmtl a\nillum 300\n").map(|x| x.0), Some(2));
+        assert_eq!(first_bad_mtl_line("newmtl\n").map(|x| x.0), Some(1));
     }
 }
