@@ -59,7 +59,7 @@ impl Ctx<'_> {
 }
 
 pub(super) fn from_toml(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?;
+    let text = super::input::read_to_string(path)?;
     from_toml_str(&text, path)
 }
 

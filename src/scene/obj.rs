@@ -1,8 +1,9 @@
 //! OBJ/MTL loading with tobj (triangulated, one mesh per object/material group, normals and
 //! texture coordinates kept). Errors name the file and, where it can be found, the line.
 
-use super::SceneError;
+use super::{SceneError, input};
 use crate::geometry::TriMesh;
+use crate::limits::{self, MemoryLimit};
 use glam::{Vec2, Vec3};
 use std::path::Path;
 
@@ -30,8 +31,18 @@ impl ObjFile {
 
 /// Loads an OBJ file and the MTL files it names (relative to the OBJ's folder).
 pub fn load_obj(path: &Path) -> Result<ObjFile, SceneError> {
-    let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, &e))?;
-    parse_obj(&bytes, path, &|mtl| std::fs::read(mtl))
+    let len = input::regular_file_len(path)?;
+    // Refuse a file too large to read before reading it; `parse_obj` checks the whole load.
+    MemoryLimit::current()
+        .check(format!("OBJ file of {}", limits::format_bytes(len)), "to load", limits::obj_bytes(len, 0, 0))
+        .map_err(|e| SceneError::new(path, None, e.to_string()))?;
+    let bytes = input::read(path)?;
+    parse_obj(&bytes, path, &|mtl| {
+        if !std::fs::metadata(mtl)?.is_file() {
+            return Err(std::io::Error::other("not a regular file"));
+        }
+        std::fs::read(mtl)
+    })
 }
 
 /// Parses the text of an OBJ file. `path` names the file in messages and its folder is where
@@ -44,9 +55,14 @@ pub fn parse_obj(
 ) -> Result<ObjFile, SceneError> {
     let text = String::from_utf8_lossy(bytes);
     // tobj reports no line numbers; check the lines ourselves first so the message can name one.
-    if let Some((line, problem)) = first_bad_line(&text) {
-        return Err(SceneError::new(path, Some(line), problem));
-    }
+    let counts = scan(&text).map_err(|(line, problem)| SceneError::new(path, Some(line), problem))?;
+    MemoryLimit::current()
+        .check(
+            format!("mesh of {} vertices and {} triangles", counts.vertices, counts.triangles),
+            "to load",
+            limits::obj_bytes(bytes.len() as u64, counts.vertices, counts.triangles),
+        )
+        .map_err(|e| SceneError::new(path, None, e.to_string()))?;
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     // MTL problems do not stop loading (the meshes get default materials) but are reported.
@@ -94,11 +110,20 @@ pub fn parse_obj(
     Ok(ObjFile { meshes, materials, warnings })
 }
 
-/// Finds the first line tobj would reject (or silently misread), with a message saying why.
-/// Checks the statements that carry geometry: `v`, `vt`, `vn` and `f`, with relative
-/// (negative) indices resolved against the elements read so far.
-fn first_bad_line(text: &str) -> Option<(usize, String)> {
+/// What an OBJ file's text declares.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Counts {
+    vertices: u64,
+    /// After fan triangulation of the faces.
+    triangles: u64,
+}
+
+/// Counts the vertices and triangles, or finds the first line tobj would reject (or silently
+/// misread), with a message saying why. Checks the statements that carry geometry: `v`, `vt`,
+/// `vn` and `f`, with relative (negative) indices resolved against the elements read so far.
+fn scan(text: &str) -> Result<Counts, (usize, String)> {
     let (mut nv, mut nt, mut nn) = (0i64, 0i64, 0i64);
+    let mut triangles = 0u64;
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let line = raw.split('#').next().unwrap_or("").trim();
@@ -126,14 +151,14 @@ fn first_bad_line(text: &str) -> Option<(usize, String)> {
             }),
             "vt" => floats(&[2, 3], "texture coordinate").map(|_| nt += 1),
             "vn" => floats(&[3], "vertex normal").map(|_| nn += 1),
-            "f" => check_face(&args, nv, nt, nn),
+            "f" => check_face(&args, nv, nt, nn).map(|_| triangles += args.len() as u64 - 2),
             _ => Ok(()),
         };
         if let Err(e) = r {
-            return Some((line_no, e));
+            return Err((line_no, e));
         }
     }
-    None
+    Ok(Counts { vertices: nv as u64, triangles })
 }
 
 fn check_face(args: &[&str], nv: i64, nt: i64, nn: i64) -> Result<(), String> {
@@ -203,6 +228,16 @@ fn first_bad_mtl_line(text: &str) -> Option<(usize, String)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn first_bad_line(text: &str) -> Option<(usize, String)> {
+        scan(text).err()
+    }
+
+    #[test]
+    fn vertices_and_triangles_are_counted() {
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 1 2 4 3\nvt 0 0\nl 1 2\n";
+        assert_eq!(scan(text), Ok(Counts { vertices: 4, triangles: 3 }));
+    }
 
     #[test]
     fn bad_lines_are_located() {
