@@ -5,6 +5,7 @@ use super::{SceneError, input};
 use crate::geometry::TriMesh;
 use crate::limits::{self, MemoryLimit};
 use glam::{Vec2, Vec3};
+use std::borrow::Cow;
 use std::path::Path;
 
 /// One mesh of an OBJ file with the index of its MTL material, if any.
@@ -63,6 +64,9 @@ pub fn parse_obj(
             limits::obj_bytes(bytes.len() as u64, counts.vertices, counts.triangles),
         )
         .map_err(|e| SceneError::new(path, None, e.to_string()))?;
+    // tobj reads a `#` after the values of a `v`, `vt`, `vn` or `f` line as one more value;
+    // hand it those lines without the comment, as `scan` read them.
+    let text = strip_value_comments(text);
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     // MTL problems do not stop loading (the meshes get default materials) but are reported.
@@ -186,6 +190,23 @@ fn check_face(args: &[&str], nv: i64, nt: i64, nn: i64) -> Result<(), String> {
     Ok(())
 }
 
+/// `text` with comments cut from the end of `v`, `vt`, `vn` and `f` lines (copied only when
+/// there are such comments).
+fn strip_value_comments(text: Cow<'_, str>) -> Cow<'_, str> {
+    let has_comment = |l: &str| {
+        l.contains('#') && matches!(l.split_whitespace().next(), Some("v" | "vt" | "vn" | "f"))
+    };
+    if !text.lines().any(has_comment) {
+        return text;
+    }
+    let mut out = String::with_capacity(text.len());
+    for l in text.lines() {
+        out.push_str(if has_comment(l) { l.split('#').next().unwrap_or("") } else { l });
+        out.push('\n');
+    }
+    Cow::Owned(out)
+}
+
 /// Finds the first MTL line tobj would reject or panic on, with a message saying why.
 fn first_bad_mtl_line(text: &str) -> Option<(usize, String)> {
     for (i, raw) in text.lines().enumerate() {
@@ -255,6 +276,15 @@ mod tests {
         assert_eq!(first_bad_line("v 0 0 0 1 1\n"), Some((1, "vertex position needs 3, 4 or 6 numbers, found 5".into())));
         assert_eq!(first_bad_line("v 0 0 0 0\n").map(|x| x.0), Some(1));
         assert_eq!(first_bad_line("v 0 0 0\nvt 0.5\n").map(|x| x.0), Some(2));
+    }
+
+    #[test]
+    fn comments_after_values_are_ignored() {
+        let text = "v 0 0 0 # origin\nv 1 0 0\nv 0 1 0#\nvt 0 0 # uv\nf 1 2 3 # the triangle\n";
+        let obj = parse_obj(text.as_bytes(), Path::new("c.obj"), &|_| Err(std::io::ErrorKind::NotFound.into())).unwrap();
+        assert_eq!(obj.triangle_count(), 1);
+        assert_eq!(obj.meshes[0].mesh.positions[2], Vec3::new(0.0, 1.0, 0.0));
+        assert!(matches!(strip_value_comments(Cow::Borrowed("v 0 0 0\n# c\no a#b\n")), Cow::Borrowed(_)));
     }
 
     #[test]
