@@ -143,7 +143,10 @@ fn scan(text: &str) -> Result<Counts, (usize, String)> {
                 return Err(format!("{what} needs {allowed} numbers, found {}", args.len()));
             }
             for a in &args {
-                a.parse::<f32>().map_err(|_| format!("{what}: {a:?} is not a number"))?;
+                let x = a.parse::<f32>().map_err(|_| format!("{what}: {a:?} is not a number"))?;
+                if !x.is_finite() {
+                    return Err(format!("{what}: {a:?} is not a finite number"));
+                }
             }
             Ok(())
         };
@@ -276,6 +279,10 @@ mod tests {
         assert_eq!(first_bad_line("v 0 0 0 1 1\n"), Some((1, "vertex position needs 3, 4 or 6 numbers, found 5".into())));
         assert_eq!(first_bad_line("v 0 0 0 0\n").map(|x| x.0), Some(1));
         assert_eq!(first_bad_line("v 0 0 0\nvt 0.5\n").map(|x| x.0), Some(2));
+        // Every number must be finite (1e39 overflows f32).
+        assert_eq!(first_bad_line("v 0 0 0\nv nan 0 0\n"), Some((2, "vertex position: \"nan\" is not a finite number".into())));
+        assert_eq!(first_bad_line("vn 0 inf 0\n").map(|x| x.0), Some(1));
+        assert_eq!(first_bad_line("v 0 0 0\nvt 0 0\nvt -1e39 0\n").map(|x| x.0), Some(3));
     }
 
     #[test]
