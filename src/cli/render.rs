@@ -80,8 +80,11 @@ fn check_output(path: &Path) -> Result<(), FilmError> {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    if !dir.is_dir() {
+    if !dir.exists() {
         return Err(err(format!("folder {} does not exist", dir.display())));
+    }
+    if !dir.is_dir() {
+        return Err(err(format!("{} is not a folder", dir.display())));
     }
     let name = path.file_name().ok_or_else(|| err("no file name".into()))?.to_string_lossy().into_owned();
     let probe = dir.join(format!(".{name}.{}.probe", std::process::id()));
