@@ -377,7 +377,7 @@ fn memory_limits() {
         &["--width", "16384", "--height", "16384"],
         &[("EMBER_MEMORY_LIMIT", "2G")],
         &at(&scene, None),
-        "image 16384x16384 needs ~6.4 GB of film memory, more than the 2.0 GB limit (set by EMBER_MEMORY_LIMIT)",
+        "image 16384x16384 needs ~31.1 GB of film memory, more than the 2.0 GB limit (set by EMBER_MEMORY_LIMIT)",
     );
     // A mesh, refused while loading (before tobj allocates anything).
     let teapot = common::scene_path("teapot.obj");
@@ -403,7 +403,7 @@ fn memory_limits() {
         &at(&textured, Some(1)),
         "1024x512 image needs ~12.1 MB to load, more than the 10.0 MB limit",
     );
-    // Scene, BVH and film together: 2,000 spheres at 64x64.
+    // Scene, BVH and film together: 2,000 spheres at 16x16 (the film alone fits).
     let mut many = String::from("[materials.m]\ntype = \"diffuse\"\n");
     for i in 0..2000 {
         many += &format!("[[spheres]]\ncenter = [{}.0, 0.0, 0.0]\nradius = 0.4\nmaterial = \"m\"\n", i);
@@ -412,10 +412,10 @@ fn memory_limits() {
     expect_render_error(
         &many,
         &out,
-        &["--width", "64", "--height", "64"],
+        &["--width", "16", "--height", "16"],
         &[("EMBER_MEMORY_LIMIT", "300k")],
         &at(&many, None),
-        "rendering 0 triangles, 2000 spheres and cylinders at 64x64 needs ~380.3 kB (scene data 32.0 kB, Embree BVH 250.0 kB, film 98.3 kB)",
+        "rendering 0 triangles, 2000 spheres and cylinders at 16x16 needs ~311.7 kB (scene data 32.0 kB, Embree BVH 250.0 kB, film 29.7 kB), more than the 300.0 kB limit",
     );
     // An unreadable limit.
     expect_render_error(&scene, &out, &[], &[("EMBER_MEMORY_LIMIT", "lots")], "error: EMBER_MEMORY_LIMIT=\"lots\": ", "not a size");
@@ -436,4 +436,55 @@ fn mtl_problems_are_located_warnings() {
     let e = stderr(&o);
     assert!(e.contains(&format!("warning: {}:2: Kd needs 3 numbers, found 2", d.join("m.mtl").display())), "{e}");
     assert!(out.is_file());
+}
+
+#[test]
+fn progressive_render_flags() {
+    let d = tmpdir("progressive");
+    let out = d.join("out.png");
+    let scene = write(&d, "scene.toml", SPHERE_OK);
+    for (args, needle) in [
+        (&["--target-error", "0"][..], "invalid value '0' for '--target-error <TARGET_ERROR>': expected a relative error between 0 and 1"),
+        (&["--target-error", "1.5"], "expected a relative error between 0 and 1 (e.g. 0.01), found \"1.5\""),
+        (&["--target-error", "small"], "found \"small\""),
+        (&["--checkpoint-every", "5x"], "unknown unit \"x\" in \"5x\" (use s, m or h)"),
+        (&["--checkpoint-every", "0s"], "duration \"0s\" must be positive"),
+        (&["--checkpoint-every", "1.2.3s"], "expected a duration such as 60s or 5m, found \"1.2.3s\""),
+    ] {
+        expect_render_error(&scene, &out, args, &[], "error: ", needle);
+    }
+}
+
+#[test]
+fn damaged_checkpoint() {
+    let d = tmpdir("checkpoint");
+    let out = d.join("out.png");
+    let scene = write(&d, "scene.toml", SPHERE_OK);
+    let ckpt = d.join("out.png.checkpoint");
+    let args = ["--resume", "--width", "8", "--height", "8", "--spp", "1"];
+    std::fs::write(&ckpt, "not a checkpoint").unwrap();
+    expect_render_error(&scene, &out, &args, &[], &at(&ckpt, None), "not a valid ember checkpoint (wrong header)");
+    let mut truncated = b"EMBERCK\x01".to_vec();
+    truncated.extend_from_slice(&[7; 20]);
+    std::fs::write(&ckpt, truncated).unwrap();
+    expect_render_error(&scene, &out, &args, &[], &at(&ckpt, None), "not a valid ember checkpoint (checksum mismatch: truncated or damaged)");
+    std::fs::remove_file(&ckpt).unwrap();
+    expect_render_error(&scene, &out, &args, &[], &at(&ckpt, None), "no checkpoint to resume from");
+}
+
+#[test]
+fn converge_errors() {
+    let d = tmpdir("converge");
+    let file = write(&d, "taken", "a file, not a folder");
+    let scene = write(&d, "scene.toml", SPHERE_OK);
+    let o = ember(&["converge", s(&scene), "--out", s(&file), "--width", "4", "--height", "4", "--max-spp", "1", "--variants", "nee-mis"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).starts_with(&format!("{}cannot create folder", at(&file, None))), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "a file, not a folder");
+    let bad = write(&d, "bad.toml", "[materials.m\n");
+    let out = d.join("study");
+    let o = ember(&["converge", s(&bad), "--out", s(&out)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).starts_with(&format!("{}unclosed table", at(&bad, Some(1)))), "{}", stderr(&o));
+    assert!(!out.exists());
 }
