@@ -32,3 +32,20 @@ fn mtl_colour_with_two_numbers_is_a_located_warning() {
     assert_eq!(obj.materials[0].diffuse, Some([1.0, 0.0, 0.0]));
     assert_eq!(obj.meshes[0].material, Some(0));
 }
+
+/// Profiling the OBJ fuzzer showed most of its time going to inputs that repeat `mtllib`:
+/// every repetition read and parsed the library again, and tobj appended its materials again.
+/// A library is now read once.
+#[test]
+fn repeated_mtllib_reads_the_library_once() {
+    let reads = std::cell::Cell::new(0);
+    let obj = format!("{}{TRIANGLE}", "mtllib m.mtl\n".repeat(1000));
+    let parsed = parse_obj(obj.as_bytes(), Path::new("dir/t.obj"), &|_| {
+        reads.set(reads.get() + 1);
+        Ok(b"newmtl a\nKd 1 0 0\nnewmtl b\nKd 0 1 0\n".to_vec())
+    })
+    .unwrap();
+    assert_eq!(reads.get(), 1);
+    assert_eq!(parsed.materials.len(), 2);
+    assert_eq!(parsed.meshes[0].material, Some(0));
+}

@@ -71,9 +71,15 @@ pub fn parse_obj(
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     // MTL problems do not stop loading (the meshes get default materials) but are reported.
     let mtl_problems = std::cell::RefCell::new(Vec::new());
+    // Each library is read once: tobj would append its materials again for every repeated
+    // `mtllib` (a file repeating it n times made n copies, and n reads).
+    let mtl_seen = std::cell::RefCell::new(std::collections::HashSet::new());
     let mut reader = std::io::BufReader::new(text.as_bytes());
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
         let full = dir.join(mtl);
+        if !mtl_seen.borrow_mut().insert(full.clone()) {
+            return Ok((Vec::new(), Default::default()));
+        }
         let bytes = read_mtl(&full).map_err(|_| tobj::LoadError::OpenFileFailed)?;
         let mtl_text = String::from_utf8_lossy(&bytes);
         // tobj panics on some malformed lines (`Kd 1 0`) and names none: check them first.
