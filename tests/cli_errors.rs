@@ -158,7 +158,7 @@ fn directory_given_as_file() {
     let scene = write(&d, "mesh.toml", "[[meshes]]\nfile = \"folder.obj\"\n");
     expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(2)), &format!("mesh {}: is a directory", mesh_dir.display()));
     std::fs::create_dir_all(d.join("tex.png")).unwrap();
-    let scene = write(&d, "tex.toml", &SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ntexture = \"tex.png\""));
+    let scene = write(&d, "tex.toml", SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ntexture = \"tex.png\""));
     expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(1)), "tex.png: is a directory");
 }
 

@@ -64,7 +64,7 @@ pub(super) fn from_toml(path: &Path) -> Result<Scene, SceneError> {
 }
 
 pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
-    let file: SceneFile = toml::from_str(&text).map_err(|e| {
+    let file: SceneFile = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| line_of(text, s.start));
         SceneError::new(path, line, e.message().trim().to_string())
     })?;

@@ -160,7 +160,10 @@ fn scan(text: &str) -> Result<Counts, (usize, String)> {
             // x y z, x y z w (w not 0), or x y z r g b (vertex colours)
             "v" => floats(&[3, 4, 6], "vertex position").and_then(|_| match args.get(3) {
                 Some(w) if args.len() == 4 && w.parse::<f32>() == Ok(0.0) => Err("vertex position: w must not be 0".into()),
-                _ => Ok(nv += 1),
+                _ => {
+                    nv += 1;
+                    Ok(())
+                }
             }),
             "vt" => floats(&[2, 3], "texture coordinate").map(|_| nt += 1),
             "vn" => floats(&[3], "vertex normal").map(|_| nn += 1),
