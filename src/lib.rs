@@ -16,6 +16,7 @@ pub mod film;
 pub mod geometry;
 pub mod integrator;
 pub mod light;
+pub mod limits;
 pub mod material;
 pub mod output;
 pub mod report;

@@ -2,6 +2,7 @@
 //! and a procedural checker. Looked up by surface coordinates (u, v) in [0, 1]².
 
 use crate::film::srgb_to_linear;
+use crate::limits::{self, MemoryLimit};
 use glam::{Vec2, Vec3};
 use std::path::Path;
 use std::sync::Arc;
@@ -20,15 +21,40 @@ pub struct Image {
 pub struct ImageError(pub String);
 
 impl Image {
-    /// Loads an 8-bit image (PNG, JPEG), decoding sRGB to linear.
+    /// Loads an 8-bit image (PNG, JPEG), decoding sRGB to linear. Images too large for the
+    /// process's [`MemoryLimit`] are refused before they are decoded.
     pub fn load(path: &Path) -> Result<Image, ImageError> {
-        let img = image::open(path).map_err(|e| match e {
-            image::ImageError::IoError(io) if io.kind() == std::io::ErrorKind::NotFound => {
-                ImageError("no such file".into())
-            }
-            e => ImageError(e.to_string()),
-        })?;
+        Self::load_with_limit(path, &MemoryLimit::current())
+    }
+
+    /// [`Image::load`] under the given memory limit.
+    pub fn load_with_limit(path: &Path, limit: &MemoryLimit) -> Result<Image, ImageError> {
+        let io = |e: std::io::Error| match e.kind() {
+            std::io::ErrorKind::NotFound => ImageError("no such file".into()),
+            std::io::ErrorKind::PermissionDenied => ImageError("permission denied".into()),
+            _ => ImageError(format!("cannot read: {e}")),
+        };
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if meta.is_dir() {
+            return Err(ImageError("is a directory, expected a file".into()));
+        }
+        if !meta.is_file() {
+            return Err(ImageError("is not a regular file (a FIFO, socket or device?)".into()));
+        }
+        let open = || image::ImageReader::open(path).and_then(|r| r.with_guessed_format()).map_err(io);
+        // The header gives the size; refuse what would not fit before decoding.
+        let (w, h) = open()?.into_dimensions().map_err(|e| ImageError(e.to_string()))?;
+        limit
+            .check(format!("{w}x{h} image"), "to load", limits::texture_bytes(w, h))
+            .map_err(|e| ImageError(e.to_string()))?;
+        let mut reader = open()?;
+        // Our limit replaces the image crate's fixed 512 MiB decoding allowance.
+        let mut decode_limits = image::Limits::default();
+        decode_limits.max_alloc = limit.bytes;
+        reader.limits(decode_limits);
+        let img = reader.decode().map_err(|e| ImageError(e.to_string()))?;
         let rgb = img.to_rgb8();
+        drop(img);
         let (width, height) = rgb.dimensions();
         let pixels =
             rgb.pixels().map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0).map(|c| c.map(srgb_to_linear)).collect();

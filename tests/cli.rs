@@ -1,4 +1,5 @@
-//! The command line: output, exit codes and error messages.
+//! The command line: what it prints and writes when things go right (error paths are in
+//! `cli_errors.rs`).
 
 mod common;
 
@@ -39,59 +40,6 @@ fn info_reports_counts_bounds_and_build_time() {
 }
 
 #[test]
-fn missing_file_is_exit_2_with_path() {
-    let o = ember(&["info", "no/such/file.obj"]);
-    assert_eq!(o.status.code(), Some(2));
-    assert_eq!(stderr(&o).trim(), "error: no/such/file.obj: no such file");
-}
-
-#[test]
-fn directory_given_as_file() {
-    let d = tmpdir("dir");
-    let p = d.join("folder.obj");
-    std::fs::create_dir_all(&p).unwrap();
-    let o = ember(&["info", p.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("is a directory"), "{}", stderr(&o));
-}
-
-#[test]
-fn malformed_obj_names_file_and_line() {
-    let d = tmpdir("malformed");
-    let p = write(&d, "bad.obj", "# a triangle\nv 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n");
-    let o = ember(&["info", p.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2));
-    let e = stderr(&o);
-    assert!(e.starts_with(&format!("error: {}:4: ", p.display())), "{e}");
-    assert!(e.contains("\"zero\" is not a number"), "{e}");
-
-    let p = write(&d, "range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n");
-    let o = ember(&["info", p.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2));
-    let e = stderr(&o);
-    assert!(e.starts_with(&format!("error: {}:5: ", p.display())) && e.contains("out of range"), "{e}");
-}
-
-#[test]
-fn obj_without_faces_is_an_error() {
-    let d = tmpdir("nofaces");
-    let p = write(&d, "empty.obj", "v 0 0 0\n");
-    let o = ember(&["info", p.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("no faces"), "{}", stderr(&o));
-}
-
-#[test]
-fn unsupported_output_extension_writes_nothing() {
-    let d = tmpdir("ext");
-    let out = d.join("out.bmp");
-    let o = ember(&["render", common::scene_path("teapot.obj").to_str().unwrap(), "-o", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("unsupported output format"), "{}", stderr(&o));
-    assert!(!out.exists());
-}
-
-#[test]
 fn render_writes_a_png_atomically() {
     let d = tmpdir("render");
     let out = d.join("teapot.png");
@@ -111,73 +59,6 @@ fn render_writes_a_png_atomically() {
     // No temporary file left behind.
     let leftovers: Vec<_> = std::fs::read_dir(&d).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().ends_with(".tmp")).collect();
     assert!(leftovers.is_empty());
-}
-
-/// Renders `toml` (written to a temp folder with the scene assets) and expects failure with
-/// exit code 2, a message naming the file and `line`, containing `needle`, and no output.
-fn expect_scene_error(name: &str, toml: &str, line: Option<usize>, needle: &str) {
-    let d = tmpdir(name);
-    let scene = write(&d, "scene.toml", toml);
-    let out = d.join("out.png");
-    let o = ember(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "8", "--height", "8", "--spp", "1"]);
-    let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{name}: {e}");
-    let prefix = match line {
-        Some(l) => format!("error: {}:{l}: ", scene.display()),
-        None => format!("error: {}: ", scene.display()),
-    };
-    assert!(e.starts_with(&prefix), "{name}: expected prefix {prefix:?} in {e:?}");
-    assert!(e.contains(needle), "{name}: expected {needle:?} in {e:?}");
-    assert!(!out.exists(), "{name}: an output file was written");
-}
-
-const SPHERE_OK: &str = "[materials.m]\ntype = \"diffuse\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n";
-
-#[test]
-fn scene_file_errors_name_file_line_and_problem() {
-    expect_scene_error("unknown-material", &SPHERE_OK.replace("material = \"m\"", "material = \"steel\""), Some(6), "unknown material \"steel\"");
-    expect_scene_error("unknown-type", &SPHERE_OK.replace("\"diffuse\"", "\"velvet\""), Some(2), "unknown variant `velvet`");
-    expect_scene_error("unknown-key", &format!("{SPHERE_OK}colour = 3\n"), Some(7), "unknown field `colour`");
-    expect_scene_error("negative-radius", &SPHERE_OK.replace("radius = 1.0", "radius = -2.0"), Some(5), "greater than 0");
-    expect_scene_error("zero-radius", &SPHERE_OK.replace("radius = 1.0", "radius = 0.0"), Some(5), "greater than 0");
-    expect_scene_error("nan", &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[nan, 0.0, 0.0]"), Some(4), "not a finite number");
-    expect_scene_error("inf", &SPHERE_OK.replace("radius = 1.0", "radius = inf"), Some(5), "not a finite number");
-    expect_scene_error("malformed", "[materials.m\ntype = 1\n", Some(1), "");
-    expect_scene_error("spp-zero", &format!("[render]\nspp = 0\n{SPHERE_OK}"), Some(2), "at least 1");
-    expect_scene_error("huge-width", &format!("[render]\nwidth = 100000\n{SPHERE_OK}"), Some(2), "between 1 and 16384");
-    // Inside a material the value's own span is lost (serde buffers tagged enums): the line
-    // is the material's header.
-    expect_scene_error("roughness", &SPHERE_OK.replace("type = \"diffuse\"", "type = \"metal\"\nroughness = 1.5"), Some(1), "between 0 and 1");
-    expect_scene_error("missing-obj", "[[meshes]]\nfile = \"nothere.obj\"\n", Some(2), "no such file");
-    expect_scene_error(
-        "missing-texture",
-        "[materials.m]\ntype = \"diffuse\"\ntexture = \"nothere.png\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n",
-        Some(1),
-        "no such file",
-    );
-    expect_scene_error("empty", "", None, "no geometry");
-}
-
-#[test]
-fn render_flag_errors_exit_2_without_output() {
-    let d = tmpdir("flags");
-    let out = d.join("o.png");
-    let scene = common::scene_path("spheres.toml");
-    for args in [["--spp", "0"], ["--width", "0"], ["--height", "-3"], ["--accel", "octree"]] {
-        let mut all = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
-        all.extend(args);
-        let o = ember(&all);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
-        assert!(stderr(&o).contains("error"), "{args:?}");
-        assert!(!out.exists());
-    }
-}
-
-#[test]
-fn unwritable_output_folder() {
-    let o = ember(&["render", common::scene_path("spheres.toml").to_str().unwrap(), "-o", "/nonexistent/dir/out.png", "--width", "8", "--height", "8", "--spp", "1"]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("/nonexistent/dir/out.png: cannot write"), "{}", stderr(&o));
 }
 
 #[test]

@@ -1,5 +1,6 @@
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
+use crate::limits::{self, MemoryLimit};
 use crate::scene::Scene;
 use clap::Args;
 use std::path::PathBuf;
@@ -11,11 +12,20 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
+    let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
     let scene = Scene::load(&args.scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
     let (tris, spheres, cylinders) = scene.primitive_counts();
+    let (data, bvh) = (scene.data_bytes(), limits::embree_bytes(tris as u64, (spheres + cylinders) as u64));
+    limit
+        .check(
+            format!("a BVH over {tris} triangles, {} spheres and cylinders", spheres + cylinders),
+            &format!("(scene data {}, Embree BVH {})", limits::format_bytes(data), limits::format_bytes(bvh)),
+            data + bvh,
+        )
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
     let b = scene.bounds();
     let device = Device::new()?;
     // Warm-up: the first commit in a process also starts Embree's threads.

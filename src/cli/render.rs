@@ -1,11 +1,12 @@
 use crate::accel::{Accel, AccelKind, EmbreeAccel, NaiveAccel};
 use crate::embree::{BuildOptions, Device};
-use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
+use crate::film::{Checkpoint, FilmError, ImageFormat, checkpoint_path};
 use crate::integrator::{Estimator, KernelChoice, RenderControl, RenderSettings, render_controlled};
+use crate::limits::{self, MemoryLimit};
 use crate::scene::{DepthLimit, Effects, Scene};
 use crate::scene::format::MAX_IMAGE_SIDE;
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
@@ -70,6 +71,62 @@ fn parse_target_error(s: &str) -> Result<f32, String> {
     }
 }
 
+/// Fails early, before rendering, when the image could not be written: the folder is missing
+/// or not writable, or the output path is a folder. ([`crate::film::Film::save`] checks again
+/// and writes atomically.)
+fn check_output(path: &Path) -> Result<(), FilmError> {
+    let err = |reason: String| FilmError::Write { path: path.to_path_buf(), reason };
+    if path.is_dir() {
+        return Err(err("is a directory".into()));
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.exists() {
+        return Err(err(format!("folder {} does not exist", dir.display())));
+    }
+    if !dir.is_dir() {
+        return Err(err(format!("{} is not a folder", dir.display())));
+    }
+    let name = path.file_name().ok_or_else(|| err("no file name".into()))?.to_string_lossy().into_owned();
+    let probe = dir.join(format!(".{name}.{}.probe", std::process::id()));
+    std::fs::OpenOptions::new().write(true).create_new(true).open(&probe).map_err(|e| err(e.to_string()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// Refuses an image, or image plus scene plus BVH, that would exceed the memory limit.
+fn check_memory(args: &RenderArgs, scene: &Scene, settings: &RenderSettings, limit: &MemoryLimit) -> anyhow::Result<()> {
+    let at = |e: limits::LimitError| anyhow::anyhow!("{}: {e}", args.scene.display());
+    let (w, h) = (settings.width, settings.height);
+    let film = limits::film_bytes(w, h);
+    limit.check(format!("image {w}x{h}"), "of film memory", film).map_err(at)?;
+    let (tris, spheres, cylinders) = scene.primitive_counts();
+    let bvh = match args.accel {
+        AccelKind::Embree => limits::embree_bytes(tris as u64, (spheres + cylinders) as u64),
+        AccelKind::Naive => 0,
+    };
+    let data = scene.data_bytes();
+    let f = limits::format_bytes;
+    limit
+        .check(
+            format!("rendering {tris} triangles, {} spheres and cylinders at {w}x{h}", spheres + cylinders),
+            &format!("(scene data {}, {} {}, film {})", f(data), args.accel_name(), f(bvh), f(film)),
+            data + bvh + film,
+        )
+        .map_err(at)
+}
+
+impl RenderArgs {
+    fn accel_name(&self) -> &'static str {
+        match self.accel {
+            AccelKind::Embree => "Embree BVH",
+            AccelKind::Naive => "naive accel",
+        }
+    }
+}
+
 /// Settings from the command line, then the scene file, then built-in defaults.
 fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> {
     let d = RenderSettings::default();
@@ -127,11 +184,14 @@ fn resume_command() -> String {
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     ImageFormat::from_path(&args.output)?;
+    let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
+    check_output(&args.output)?;
     let scene = Scene::load(&args.scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
     let settings = settings(&args, &scene)?;
+    check_memory(&args, &scene, &settings, &limit)?;
     let checkpoint = checkpoint_path(&args.output);
     let resume = if args.resume {
         let c = Checkpoint::load(&checkpoint)?;

@@ -56,6 +56,14 @@ impl TriMesh {
         self.indices.len()
     }
 
+    /// Bytes held by the vertex and index arrays.
+    pub fn heap_bytes(&self) -> u64 {
+        (self.positions.capacity() * size_of::<Vec3>()
+            + self.indices.capacity() * size_of::<[u32; 3]>()
+            + self.normals.capacity() * size_of::<Vec3>()
+            + self.uvs.capacity() * size_of::<Vec2>()) as u64
+    }
+
     /// The three corners of triangle `i`.
     #[inline]
     pub fn triangle(&self, i: usize) -> [Vec3; 3] {

@@ -59,12 +59,16 @@ impl Ctx<'_> {
 }
 
 pub(super) fn from_toml(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?;
-    let file: SceneFile = toml::from_str(&text).map_err(|e| {
-        let line = e.span().map(|s| line_of(&text, s.start));
+    let text = super::input::read_to_string(path)?;
+    from_toml_str(&text, path)
+}
+
+pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    let file: SceneFile = toml::from_str(text).map_err(|e| {
+        let line = e.span().map(|s| line_of(text, s.start));
         SceneError::new(path, line, e.message().trim().to_string())
     })?;
-    let mut ctx = Ctx { path, text: &text, dir: path.parent().map(Path::to_path_buf).unwrap_or_default(), images: HashMap::new() };
+    let mut ctx = Ctx { path, text, dir: path.parent().map(Path::to_path_buf).unwrap_or_default(), images: HashMap::new() };
     let mut scene = empty_scene(path);
     scene.render = render_defaults(&file.render);
 

@@ -5,6 +5,7 @@ mod effects;
 mod error;
 mod fingerprint;
 pub mod format;
+mod input;
 mod material;
 mod obj;
 
@@ -16,6 +17,7 @@ pub use obj::{ObjFile, ObjMesh, load_obj, parse_obj};
 use crate::camera::Camera;
 use crate::geometry::{Aabb, Geometry};
 use crate::light::{Background, LightSet, PointLight};
+use crate::texture::{Image, Texture};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -94,8 +96,38 @@ impl Scene {
         }
     }
 
+    /// Parses the text of a TOML scene file. `path` names the file in messages, and the files
+    /// the scene refers to (meshes, textures) are found relative to its folder. [`Scene::load`]
+    /// reads `path` and calls this for `.toml` files.
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+        build::from_toml_str(text, path)
+    }
+
     pub fn bounds(&self) -> Aabb {
         self.geometry.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()))
+    }
+
+    /// Bytes held by the geometry arrays and the texture images (each image once).
+    pub fn data_bytes(&self) -> u64 {
+        let geometry: u64 = self
+            .geometry
+            .iter()
+            .map(|g| match g {
+                Geometry::Mesh(m) => m.heap_bytes(),
+                Geometry::Spheres(s) => std::mem::size_of_val(&s[..]) as u64,
+                Geometry::Cylinders(c) => std::mem::size_of_val(&c[..]) as u64,
+            })
+            .sum();
+        let mut images: Vec<&Arc<Image>> = self.materials.iter().filter_map(|m| match m.texture() {
+            Some(Texture::Image(i)) => Some(i),
+            _ => None,
+        }).collect();
+        if let Background::Image { image, .. } = &self.background {
+            images.push(image);
+        }
+        images.sort_by_key(|i| Arc::as_ptr(i));
+        images.dedup_by(|a, b| Arc::ptr_eq(a, b));
+        geometry + images.iter().map(|i| (i.pixels.capacity() * size_of::<Vec3>()) as u64).sum::<u64>()
     }
 
     /// (triangles, spheres, cylinders)

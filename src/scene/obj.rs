@@ -1,9 +1,11 @@
 //! OBJ/MTL loading with tobj (triangulated, one mesh per object/material group, normals and
 //! texture coordinates kept). Errors name the file and, where it can be found, the line.
 
-use super::SceneError;
+use super::{SceneError, input};
 use crate::geometry::TriMesh;
+use crate::limits::{self, MemoryLimit};
 use glam::{Vec2, Vec3};
+use std::borrow::Cow;
 use std::path::Path;
 
 /// One mesh of an OBJ file with the index of its MTL material, if any.
@@ -30,28 +32,65 @@ impl ObjFile {
 
 /// Loads an OBJ file and the MTL files it names (relative to the OBJ's folder).
 pub fn load_obj(path: &Path) -> Result<ObjFile, SceneError> {
-    let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, &e))?;
-    let text = String::from_utf8_lossy(&bytes);
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    parse_obj(path, &text, &dir)
+    let len = input::regular_file_len(path)?;
+    // Refuse a file too large to read before reading it; `parse_obj` checks the whole load.
+    MemoryLimit::current()
+        .check(format!("OBJ file of {}", limits::format_bytes(len)), "to load", limits::obj_bytes(len, 0, 0))
+        .map_err(|e| SceneError::new(path, None, e.to_string()))?;
+    let bytes = input::read(path)?;
+    parse_obj(&bytes, path, &|mtl| {
+        if !std::fs::metadata(mtl)?.is_file() {
+            return Err(std::io::Error::other("not a regular file"));
+        }
+        std::fs::read(mtl)
+    })
 }
 
-/// OBJ text already in memory: `path` names it in messages and MTL files are looked up in
-/// `dir`. Degenerate triangles (a NaN or infinite corner, zero area) are dropped with a
-/// warning; an object left with none is skipped.
-pub fn parse_obj(path: &Path, text: &str, dir: &Path) -> Result<ObjFile, SceneError> {
+/// Parses the text of an OBJ file. `path` names the file in messages and its folder is where
+/// MTL files are looked for; `read_mtl` reads one (given that folder joined with the name the
+/// OBJ gives). [`load_obj`] is this with the file system.
+pub fn parse_obj(
+    bytes: &[u8],
+    path: &Path,
+    read_mtl: &dyn Fn(&Path) -> std::io::Result<Vec<u8>>,
+) -> Result<ObjFile, SceneError> {
+    let text = String::from_utf8_lossy(bytes);
     // tobj reports no line numbers; check the lines ourselves first so the message can name one.
-    if let Some((line, problem)) = first_bad_line(text) {
-        return Err(SceneError::new(path, Some(line), problem));
-    }
+    let counts = scan(&text).map_err(|(line, problem)| SceneError::new(path, Some(line), problem))?;
+    MemoryLimit::current()
+        .check(
+            format!("mesh of {} vertices and {} triangles", counts.vertices, counts.triangles),
+            "to load",
+            limits::obj_bytes(bytes.len() as u64, counts.vertices, counts.triangles),
+        )
+        .map_err(|e| SceneError::new(path, None, e.to_string()))?;
+    // tobj reads a `#` after the values of a `v`, `vt`, `vn` or `f` line as one more value;
+    // hand it those lines without the comment, as `scan` read them.
+    let text = strip_value_comments(text);
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
-    let mut warnings = Vec::new();
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    // MTL problems do not stop loading (the meshes get default materials) but are reported.
+    let mtl_problems = std::cell::RefCell::new(Vec::new());
+    // Each library is read once: tobj would append its materials again for every repeated
+    // `mtllib` (a file repeating it n times made n copies, and n reads).
+    let mtl_seen = std::cell::RefCell::new(std::collections::HashSet::new());
     let mut reader = std::io::BufReader::new(text.as_bytes());
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
         let full = dir.join(mtl);
-        tobj::load_mtl(&full)
+        if !mtl_seen.borrow_mut().insert(full.clone()) {
+            return Ok((Vec::new(), Default::default()));
+        }
+        let bytes = read_mtl(&full).map_err(|_| tobj::LoadError::OpenFileFailed)?;
+        let mtl_text = String::from_utf8_lossy(&bytes);
+        // tobj panics on some malformed lines (`Kd 1 0`) and names none: check them first.
+        if let Some((line, problem)) = first_bad_mtl_line(&mtl_text) {
+            mtl_problems.borrow_mut().push(format!("{}:{line}: {problem}", full.display()));
+            return Err(tobj::LoadError::MaterialParseError);
+        }
+        tobj::load_mtl_buf(&mut mtl_text.as_bytes())
     })
     .map_err(|e| SceneError::new(path, None, format!("malformed OBJ: {e}")))?;
+    let mut warnings = mtl_problems.into_inner();
     let materials = match materials {
         Ok(m) => m,
         Err(e) => {
@@ -104,39 +143,64 @@ pub(super) fn degenerate_warning(path: &Path, object: &str, dropped: &[usize], l
     )
 }
 
-/// Finds the first line tobj would reject (or silently misread), with a message saying why.
-/// Checks the statements that carry geometry: `v`, `vt`, `vn` and `f`, with relative
-/// (negative) indices resolved against the elements read so far.
-fn first_bad_line(text: &str) -> Option<(usize, String)> {
+/// What an OBJ file's text declares.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Counts {
+    vertices: u64,
+    /// After fan triangulation of the faces.
+    triangles: u64,
+}
+
+/// Counts the vertices and triangles, or finds the first line tobj would reject (or silently
+/// misread), with a message saying why. Checks the statements that carry geometry: `v`, `vt`,
+/// `vn` and `f`, with relative (negative) indices resolved against the elements read so far.
+fn scan(text: &str) -> Result<Counts, (usize, String)> {
     let (mut nv, mut nt, mut nn) = (0i64, 0i64, 0i64);
+    let mut triangles = 0u64;
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let line = raw.split('#').next().unwrap_or("").trim();
         let mut tok = line.split_whitespace();
         let Some(kw) = tok.next() else { continue };
         let args: Vec<&str> = tok.collect();
-        let floats = |min: usize, max: usize, what: &str| -> Result<(), String> {
-            if args.len() < min || args.len() > max {
-                return Err(format!("{what} needs {min} to {max} numbers, found {}", args.len()));
+        // The counts tobj accepts.
+        // Non-finite positions are allowed here: the triangles using them are dropped with a
+        // warning after loading (a degenerate triangle must not stop a render); non-finite
+        // texture coordinates and normals have no such remedy and are errors.
+        let floats = |counts: &[usize], what: &str, finite: bool| -> Result<(), String> {
+            if !counts.contains(&args.len()) {
+                let allowed: Vec<String> = counts.iter().map(usize::to_string).collect();
+                let (last, rest) = allowed.split_last().expect("at least one count");
+                let allowed = if rest.is_empty() { last.clone() } else { format!("{} or {last}", rest.join(", ")) };
+                return Err(format!("{what} needs {allowed} numbers, found {}", args.len()));
             }
             for a in &args {
-                a.parse::<f32>().map_err(|_| format!("{what}: {a:?} is not a number"))?;
+                let x = a.parse::<f32>().map_err(|_| format!("{what}: {a:?} is not a number"))?;
+                if finite && !x.is_finite() {
+                    return Err(format!("{what}: {a:?} is not a finite number"));
+                }
             }
             Ok(())
         };
         let r = match kw {
-            // x y z [w], optionally followed by r g b vertex colours
-            "v" => floats(3, 7, "vertex position").map(|_| nv += 1),
-            "vt" => floats(1, 3, "texture coordinate").map(|_| nt += 1),
-            "vn" => floats(3, 3, "vertex normal").map(|_| nn += 1),
-            "f" => check_face(&args, nv, nt, nn),
+            // x y z, x y z w (w not 0), or x y z r g b (vertex colours)
+            "v" => floats(&[3, 4, 6], "vertex position", false).and_then(|_| match args.get(3) {
+                Some(w) if args.len() == 4 && w.parse::<f32>() == Ok(0.0) => Err("vertex position: w must not be 0".into()),
+                _ => {
+                    nv += 1;
+                    Ok(())
+                }
+            }),
+            "vt" => floats(&[2, 3], "texture coordinate", true).map(|_| nt += 1),
+            "vn" => floats(&[3], "vertex normal", true).map(|_| nn += 1),
+            "f" => check_face(&args, nv, nt, nn).map(|_| triangles += args.len() as u64 - 2),
             _ => Ok(()),
         };
         if let Err(e) = r {
-            return Some((line_no, e));
+            return Err((line_no, e));
         }
     }
-    None
+    Ok(Counts { vertices: nv as u64, triangles })
 }
 
 fn check_face(args: &[&str], nv: i64, nt: i64, nn: i64) -> Result<(), String> {
@@ -164,9 +228,75 @@ fn check_face(args: &[&str], nv: i64, nt: i64, nn: i64) -> Result<(), String> {
     Ok(())
 }
 
+/// `text` with comments cut from the end of `v`, `vt`, `vn` and `f` lines (copied only when
+/// there are such comments).
+fn strip_value_comments(text: Cow<'_, str>) -> Cow<'_, str> {
+    let has_comment = |l: &str| {
+        l.contains('#') && matches!(l.split_whitespace().next(), Some("v" | "vt" | "vn" | "f"))
+    };
+    if !text.lines().any(has_comment) {
+        return text;
+    }
+    let mut out = String::with_capacity(text.len());
+    for l in text.lines() {
+        out.push_str(if has_comment(l) { l.split('#').next().unwrap_or("") } else { l });
+        out.push('\n');
+    }
+    Cow::Owned(out)
+}
+
+/// Finds the first MTL line tobj would reject or panic on, with a message saying why.
+fn first_bad_mtl_line(text: &str) -> Option<(usize, String)> {
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.trim();
+        let mut tok = line.split_whitespace();
+        let Some(kw) = tok.next() else { continue };
+        let args: Vec<&str> = tok.collect();
+        let numbers = |n: usize| -> Result<(), String> {
+            if args.len() < n {
+                return Err(format!("{kw} needs {n} number{}, found {}", if n == 1 { "" } else { "s" }, args.len()));
+            }
+            match args[..n].iter().find(|a| a.parse::<f32>().is_err()) {
+                Some(a) => Err(format!("{kw}: {a:?} is not a number")),
+                None => Ok(()),
+            }
+        };
+        let r = match kw {
+            "Ka" | "Kd" | "Ks" | "Ke" => numbers(3),
+            "Ns" | "Ni" | "d" => numbers(1),
+            "illum" => match args.first() {
+                Some(a) if a.parse::<u8>().is_ok() => Ok(()),
+                Some(a) => Err(format!("illum: {a:?} is not an illumination model (0 to 10)")),
+                None => Err("illum needs an illumination model number".to_string()),
+            },
+            "newmtl" | "map_Ka" | "map_Kd" | "map_Ks" | "map_Bump" | "map_bump" | "map_Ns" | "map_ns" | "map_NS"
+            | "bump" | "map_d"
+                if args.is_empty() =>
+            {
+                Err(format!("{kw} needs a name"))
+            }
+            _ => Ok(()),
+        };
+        if let Err(e) = r {
+            return Some((i + 1, e));
+        }
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn first_bad_line(text: &str) -> Option<(usize, String)> {
+        scan(text).err()
+    }
+
+    #[test]
+    fn vertices_and_triangles_are_counted() {
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 1 2 4 3\nvt 0 0\nl 1 2\n";
+        assert_eq!(scan(text), Ok(Counts { vertices: 4, triangles: 3 }));
+    }
 
     #[test]
     fn bad_lines_are_located() {
@@ -179,5 +309,35 @@ mod tests {
         assert_eq!(first_bad_line("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n").map(|x| x.0), Some(4));
         assert_eq!(first_bad_line("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n").map(|x| x.0), Some(4));
         assert_eq!(first_bad_line("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"), None);
+        // Counts tobj accepts: 3, 4 (w) or 6 (colours) for v, 2 or 3 for vt.
+        assert_eq!(first_bad_line("v 0 0 0 1\nv 1 0 0 1 1 1\nvt 0 0\nvt 0 0 0\n"), None);
+        assert_eq!(first_bad_line("v 0 0 0 1 1\n"), Some((1, "vertex position needs 3, 4 or 6 numbers, found 5".into())));
+        assert_eq!(first_bad_line("v 0 0 0 0\n").map(|x| x.0), Some(1));
+        assert_eq!(first_bad_line("v 0 0 0\nvt 0.5\n").map(|x| x.0), Some(2));
+        // Every number must be finite (1e39 overflows f32).
+        // ... except positions: their triangles are dropped as degenerate, with a warning.
+        assert_eq!(first_bad_line("v 0 0 0\nv nan 0 0\n"), None);
+        assert_eq!(first_bad_line("v 0 0 0\nvn 0 nan 1\n"), Some((2, "vertex normal: \"nan\" is not a finite number".into())));
+        assert_eq!(first_bad_line("vn 0 inf 0\n").map(|x| x.0), Some(1));
+        assert_eq!(first_bad_line("v 0 0 0\nvt 0 0\nvt -1e39 0\n").map(|x| x.0), Some(3));
+    }
+
+    #[test]
+    fn comments_after_values_are_ignored() {
+        let text = "v 0 0 0 # origin\nv 1 0 0\nv 0 1 0#\nvt 0 0 # uv\nf 1 2 3 # the triangle\n";
+        let obj = parse_obj(text.as_bytes(), Path::new("c.obj"), &|_| Err(std::io::ErrorKind::NotFound.into())).unwrap();
+        assert_eq!(obj.triangle_count(), 1);
+        assert_eq!(obj.meshes[0].mesh.positions[2], Vec3::new(0.0, 1.0, 0.0));
+        assert!(matches!(strip_value_comments(Cow::Borrowed("v 0 0 0\n# c\no a#b\n")), Cow::Borrowed(_)));
+    }
+
+    #[test]
+    fn bad_mtl_lines_are_located() {
+        assert_eq!(first_bad_mtl_line("newmtl a\nKd 1 1 1\nKs 0 0 0\nNs 10\nillum 2\nmap_Kd x.png\n"), None);
+        assert_eq!(first_bad_mtl_line("newmtl a\nKd 1 0\n"), Some((2, "Kd needs 3 numbers, found 2".into())));
+        assert_eq!(first_bad_mtl_line("newmtl a\nKa 1 x 0\n").map(|x| x.0), Some(2));
+        assert_eq!(first_bad_mtl_line("newmtl a\n\nNs\n").map(|x| x.0), Some(3));
+        assert_eq!(first_bad_mtl_line("newmtl a\nillum 300\n").map(|x| x.0), Some(2));
+        assert_eq!(first_bad_mtl_line("newmtl\n").map(|x| x.0), Some(1));
     }
 }

@@ -1,0 +1,491 @@
+//! Every error path of the command line. Each case checks the exit code (2), that the message
+//! names the file (and the line where known) and the problem, and that no output file (nor a
+//! temporary one) was created.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Runs `ember` with `env` set and `EMBER_MEMORY_LIMIT` otherwise unset.
+fn ember_env(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_ember"));
+    c.args(args).env_remove("EMBER_MEMORY_LIMIT");
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().expect("ember runs")
+}
+
+fn ember(args: &[&str]) -> Output {
+    ember_env(args, &[])
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A fresh, empty folder for one test case.
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ember-cli-errors-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, contents).unwrap();
+    p
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The names in `dir`, sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+/// `error: PATH: ` or `error: PATH:LINE: `.
+fn at(path: &Path, line: Option<usize>) -> String {
+    match line {
+        Some(l) => format!("error: {}:{l}: ", path.display()),
+        None => format!("error: {}: ", path.display()),
+    }
+}
+
+/// Runs `ember render SCENE -o OUT ARGS…` (a tiny image unless `args` say otherwise) and checks
+/// the failure: exit code 2, its `error: ` line starting with `prefix` and containing `needle`,
+/// `out` not created and the folder it would be written to left as it was.
+fn expect_render_error(scene: &Path, out: &Path, args: &[&str], env: &[(&str, &str)], prefix: &str, needle: &str) {
+    let out_dir = out.parent().filter(|d| d.is_dir());
+    let before = out_dir.map(listing);
+    let mut all = vec!["render", s(scene), "-o", s(out)];
+    all.extend(if args.is_empty() { &["--width", "8", "--height", "8", "--spp", "1"][..] } else { args });
+    let o = ember_env(&all, env);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{all:?}: {e}");
+    let line = e.lines().find(|l| l.starts_with("error: ")).unwrap_or("");
+    assert!(line.starts_with(prefix), "{all:?}: expected prefix {prefix:?} in {e:?}");
+    assert!(line.contains(needle), "{all:?}: expected {needle:?} in {e:?}");
+    assert!(!out.is_file(), "{all:?}: an output file was written");
+    if let (Some(d), Some(before)) = (out_dir, before) {
+        assert_eq!(listing(d), before, "{all:?}: files appeared in the output folder");
+    }
+}
+
+/// Writes `toml` as `scene.toml` in a fresh folder and expects `render` to fail at `line`
+/// of it with `needle`.
+fn expect_scene_error(name: &str, toml: &str, line: Option<usize>, needle: &str) {
+    let d = tmpdir(name);
+    let scene = write(&d, "scene.toml", toml);
+    expect_render_error(&scene, &d.join("out.png"), &[], &[], &at(&scene, line), needle);
+}
+
+const SPHERE_OK: &str = "[materials.m]\ntype = \"diffuse\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n";
+const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+#[test]
+fn missing_file() {
+    let d = tmpdir("missing");
+    for name in ["no/such/file.toml", "no/such/file.obj", "no/such/file.dae"] {
+        let p = PathBuf::from(name);
+        expect_render_error(&p, &d.join("out.png"), &[], &[], &format!("error: {name}: "), "no such file");
+        let o = ember(&["info", name]);
+        assert_eq!(o.status.code(), Some(2));
+        assert_eq!(stderr(&o).trim(), format!("error: {name}: no such file"));
+    }
+}
+
+#[test]
+fn unknown_scene_format() {
+    let d = tmpdir("format");
+    let p = write(&d, "scene.txt", SPHERE_OK);
+    expect_render_error(&p, &d.join("out.png"), &[], &[], &at(&p, None), "unknown scene format (expected .toml or .obj)");
+}
+
+#[test]
+fn unreadable_file() {
+    use std::os::unix::fs::PermissionsExt;
+    let d = tmpdir("unreadable");
+    let out = d.join("out.png");
+
+    // Permission bits: only meaningful without the privilege to read any file (root).
+    let p = write(&d, "locked.toml", SPHERE_OK);
+    std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o000)).unwrap();
+    if std::fs::read(&p).is_ok() {
+        eprintln!("skipped the chmod 000 case: this process can read a mode-000 file (running as root)");
+    } else {
+        expect_render_error(&p, &out, &[], &[], &at(&p, None), "permission denied");
+    }
+    std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o644)).unwrap();
+    std::fs::remove_file(&p).unwrap();
+
+    // A FIFO (would block a reader forever): refused whoever runs the test.
+    let fifo = d.join("fifo.toml");
+    let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo runs");
+    assert!(made.success());
+    expect_render_error(&fifo, &out, &[], &[], &at(&fifo, None), "is not a regular file");
+    let fifo_obj = d.join("fifo.obj");
+    assert!(Command::new("mkfifo").arg(&fifo_obj).status().unwrap().success());
+    expect_render_error(&fifo_obj, &out, &[], &[], &at(&fifo_obj, None), "is not a regular file");
+    std::fs::remove_file(&fifo).unwrap();
+    std::fs::remove_file(&fifo_obj).unwrap();
+
+    // Bytes that are not text.
+    let p = write(&d, "binary.toml", b"[render]\nspp = 1\n\xff\xfe\x00\n");
+    expect_render_error(&p, &out, &[], &[], &at(&p, Some(3)), "is not UTF-8 text");
+}
+
+#[test]
+fn directory_given_as_file() {
+    let d = tmpdir("dir");
+    let out = d.join("out.png");
+    for name in ["folder.toml", "folder.obj"] {
+        let p = d.join(name);
+        std::fs::create_dir_all(&p).unwrap();
+        expect_render_error(&p, &out, &[], &[], &at(&p, None), "is a directory, expected a file");
+        let o = ember(&["info", s(&p)]);
+        assert_eq!(o.status.code(), Some(2));
+        assert_eq!(stderr(&o).trim(), format!("{}is a directory, expected a file", at(&p, None)));
+    }
+    // Files a scene names: the scene's line that names them.
+    let mesh_dir = d.join("folder.obj");
+    let scene = write(&d, "mesh.toml", "[[meshes]]\nfile = \"folder.obj\"\n");
+    expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(2)), &format!("mesh {}: is a directory", mesh_dir.display()));
+    std::fs::create_dir_all(d.join("tex.png")).unwrap();
+    let scene = write(&d, "tex.toml", SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ntexture = \"tex.png\""));
+    expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(1)), "tex.png: is a directory");
+}
+
+#[test]
+fn malformed_obj_line() {
+    let d = tmpdir("malformed-obj");
+    let out = d.join("out.png");
+    for (text, line, needle) in [
+        ("# a triangle\nv 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n", 4, "vertex position: \"zero\" is not a number"),
+        ("v 0 0 0\nv 1 0\n", 2, "vertex position needs 3, 4 or 6 numbers, found 2"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0\n", 4, "vertex normal needs 3 numbers, found 2"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", 4, "a face needs at least 3 vertices, found 2"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", 4, "face vertex \"x\": \"x\" is not an index"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1/1 2 3\n", 4, "face vertex \"1/1/1/1\" is malformed"),
+    ] {
+        let p = write(&d, "bad.obj", text);
+        expect_render_error(&p, &out, &[], &[], &at(&p, Some(line)), needle);
+        let o = ember(&["info", s(&p)]);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(stderr(&o).starts_with(&at(&p, Some(line))), "{}", stderr(&o));
+    }
+    // Through a scene file, the message names the OBJ file and its line.
+    let obj = write(&d, "bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n");
+    let scene = write(&d, "scene.toml", "[[meshes]]\nfile = \"bad.obj\"\n");
+    expect_render_error(&scene, &out, &[], &[], &at(&obj, Some(3)), "\"zero\" is not a number");
+    // No faces at all.
+    let p = write(&d, "empty.obj", "v 0 0 0\n");
+    expect_render_error(&p, &out, &[], &[], &at(&p, None), "no triangles: the file has no faces");
+}
+
+#[test]
+fn face_index_out_of_range() {
+    let d = tmpdir("range");
+    let out = d.join("out.png");
+    for (text, line, needle) in [
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n", 5, "face vertex index 7 is out of range (1 to 3 defined so far)"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", 4, "face vertex index 0 is out of range"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n", 4, "face vertex index -4 is out of range"),
+        // Indices refer to vertices defined above the face.
+        ("v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n", 3, "face vertex index 3 is out of range (1 to 2 defined so far)"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n", 5, "face texture coordinate index 2 is out of range (1 to 1 defined so far)"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//9\n", 5, "face normal index 9 is out of range"),
+    ] {
+        let p = write(&d, "range.obj", text);
+        expect_render_error(&p, &out, &[], &[], &at(&p, Some(line)), needle);
+    }
+}
+
+#[test]
+fn malformed_toml() {
+    expect_scene_error("unclosed", "[materials.m\ntype = 1\n", Some(1), "unclosed table, expected `]`");
+    expect_scene_error("unquoted", &format!("{SPHERE_OK}[render]\nseed = banana\n"), Some(8), "string values must be quoted");
+    expect_scene_error("duplicate", &format!("[render]\nspp = 1\nspp = 2\n{SPHERE_OK}"), Some(3), "duplicate key");
+    expect_scene_error("type", &format!("[render]\nspp = \"many\"\n{SPHERE_OK}"), Some(2), "invalid type: string \"many\"");
+    expect_scene_error("vector", &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[0.0, 0.0]"), Some(4), "expected 3 numbers, found 2");
+    expect_scene_error("empty", "", None, "the scene has no geometry");
+}
+
+#[test]
+fn unknown_key() {
+    expect_scene_error("top", &format!("{SPHERE_OK}colour = 3\n"), Some(7), "unknown field `colour`");
+    expect_scene_error("render", &format!("[render]\nsamples = 4\n{SPHERE_OK}"), Some(2), "unknown field `samples`");
+    expect_scene_error("sphere", &SPHERE_OK.replace("radius = 1.0", "radius = 1.0\nradios = 2.0"), Some(6), "unknown field `radios`");
+    expect_scene_error("variant", &SPHERE_OK.replace("\"diffuse\"", "\"velvet\""), Some(2), "unknown variant `velvet`");
+    expect_scene_error("material", &SPHERE_OK.replace("material = \"m\"", "material = \"steel\""), Some(6), "unknown material \"steel\" (defined: m)");
+}
+
+#[test]
+fn out_of_range_values() {
+    expect_scene_error("negative-radius", &SPHERE_OK.replace("radius = 1.0", "radius = -2.0"), Some(5), "must be greater than 0, found -2");
+    expect_scene_error("zero-radius", &SPHERE_OK.replace("radius = 1.0", "radius = 0.0"), Some(5), "must be greater than 0, found 0");
+    expect_scene_error("spp-zero", &format!("[render]\nspp = 0\n{SPHERE_OK}"), Some(2), "must be at least 1, found 0");
+    expect_scene_error("huge-width", &format!("[render]\nwidth = 100000\n{SPHERE_OK}"), Some(2), "must be between 1 and 16384, found 100000");
+    expect_scene_error("negative-depth", &format!("[render]\nmax_depth = -1\n{SPHERE_OK}"), Some(2), "invalid value: integer `-1`");
+    expect_scene_error("colour", &SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ncolor = [0.5, -0.1, 0.5]"), Some(1), "colour components must not be negative");
+    // Inside a material the value's own span is lost (serde buffers tagged enums): the line
+    // is the material's header.
+    expect_scene_error("roughness", &SPHERE_OK.replace("type = \"diffuse\"", "type = \"metal\"\nroughness = 1.5"), Some(1), "must be between 0 and 1, found 1.5");
+    expect_scene_error("fov", &format!("[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 180\n{SPHERE_OK}"), Some(4), "fov must be below 180 degrees, found 180");
+    expect_scene_error("aperture", &format!("[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\naperture = -1.0\n{SPHERE_OK}"), None, "camera aperture must not be negative");
+    expect_scene_error("look-at", &format!("[camera]\nposition = [1.0, 2.0, 3.0]\nlook_at = [1.0, 2.0, 3.0]\n{SPHERE_OK}"), None, "camera position and look_at are the same point");
+    expect_scene_error(
+        "quad",
+        "[materials.m]\ntype = \"diffuse\"\n[[quads]]\ncorner = [0.0, 0.0, 0.0]\nedge1 = [1.0, 0.0, 0.0]\nedge2 = [2.0, 0.0, 0.0]\nmaterial = \"m\"\n",
+        Some(7),
+        "quad edges are parallel or zero: the quad has no area",
+    );
+    expect_scene_error(
+        "cylinder",
+        "[materials.m]\ntype = \"diffuse\"\n[[cylinders]]\np0 = [0.0, 1.0, 0.0]\np1 = [0.0, 1.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n",
+        Some(7),
+        "cylinder p0 and p1 are the same point",
+    );
+    let d = tmpdir("scale");
+    write(&d, "t.obj", TRIANGLE_OBJ);
+    let scene = write(&d, "scene.toml", "[[meshes]]\nfile = \"t.obj\"\nscale = 0.0\n");
+    expect_render_error(&scene, &d.join("out.png"), &[], &[], &at(&scene, Some(3)), "scale must not be 0");
+}
+
+#[test]
+fn nan_and_inf_values() {
+    expect_scene_error("nan", &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[nan, 0.0, 0.0]"), Some(4), "NaN is not a finite number");
+    expect_scene_error("inf", &SPHERE_OK.replace("radius = 1.0", "radius = inf"), Some(5), "inf is not a finite number");
+    expect_scene_error("neg-inf", &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[0.0, -inf, 0.0]"), Some(4), "-inf is not a finite number");
+    expect_scene_error("overflow", &SPHERE_OK.replace("radius = 1.0", "radius = 1e39"), Some(5), "is not a finite number");
+    let d = tmpdir("nan-obj");
+    let out = d.join("out.png");
+    for (text, line, needle) in [
+        // (A non-finite vertex *position* is not an error: its triangles are skipped with a
+        // warning, tests/cli.rs degenerate_triangles_are_skipped_with_a_warning.)
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 inf\nf 1/1 2/1 3/1\n", 4, "texture coordinate: \"inf\" is not a finite number"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 1e39\nf 1/1 2/1 3/1\n", 4, "texture coordinate: \"1e39\" is not a finite number"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 NaN\nf 1//1 2//1 3//1\n", 4, "vertex normal: \"NaN\" is not a finite number"),
+    ] {
+        let p = write(&d, "nan.obj", text);
+        expect_render_error(&p, &out, &[], &[], &at(&p, Some(line)), needle);
+    }
+}
+
+#[test]
+fn unwritable_output_path() {
+    use std::os::unix::fs::PermissionsExt;
+    let scene = common::scene_path("spheres.toml");
+    let d = tmpdir("unwritable");
+    let cases = [
+        (PathBuf::from("/nonexistent/dir/out.png"), "cannot write: folder /nonexistent/dir does not exist"),
+        (write(&d, "file.txt", "x").join("out.png"), "is not a folder"),
+    ];
+    for (out, needle) in cases {
+        expect_render_error(&scene, &out, &[], &[], &at(&out, None), needle);
+    }
+    // An existing folder where the image should go.
+    let out = d.join("folder.png");
+    std::fs::create_dir_all(&out).unwrap();
+    let o = ember(&["render", s(&scene), "-o", s(&out), "--width", "8", "--height", "8", "--spp", "1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(stderr(&o).trim(), format!("{}cannot write: is a directory", at(&out, None)));
+    assert!(out.is_dir() && listing(&out).is_empty());
+    // A folder nobody may create files in: /sys refuses even root.
+    if Path::new("/sys").is_dir() {
+        expect_render_error(&scene, Path::new("/sys/out.png"), &[], &[], "error: /sys/out.png: cannot write: ", "ermission denied");
+    } else {
+        eprintln!("skipped the /sys case: no /sys folder");
+    }
+    // A read-only folder (mode 555): only meaningful without root's privileges.
+    let ro = d.join("readonly");
+    std::fs::create_dir_all(&ro).unwrap();
+    std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
+    let probe = ro.join("probe");
+    if std::fs::write(&probe, "x").is_ok() {
+        std::fs::remove_file(&probe).unwrap();
+        eprintln!("skipped the mode-555 folder case: this process can write there (running as root)");
+    } else {
+        expect_render_error(&scene, &ro.join("out.png"), &[], &[], &at(&ro.join("out.png"), None), "ermission denied");
+    }
+    std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+#[test]
+fn unsupported_output_extension() {
+    let scene = common::scene_path("teapot.obj");
+    let d = tmpdir("ext");
+    for name in ["out.bmp", "out", "out.png.txt"] {
+        let out = d.join(name);
+        expect_render_error(&scene, &out, &[], &[], &at(&out, None), "unsupported output format (use .png or .exr)");
+    }
+}
+
+#[test]
+fn texture_errors() {
+    let d = tmpdir("texture");
+    let out = d.join("out.png");
+    let textured = |file: &str| SPHERE_OK.replace("type = \"diffuse\"", &format!("type = \"diffuse\"\ntexture = \"{file}\""));
+    let scene = write(&d, "missing.toml", textured("nothere.png"));
+    expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(1)), &format!("texture {}: no such file", d.join("nothere.png").display()));
+    write(&d, "fake.png", "this is not a PNG");
+    let scene = write(&d, "corrupt.toml", textured("fake.png"));
+    expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(1)), &format!("texture {}: ", d.join("fake.png").display()));
+    let scene = write(&d, "background.toml", format!("[background]\ntype = \"image\"\nfile = \"nothere.jpg\"\n{SPHERE_OK}"));
+    expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(1)), "nothere.jpg: no such file");
+}
+
+#[test]
+fn missing_mesh_file() {
+    expect_scene_error("missing-obj", "[[meshes]]\nfile = \"nothere.obj\"\n", Some(2), "nothere.obj: no such file");
+}
+
+#[test]
+fn bad_flags() {
+    let d = tmpdir("flags");
+    let out = d.join("o.png");
+    let scene = common::scene_path("spheres.toml");
+    for (args, needle) in [
+        (&["--spp", "0"][..], "--spp"),
+        (&["--width", "0"], "--width"),
+        (&["--width", "20000"], "--width"),
+        (&["--height", "-3"], "unexpected argument '-3'"),
+        (&["--threads", "0"], "--threads"),
+        (&["--accel", "octree"], "--accel"),
+        (&["--estimator", "magic"], "--estimator"),
+        (&["--rr-depth", "banana"], "--rr-depth: expected a number or \"off\", found \"banana\""),
+        (&["--seed", "x"], "--seed"),
+    ] {
+        expect_render_error(&scene, &out, args, &[], "error: ", needle);
+    }
+}
+
+#[test]
+fn memory_limits() {
+    let d = tmpdir("memory");
+    let out = d.join("out.png");
+    let scene = write(&d, "scene.toml", SPHERE_OK);
+    // The film.
+    expect_render_error(
+        &scene,
+        &out,
+        &["--width", "16384", "--height", "16384"],
+        &[("EMBER_MEMORY_LIMIT", "2G")],
+        &at(&scene, None),
+        "image 16384x16384 needs ~31.1 GB of film memory, more than the 2.0 GB limit (set by EMBER_MEMORY_LIMIT)",
+    );
+    // A mesh, refused while loading (before tobj allocates anything).
+    let teapot = common::scene_path("teapot.obj");
+    expect_render_error(
+        &teapot,
+        &out,
+        &[],
+        &[("EMBER_MEMORY_LIMIT", "1M")],
+        &at(&teapot, None),
+        "mesh of 3644 vertices and 6320 triangles needs ~1.5 MB to load, more than the 1.0 MB limit",
+    );
+    let o = ember_env(&["info", s(&teapot)], &[("EMBER_MEMORY_LIMIT", "1M")]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("needs ~1.5 MB to load"), "{}", stderr(&o));
+    // A texture, refused from its header before decoding.
+    std::fs::copy(common::scene_path("earthmap.jpg"), d.join("earth.jpg")).unwrap();
+    let textured = write(&d, "textured.toml", SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ntexture = \"earth.jpg\""));
+    expect_render_error(
+        &textured,
+        &out,
+        &[],
+        &[("EMBER_MEMORY_LIMIT", "10M")],
+        &at(&textured, Some(1)),
+        "1024x512 image needs ~12.1 MB to load, more than the 10.0 MB limit",
+    );
+    // Scene, BVH and film together: 2,000 spheres at 16x16 (the film alone fits).
+    let mut many = String::from("[materials.m]\ntype = \"diffuse\"\n");
+    for i in 0..2000 {
+        many += &format!("[[spheres]]\ncenter = [{}.0, 0.0, 0.0]\nradius = 0.4\nmaterial = \"m\"\n", i);
+    }
+    let many = write(&d, "many.toml", many);
+    expect_render_error(
+        &many,
+        &out,
+        &["--width", "16", "--height", "16"],
+        &[("EMBER_MEMORY_LIMIT", "300k")],
+        &at(&many, None),
+        "rendering 0 triangles, 2000 spheres and cylinders at 16x16 needs ~311.7 kB (scene data 32.0 kB, Embree BVH 250.0 kB, film 29.7 kB), more than the 300.0 kB limit",
+    );
+    // An unreadable limit.
+    expect_render_error(&scene, &out, &[], &[("EMBER_MEMORY_LIMIT", "lots")], "error: EMBER_MEMORY_LIMIT=\"lots\": ", "not a size");
+    // The same scenes render under a sufficient limit.
+    let o = ember_env(&["render", s(&many), "-o", s(&out), "--width", "8", "--height", "8", "--spp", "1"], &[("EMBER_MEMORY_LIMIT", "300k")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.is_file());
+}
+
+#[test]
+fn mtl_problems_are_located_warnings() {
+    let d = tmpdir("mtl");
+    write(&d, "m.mtl", "newmtl red\nKd 1 0\n");
+    let obj = write(&d, "t.obj", format!("mtllib m.mtl\nusemtl red\n{TRIANGLE_OBJ}"));
+    let out = d.join("out.png");
+    let o = ember(&["render", s(&obj), "-o", s(&out), "--width", "8", "--height", "8", "--spp", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains(&format!("warning: {}:2: Kd needs 3 numbers, found 2", d.join("m.mtl").display())), "{e}");
+    assert!(out.is_file());
+}
+
+#[test]
+fn progressive_render_flags() {
+    let d = tmpdir("progressive");
+    let out = d.join("out.png");
+    let scene = write(&d, "scene.toml", SPHERE_OK);
+    for (args, needle) in [
+        (&["--target-error", "0"][..], "invalid value '0' for '--target-error <TARGET_ERROR>': expected a relative error between 0 and 1"),
+        (&["--target-error", "1.5"], "expected a relative error between 0 and 1 (e.g. 0.01), found \"1.5\""),
+        (&["--target-error", "small"], "found \"small\""),
+        (&["--checkpoint-every", "5x"], "unknown unit \"x\" in \"5x\" (use s, m or h)"),
+        (&["--checkpoint-every", "0s"], "duration \"0s\" must be positive"),
+        (&["--checkpoint-every", "1.2.3s"], "expected a duration such as 60s or 5m, found \"1.2.3s\""),
+    ] {
+        expect_render_error(&scene, &out, args, &[], "error: ", needle);
+    }
+}
+
+#[test]
+fn damaged_checkpoint() {
+    let d = tmpdir("checkpoint");
+    let out = d.join("out.png");
+    let scene = write(&d, "scene.toml", SPHERE_OK);
+    let ckpt = d.join("out.png.checkpoint");
+    let args = ["--resume", "--width", "8", "--height", "8", "--spp", "1"];
+    std::fs::write(&ckpt, "not a checkpoint").unwrap();
+    expect_render_error(&scene, &out, &args, &[], &at(&ckpt, None), "not a valid ember checkpoint (wrong header)");
+    let mut truncated = b"EMBERCK\x01".to_vec();
+    truncated.extend_from_slice(&[7; 20]);
+    std::fs::write(&ckpt, truncated).unwrap();
+    expect_render_error(&scene, &out, &args, &[], &at(&ckpt, None), "not a valid ember checkpoint (checksum mismatch: truncated or damaged)");
+    std::fs::remove_file(&ckpt).unwrap();
+    expect_render_error(&scene, &out, &args, &[], &at(&ckpt, None), "no checkpoint to resume from");
+}
+
+#[test]
+fn converge_errors() {
+    let d = tmpdir("converge");
+    let file = write(&d, "taken", "a file, not a folder");
+    let scene = write(&d, "scene.toml", SPHERE_OK);
+    let o = ember(&["converge", s(&scene), "--out", s(&file), "--width", "4", "--height", "4", "--max-spp", "1", "--variants", "nee-mis"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).starts_with(&format!("{}cannot create folder", at(&file, None))), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "a file, not a folder");
+    let bad = write(&d, "bad.toml", "[materials.m\n");
+    let out = d.join("study");
+    let o = ember(&["converge", s(&bad), "--out", s(&out)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).starts_with(&format!("{}unclosed table", at(&bad, Some(1)))), "{}", stderr(&o));
+    assert!(!out.exists());
+}
