@@ -52,6 +52,20 @@ impl FromStr for AccelKind {
     }
 }
 
+impl AccelKind {
+    /// Builds this accelerator over `geometry` (Embree: on a new default device, with the
+    /// default build options; the scene keeps its device alive).
+    pub fn build(self, geometry: &[crate::geometry::Geometry]) -> Result<Box<dyn Accel>, crate::embree::EmbreeError> {
+        Ok(match self {
+            AccelKind::Embree => {
+                let device = crate::embree::Device::new()?;
+                Box::new(EmbreeAccel::new(&device, geometry, crate::embree::BuildOptions::default())?)
+            }
+            AccelKind::Naive => Box::new(NaiveAccel::new(geometry)),
+        })
+    }
+}
+
 impl fmt::Display for AccelKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {

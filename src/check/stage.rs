@@ -3,10 +3,10 @@
 
 use crate::geometry::{Cylinder, Geometry, Sphere, TriMesh};
 use crate::light::{Background, PointLight};
-use crate::scene::{CameraSpec, Material, MaterialBinding, MaterialKind, RenderDefaults, Scene, parse_obj};
+use crate::scene::{CameraSpec, Material, MaterialBinding, MaterialKind, Scene, parse_obj};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
 /// A scene under construction.
@@ -17,17 +17,7 @@ pub struct Stage {
 impl Stage {
     pub fn new(name: &str) -> Stage {
         Stage {
-            scene: Scene {
-                source: PathBuf::from(format!("check:{name}")),
-                geometry: Vec::new(),
-                bindings: Vec::new(),
-                materials: Vec::new(),
-                point_lights: Vec::new(),
-                background: Background::Black,
-                camera: None,
-                render: RenderDefaults::default(),
-                warnings: Vec::new(),
-            },
+            scene: Scene::empty(format!("check:{name}")),
         }
     }
 

@@ -1,5 +1,4 @@
-use crate::accel::{Accel, AccelKind, EmbreeAccel, NaiveAccel};
-use crate::embree::{BuildOptions, Device};
+use crate::accel::AccelKind;
 use crate::film::Film;
 use crate::output::write_file;
 use crate::report::converge::{Measurement, Study, parse_variants, spp_ladder, time_to_reach, to_csv, write_plots};
@@ -92,14 +91,7 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create folder", args.out.display()))?;
 
-    let device;
-    let accel: Box<dyn Accel> = match args.accel {
-        AccelKind::Embree => {
-            device = Device::new()?;
-            Box::new(EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default())?)
-        }
-        AccelKind::Naive => Box::new(NaiveAccel::new(&scene.geometry)),
-    };
+    let accel = args.accel.build(&scene.geometry)?;
 
     let largest = *study.ladder.last().expect("the ladder has at least 1 spp");
     let reference = match given {

@@ -1,5 +1,4 @@
-use crate::accel::{Accel, AccelKind, EmbreeAccel, NaiveAccel};
-use crate::embree::{BuildOptions, Device};
+use crate::accel::AccelKind;
 use crate::film::{Checkpoint, FilmError, ImageFormat, checkpoint_path};
 use crate::integrator::{Estimator, KernelChoice, RenderControl, RenderSettings, render_controlled};
 use crate::limits::{self, MemoryLimit};
@@ -207,14 +206,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None
     };
-    let device;
-    let accel: Box<dyn Accel> = match args.accel {
-        AccelKind::Embree => {
-            device = Device::new()?;
-            Box::new(EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default())?)
-        }
-        AccelKind::Naive => Box::new(NaiveAccel::new(&scene.geometry)),
-    };
+    let accel = args.accel.build(&scene.geometry)?;
     let effects = scene.effects();
     eprintln!("{effects}");
     let kernel = if settings.specialize { KernelChoice::for_effects(&effects) } else { KernelChoice::GENERAL };

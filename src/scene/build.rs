@@ -69,7 +69,7 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
         SceneError::new(path, line, e.message().trim().to_string())
     })?;
     let mut ctx = Ctx { path, text, dir: path.parent().map(Path::to_path_buf).unwrap_or_default(), images: HashMap::new() };
-    let mut scene = empty_scene(path);
+    let mut scene = Scene::empty(path);
     scene.render = render_defaults(&file.render);
 
     // Materials, by name.
@@ -209,19 +209,6 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
     Ok(scene)
 }
 
-fn empty_scene(path: &Path) -> Scene {
-    Scene {
-        source: path.to_path_buf(),
-        geometry: Vec::new(),
-        bindings: Vec::new(),
-        materials: Vec::new(),
-        point_lights: Vec::new(),
-        background: Background::Black,
-        camera: None,
-        render: RenderDefaults::default(),
-        warnings: Vec::new(),
-    }
-}
 
 fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
     RenderDefaults {
@@ -327,7 +314,7 @@ fn default_material(scene: &mut Scene) -> u32 {
 /// and, when nothing in it emits, a sky.
 pub(super) fn from_obj(path: &Path) -> Result<Scene, SceneError> {
     let obj = load_obj(path)?;
-    let mut scene = empty_scene(path);
+    let mut scene = Scene::empty(path);
     scene.warnings = obj.warnings.clone();
     let ids = mtl_materials(&mut scene, path, &obj.materials);
     for om in obj.meshes {

@@ -81,6 +81,21 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// A scene with nothing in it (black background, framing camera), named by `source`.
+    pub fn empty(source: impl Into<PathBuf>) -> Scene {
+        Scene {
+            source: source.into(),
+            geometry: Vec::new(),
+            bindings: Vec::new(),
+            materials: Vec::new(),
+            point_lights: Vec::new(),
+            background: Background::Black,
+            camera: None,
+            render: RenderDefaults::default(),
+            warnings: Vec::new(),
+        }
+    }
+
     /// Loads a scene by extension: `.toml` (scene file) or `.obj` (a mesh, framed by the camera,
     /// lit by a default sky when it has no emitters).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
