@@ -42,9 +42,17 @@ pub fn cpu_of<T>(f: impl FnOnce() -> T) -> (T, Option<Duration>) {
 mod tests {
     use super::*;
 
-    /// Spins until the clock has advanced by `amount`; false if that takes over 30 s of wall time.
+    /// CPU time of the calling thread alone (other tests' threads come and go, so the sum
+    /// over live threads may fall while this test runs).
+    fn this_thread() -> Option<Duration> {
+        let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+        Some(Duration::from_nanos(text.split_whitespace().next()?.parse().ok()?))
+    }
+
+    /// Spins until this thread's clock has advanced by `amount`; false if that takes over 30 s
+    /// of wall time.
     fn spin_until(amount: Duration) -> bool {
-        let clock = threads_cpu_time;
+        let clock = this_thread;
         let start = std::time::Instant::now();
         let from = clock().unwrap();
         let mut x = 0u64;
@@ -68,6 +76,9 @@ mod tests {
             return;
         }
         assert!(spin_until(Duration::from_millis(20)));
+        // The sum over live threads includes this one.
+        let mine = this_thread().unwrap();
+        assert!(threads_cpu_time().unwrap() >= mine);
         let (x, d) = cpu_of(|| 7);
         assert_eq!(x, 7);
         assert!(d.is_some());
