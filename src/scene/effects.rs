@@ -88,18 +88,24 @@ impl Effects {
                 Geometry::Spheres(_) => e.spheres = true,
                 Geometry::Cylinders(_) => e.cylinders = true,
             }
+            // Emitting cylinders glow but are not sampled (the light set skips them).
+            let samplable = !matches!(g, Geometry::Cylinders(_));
+            let scattering_before = scattering_prims;
             let mut count = |mi: u32, prims: usize| {
                 used[mi as usize] = true;
-                let kind = &scene.materials[mi as usize].kind;
-                if scatters(kind) {
-                    scatterer_bounds = scatterer_bounds.union(&g.bounds());
+                let m = &scene.materials[mi as usize];
+                e.area_lights |= samplable && m.is_emissive();
+                if scatters(&m.kind) {
                     scattering_prims += prims;
-                    transmissive_scatterer |= matches!(kind, MaterialKind::Glass { .. });
+                    transmissive_scatterer |= matches!(m.kind, MaterialKind::Glass { .. });
                 }
             };
             match binding {
                 MaterialBinding::Uniform(mi) => count(*mi, g.len()),
                 MaterialBinding::PerPrim(per) => per.iter().for_each(|&mi| count(mi, 1)),
+            }
+            if scattering_prims > scattering_before {
+                scatterer_bounds = scatterer_bounds.union(&g.bounds());
             }
         }
         for (m, _) in scene.materials.iter().zip(&used).filter(|(_, u)| **u) {
@@ -125,11 +131,6 @@ impl Effects {
                 MaterialKind::Emissive => {}
             }
         }
-        // Emitting cylinders glow but are not sampled (the light set skips them).
-        e.area_lights = scene.geometry.iter().zip(&scene.bindings).any(|(g, b)| {
-            !matches!(g, Geometry::Cylinders(_))
-                && (0..g.len() as u32).any(|p| scene.materials[b.material(p) as usize].is_emissive())
-        });
         e.point_lights = scene.point_lights.iter().any(|l| l.intensity.max_element() > 0.0);
         match &scene.background {
             b if b.is_black() => {}
