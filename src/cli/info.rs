@@ -44,11 +44,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let effects = scene.effects();
     let max_depth = scene.render.max_depth.unwrap_or(crate::integrator::RenderSettings::default().max_depth);
     println!("{effects}");
-    println!(
-        "kernel: {}; path depth {}",
-        crate::integrator::KernelChoice::for_effects(&effects),
-        super::render::describe_depth(&effects, max_depth, true)
-    );
+    println!("{}", super::render::describe_plan(&effects, max_depth, true));
     println!("bvh build:  {:.2} ms (medium quality)", accel.build_time().as_secs_f64() * 1e3);
     Ok(())
 }

@@ -209,8 +209,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let accel = args.accel.build(&scene.geometry)?;
     let effects = scene.effects();
     eprintln!("{effects}");
-    let kernel = if settings.specialize { KernelChoice::for_effects(&effects) } else { KernelChoice::GENERAL };
-    eprintln!("kernel: {kernel}; path depth {}", describe_depth(&effects, settings.max_depth, settings.specialize));
+    eprintln!("{}", describe_plan(&effects, settings.max_depth, settings.specialize));
     install_signal_handler();
     let control = RenderControl {
         stop: Some(&STOP),
@@ -302,15 +301,19 @@ impl std::str::FromStr for CliDuration {
     }
 }
 
-/// The path depth a render uses, and why.
-pub(crate) fn describe_depth(effects: &Effects, max_depth: u32, specialize: bool) -> String {
-    let used = if specialize { effects.depth_limit().apply(max_depth) } else { max_depth };
-    if used == max_depth {
-        return format!("{used} (--max-depth)");
-    }
-    match effects.depth_limit() {
-        DepthLimit::EmittersOnly => format!("{used} (nothing scatters light: emitters only; --max-depth {max_depth})"),
-        DepthLimit::DirectOnly => format!("{used} (direct light only: nothing can bounce light onward; --max-depth {max_depth})"),
-        DepthLimit::Unbounded => format!("{used}"),
-    }
+/// `kernel: …; path depth N (why)`: what a render with these settings runs.
+pub(crate) fn describe_plan(effects: &Effects, max_depth: u32, specialize: bool) -> String {
+    let (kernel, used) = KernelChoice::plan(effects, max_depth, specialize);
+    let depth = if used == max_depth {
+        format!("{used} (--max-depth)")
+    } else {
+        match effects.depth_limit() {
+            DepthLimit::EmittersOnly => format!("{used} (nothing scatters light: emitters only; --max-depth {max_depth})"),
+            DepthLimit::DirectOnly => {
+                format!("{used} (direct light only: nothing can bounce light onward; --max-depth {max_depth})")
+            }
+            DepthLimit::Unbounded => format!("{used}"),
+        }
+    };
+    format!("kernel: {kernel}; path depth {depth}")
 }

@@ -56,6 +56,17 @@ impl KernelChoice {
         }
     }
 
+    /// The kernel and bounce limit of a render: with `specialize`, the kernel for `effects` and
+    /// the depth the scene can use (at most `max_depth`); otherwise the general kernel at
+    /// `max_depth`.
+    pub fn plan(effects: &Effects, max_depth: u32, specialize: bool) -> (KernelChoice, u32) {
+        if specialize {
+            (KernelChoice::for_effects(effects), effects.depth_limit().apply(max_depth))
+        } else {
+            (KernelChoice::GENERAL, max_depth)
+        }
+    }
+
     /// The compiled kernel for these switches.
     pub(crate) fn sample_fn(self) -> SampleFn {
         fn lens<const L: bool>(k: KernelChoice) -> SampleFn {

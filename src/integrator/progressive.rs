@@ -85,11 +85,7 @@ pub(super) fn run(
     let camera = scene.camera(w as f32 / h as f32);
     let lights = scene.light_set();
     let effects = scene.effects();
-    let (kernel, max_depth) = if settings.specialize {
-        (KernelChoice::for_effects(&effects), effects.depth_limit().apply(settings.max_depth))
-    } else {
-        (KernelChoice::GENERAL, settings.max_depth)
-    };
+    let (kernel, max_depth) = KernelChoice::plan(&effects, settings.max_depth, settings.specialize);
     let mut stats = RenderStats { effects, kernel, max_depth, ..Default::default() };
     let finish = |accum: Accumulator, mut stats: RenderStats, nonfinite: u64, complete: bool| {
         stats.elapsed = start.elapsed();
