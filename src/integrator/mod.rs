@@ -8,7 +8,6 @@ mod progressive;
 mod surface;
 
 pub use kernel::KernelChoice;
-pub use path::PathContext;
 pub use progressive::{RenderControl, RenderResult};
 pub use surface::{SurfacePoint, surface_point};
 

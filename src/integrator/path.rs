@@ -2,7 +2,7 @@
 //! estimation and multiple importance sampling (power heuristic, Veach 1997) against BSDF
 //! sampling, and Russian roulette.
 
-use super::surface::surface_point_at;
+use super::surface::surface_point;
 use crate::camera::Camera;
 use super::{Estimator, RenderSettings};
 use crate::accel::{Accel, AccelError};
@@ -67,7 +67,7 @@ pub(crate) fn radiance<const TEX: bool, const GLOSSY: bool, const GLASS: bool, c
             }
             break;
         };
-        let sp = surface_point_at::<TEX>(ctx.scene, &ray, &hit);
+        let sp = surface_point::<TEX>(ctx.scene, &ray, &hit);
         let wo = -ray.d;
         let emission = sp.material.emission;
         // Without non-delta lights nothing emits.

@@ -16,15 +16,10 @@ pub struct SurfacePoint<'a> {
     pub material: &'a Material,
 }
 
+/// The shading point of `hit`. With `TEX == false` texture coordinates are not interpolated
+/// (`uv` is then the raw hit parametrisation), for scenes without textures.
 #[inline]
-pub fn surface_point<'a>(scene: &'a Scene, ray: &Ray, hit: &Hit) -> SurfacePoint<'a> {
-    surface_point_at::<true>(scene, ray, hit)
-}
-
-/// [`surface_point`]; with `TEX == false` texture coordinates are not interpolated (`uv` is
-/// then the raw hit parametrisation), for scenes without textures.
-#[inline]
-pub fn surface_point_at<'a, const TEX: bool>(scene: &'a Scene, ray: &Ray, hit: &Hit) -> SurfacePoint<'a> {
+pub fn surface_point<'a, const TEX: bool>(scene: &'a Scene, ray: &Ray, hit: &Hit) -> SurfacePoint<'a> {
     let material = scene.material(hit.geom, hit.prim);
     let ng = hit.ng.normalize_or(-ray.d);
     match &scene.geometry[hit.geom as usize] {

@@ -33,12 +33,6 @@ impl Material {
         Material { name: name.into(), kind: MaterialKind::Diffuse { color: Texture::Constant(color) }, emission: Vec3::ZERO }
     }
 
-    /// The BSDF at surface coordinates `uv`.
-    #[inline]
-    pub fn bsdf(&self, uv: Vec2) -> Bsdf {
-        self.bsdf_at::<true>(uv)
-    }
-
     /// The BSDF at `uv`. With `TEX == false` the caller knows no texture is in use, so colours
     /// are read as the constants they are, without looking at `uv`.
     #[inline]
