@@ -1,11 +1,11 @@
 use crate::accel::AccelKind;
-use crate::film::{Checkpoint, FilmError, ImageFormat, checkpoint_path};
+use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
 use crate::integrator::{Estimator, KernelChoice, RenderControl, RenderSettings, render_controlled};
 use crate::limits::{self, MemoryLimit};
 use crate::scene::{DepthLimit, Effects, Scene};
 use crate::scene::format::MAX_IMAGE_SIDE;
 use clap::Args;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
@@ -68,31 +68,6 @@ fn parse_target_error(s: &str) -> Result<f32, String> {
         Ok(e) if e > 0.0 && e < 1.0 => Ok(e),
         _ => Err(format!("expected a relative error between 0 and 1 (e.g. 0.01), found {s:?}")),
     }
-}
-
-/// Fails early, before rendering, when the image could not be written: the folder is missing
-/// or not writable, or the output path is a folder. ([`crate::film::Film::save`] checks again
-/// and writes atomically.)
-fn check_output(path: &Path) -> Result<(), FilmError> {
-    let err = |reason: String| FilmError::Write { path: path.to_path_buf(), reason };
-    if path.is_dir() {
-        return Err(err("is a directory".into()));
-    }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    if !dir.exists() {
-        return Err(err(format!("folder {} does not exist", dir.display())));
-    }
-    if !dir.is_dir() {
-        return Err(err(format!("{} is not a folder", dir.display())));
-    }
-    let name = path.file_name().ok_or_else(|| err("no file name".into()))?.to_string_lossy().into_owned();
-    let probe = dir.join(format!(".{name}.{}.probe", std::process::id()));
-    std::fs::OpenOptions::new().write(true).create_new(true).open(&probe).map_err(|e| err(e.to_string()))?;
-    let _ = std::fs::remove_file(&probe);
-    Ok(())
 }
 
 /// Refuses an image, or image plus scene plus BVH, that would exceed the memory limit.
@@ -184,7 +159,7 @@ fn resume_command() -> String {
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     ImageFormat::from_path(&args.output)?;
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
-    check_output(&args.output)?;
+    crate::output::check_writable(&args.output)?;
     let scene = Scene::load(&args.scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
