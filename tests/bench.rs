@@ -2,18 +2,14 @@
 //! and every Embree strategy answers the benchmark rays as the naive loop does. No timing is
 //! asserted (speed is measured, not tested).
 
+mod common;
+
 use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn ember(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_ember")).args(args).output().expect("ember runs")
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ember-bench-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
 }
 
 fn scenes_dir() -> String {
@@ -41,7 +37,7 @@ fn num(row: &HashMap<String, String>, col: &str) -> f64 {
 
 #[test]
 fn quick_run_writes_the_matrix_plot_and_render_table() {
-    let out = tmpdir("quick");
+    let out = common::fresh_path("bench", "quick");
     let o = ember(&["bench", "--quick", "--out", out.to_str().unwrap(), "--scenes-dir", &scenes_dir()]);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}\n{}", stdout, String::from_utf8_lossy(&o.stderr));
@@ -119,7 +115,7 @@ fn quick_run_writes_the_matrix_plot_and_render_table() {
 
 #[test]
 fn specialize_table_has_every_scene_file() {
-    let out = tmpdir("specialize");
+    let out = common::fresh_path("bench", "specialize");
     let o = ember(&["bench", "--quick", "--specialize", "--out", out.to_str().unwrap(), "--scenes-dir", &scenes_dir()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let (_, rows) = read_csv(&out.join("specialize.csv"));
@@ -144,7 +140,7 @@ fn bad_bench_input_is_exit_2_and_names_the_problem() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.starts_with("error: --scene: unknown scene \"nosuch\""), "{err}");
 
-    let out = tmpdir("missing");
+    let out = common::fresh_path("bench", "missing");
     let o = ember(&["bench", "--scene", "no/such/model.obj", "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert_eq!(String::from_utf8_lossy(&o.stderr).trim(), "error: no/such/model.obj: no such file");

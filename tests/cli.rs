@@ -14,12 +14,6 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ember-cli-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
@@ -41,7 +35,7 @@ fn info_reports_counts_bounds_and_build_time() {
 
 #[test]
 fn render_writes_a_png_atomically() {
-    let d = tmpdir("render");
+    let d = common::fresh_dir("cli", "render");
     let out = d.join("teapot.png");
     let o = ember(&[
         "render",
@@ -63,7 +57,7 @@ fn render_writes_a_png_atomically() {
 
 #[test]
 fn exr_output_is_linear_float_and_matches_png() {
-    let d = tmpdir("exr");
+    let d = common::fresh_dir("cli", "exr");
     let (exr, png) = (d.join("o.exr"), d.join("o.png"));
     let scene = common::scene_path("cornell-area.toml");
     for out in [&exr, &png] {
@@ -79,7 +73,7 @@ fn exr_output_is_linear_float_and_matches_png() {
 
 #[test]
 fn environment_image_background_lights_the_scene() {
-    let d = tmpdir("env");
+    let d = common::fresh_dir("cli", "env");
     std::fs::copy(common::scene_path("earthmap.jpg"), d.join("env.jpg")).unwrap();
     let scene = write(
         &d,
@@ -129,7 +123,7 @@ const OVERFLOW: &str = "[camera]\nposition = [0.0, 0.3, 3.0]\nlook_at = [0.0, 0.
 
 #[test]
 fn strict_fails_on_non_finite_samples_and_writes_nothing() {
-    let d = tmpdir("strict");
+    let d = common::fresh_dir("cli", "strict");
     let scene = write(&d, "hot.toml", OVERFLOW);
     let out = d.join("hot.png");
     let args = ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "16", "--height", "16", "--spp", "4"];
@@ -157,7 +151,7 @@ fn strict_fails_on_non_finite_samples_and_writes_nothing() {
 
 #[test]
 fn degenerate_triangles_are_skipped_with_a_warning() {
-    let d = tmpdir("degenerate");
+    let d = common::fresh_dir("cli", "degenerate");
     let p = write(&d, "deg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 2 2\nv nan 0 0\nf 1 2 3\nf 1 1 2\nf 1 4 5\nf 4 4 4\n");
     let o = ember(&["info", p.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));

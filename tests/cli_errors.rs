@@ -26,13 +26,6 @@ fn stderr(o: &Output) -> String {
 }
 
 /// A fresh, empty folder for one test case.
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ember-cli-errors-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, contents).unwrap();
@@ -81,7 +74,7 @@ fn expect_render_error(scene: &Path, out: &Path, args: &[&str], env: &[(&str, &s
 /// Writes `toml` as `scene.toml` in a fresh folder and expects `render` to fail at `line`
 /// of it with `needle`.
 fn expect_scene_error(name: &str, toml: &str, line: Option<usize>, needle: &str) {
-    let d = tmpdir(name);
+    let d = common::fresh_dir("cli-errors", name);
     let scene = write(&d, "scene.toml", toml);
     expect_render_error(&scene, &d.join("out.png"), &[], &[], &at(&scene, line), needle);
 }
@@ -91,7 +84,7 @@ const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
 #[test]
 fn missing_file() {
-    let d = tmpdir("missing");
+    let d = common::fresh_dir("cli-errors", "missing");
     for name in ["no/such/file.toml", "no/such/file.obj", "no/such/file.dae"] {
         let p = PathBuf::from(name);
         expect_render_error(&p, &d.join("out.png"), &[], &[], &format!("error: {name}: "), "no such file");
@@ -103,7 +96,7 @@ fn missing_file() {
 
 #[test]
 fn unknown_scene_format() {
-    let d = tmpdir("format");
+    let d = common::fresh_dir("cli-errors", "format");
     let p = write(&d, "scene.txt", SPHERE_OK);
     expect_render_error(&p, &d.join("out.png"), &[], &[], &at(&p, None), "unknown scene format (expected .toml or .obj)");
 }
@@ -111,7 +104,7 @@ fn unknown_scene_format() {
 #[test]
 fn unreadable_file() {
     use std::os::unix::fs::PermissionsExt;
-    let d = tmpdir("unreadable");
+    let d = common::fresh_dir("cli-errors", "unreadable");
     let out = d.join("out.png");
 
     // Permission bits: only meaningful without the privilege to read any file (root).
@@ -143,7 +136,7 @@ fn unreadable_file() {
 
 #[test]
 fn directory_given_as_file() {
-    let d = tmpdir("dir");
+    let d = common::fresh_dir("cli-errors", "dir");
     let out = d.join("out.png");
     for name in ["folder.toml", "folder.obj"] {
         let p = d.join(name);
@@ -164,7 +157,7 @@ fn directory_given_as_file() {
 
 #[test]
 fn malformed_obj_line() {
-    let d = tmpdir("malformed-obj");
+    let d = common::fresh_dir("cli-errors", "malformed-obj");
     let out = d.join("out.png");
     for (text, line, needle) in [
         ("# a triangle\nv 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n", 4, "vertex position: \"zero\" is not a number"),
@@ -191,7 +184,7 @@ fn malformed_obj_line() {
 
 #[test]
 fn face_index_out_of_range() {
-    let d = tmpdir("range");
+    let d = common::fresh_dir("cli-errors", "range");
     let out = d.join("out.png");
     for (text, line, needle) in [
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n", 5, "face vertex index 7 is out of range (1 to 3 defined so far)"),
@@ -252,7 +245,7 @@ fn out_of_range_values() {
         Some(7),
         "cylinder p0 and p1 are the same point",
     );
-    let d = tmpdir("scale");
+    let d = common::fresh_dir("cli-errors", "scale");
     write(&d, "t.obj", TRIANGLE_OBJ);
     let scene = write(&d, "scene.toml", "[[meshes]]\nfile = \"t.obj\"\nscale = 0.0\n");
     expect_render_error(&scene, &d.join("out.png"), &[], &[], &at(&scene, Some(3)), "scale must not be 0");
@@ -264,7 +257,7 @@ fn nan_and_inf_values() {
     expect_scene_error("inf", &SPHERE_OK.replace("radius = 1.0", "radius = inf"), Some(5), "inf is not a finite number");
     expect_scene_error("neg-inf", &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[0.0, -inf, 0.0]"), Some(4), "-inf is not a finite number");
     expect_scene_error("overflow", &SPHERE_OK.replace("radius = 1.0", "radius = 1e39"), Some(5), "is not a finite number");
-    let d = tmpdir("nan-obj");
+    let d = common::fresh_dir("cli-errors", "nan-obj");
     let out = d.join("out.png");
     for (text, line, needle) in [
         // (A non-finite vertex *position* is not an error: its triangles are skipped with a
@@ -282,7 +275,7 @@ fn nan_and_inf_values() {
 fn unwritable_output_path() {
     use std::os::unix::fs::PermissionsExt;
     let scene = common::scene_path("spheres.toml");
-    let d = tmpdir("unwritable");
+    let d = common::fresh_dir("cli-errors", "unwritable");
     let cases = [
         (PathBuf::from("/nonexistent/dir/out.png"), "cannot write: folder /nonexistent/dir does not exist"),
         (write(&d, "file.txt", "x").join("out.png"), "is not a folder"),
@@ -320,7 +313,7 @@ fn unwritable_output_path() {
 #[test]
 fn unsupported_output_extension() {
     let scene = common::scene_path("teapot.obj");
-    let d = tmpdir("ext");
+    let d = common::fresh_dir("cli-errors", "ext");
     for name in ["out.bmp", "out", "out.png.txt"] {
         let out = d.join(name);
         expect_render_error(&scene, &out, &[], &[], &at(&out, None), "unsupported output format (use .png or .exr)");
@@ -329,7 +322,7 @@ fn unsupported_output_extension() {
 
 #[test]
 fn texture_errors() {
-    let d = tmpdir("texture");
+    let d = common::fresh_dir("cli-errors", "texture");
     let out = d.join("out.png");
     let textured = |file: &str| SPHERE_OK.replace("type = \"diffuse\"", &format!("type = \"diffuse\"\ntexture = \"{file}\""));
     let scene = write(&d, "missing.toml", textured("nothere.png"));
@@ -348,7 +341,7 @@ fn missing_mesh_file() {
 
 #[test]
 fn bad_flags() {
-    let d = tmpdir("flags");
+    let d = common::fresh_dir("cli-errors", "flags");
     let out = d.join("o.png");
     let scene = common::scene_path("spheres.toml");
     for (args, needle) in [
@@ -368,7 +361,7 @@ fn bad_flags() {
 
 #[test]
 fn memory_limits() {
-    let d = tmpdir("memory");
+    let d = common::fresh_dir("cli-errors", "memory");
     let out = d.join("out.png");
     let scene = write(&d, "scene.toml", SPHERE_OK);
     // The film.
@@ -428,7 +421,7 @@ fn memory_limits() {
 
 #[test]
 fn mtl_problems_are_located_warnings() {
-    let d = tmpdir("mtl");
+    let d = common::fresh_dir("cli-errors", "mtl");
     write(&d, "m.mtl", "newmtl red\nKd 1 0\n");
     let obj = write(&d, "t.obj", format!("mtllib m.mtl\nusemtl red\n{TRIANGLE_OBJ}"));
     let out = d.join("out.png");
@@ -441,7 +434,7 @@ fn mtl_problems_are_located_warnings() {
 
 #[test]
 fn progressive_render_flags() {
-    let d = tmpdir("progressive");
+    let d = common::fresh_dir("cli-errors", "progressive");
     let out = d.join("out.png");
     let scene = write(&d, "scene.toml", SPHERE_OK);
     for (args, needle) in [
@@ -458,7 +451,7 @@ fn progressive_render_flags() {
 
 #[test]
 fn damaged_checkpoint() {
-    let d = tmpdir("checkpoint");
+    let d = common::fresh_dir("cli-errors", "checkpoint");
     let out = d.join("out.png");
     let scene = write(&d, "scene.toml", SPHERE_OK);
     let ckpt = d.join("out.png.checkpoint");
@@ -475,7 +468,7 @@ fn damaged_checkpoint() {
 
 #[test]
 fn converge_errors() {
-    let d = tmpdir("converge");
+    let d = common::fresh_dir("cli-errors", "converge");
     let file = write(&d, "taken", "a file, not a folder");
     let scene = write(&d, "scene.toml", SPHERE_OK);
     let o = ember(&["converge", s(&scene), "--out", s(&file), "--width", "4", "--height", "4", "--max-spp", "1", "--variants", "nee-mis"]);

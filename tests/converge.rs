@@ -10,7 +10,7 @@ use ember::film::Film;
 use ember::integrator::Estimator;
 use ember::report::converge::{CSV_HEADER, Study, Variant, log_log_slope, spp_ladder};
 use ember::scene::Scene;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 #[test]
@@ -64,12 +64,6 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ember-converge-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
@@ -88,7 +82,7 @@ fn errors(csv: &str) -> Vec<String> {
 #[test]
 fn cli_writes_table_plots_and_a_reusable_reference() {
     let scene = common::scene_path("cornell-area.toml");
-    let out = tmpdir("run");
+    let out = common::fresh_path("converge", "run");
     let small = ["--width", "16", "--height", "12", "--max-spp", "4", "--reference-spp", "16"];
     let variants = ["--variants", "nee-mis,bsdf-uniform/no-rr,nee-mis/depth=1"];
     let o = ember(&[&["converge", s(&scene), "--out", s(&out)][..], &small, &variants].concat());
@@ -131,7 +125,7 @@ fn cli_writes_table_plots_and_a_reusable_reference() {
 
     // A second run measures against the saved reference: the same seeds give the same errors,
     // and no new reference is written.
-    let out2 = tmpdir("rerun");
+    let out2 = common::fresh_path("converge", "rerun");
     let r = out.join("reference.exr");
     let o = ember(&[&["converge", s(&scene), "--out", s(&out2), "--reference", s(&r)][..], &small, &variants].concat());
     assert!(o.status.success(), "{}", stderr(&o));
@@ -140,7 +134,7 @@ fn cli_writes_table_plots_and_a_reusable_reference() {
     assert!(!out2.join("reference.exr").exists());
 
     // A reference of another size is refused before anything is rendered or written.
-    let out3 = tmpdir("wrong-size");
+    let out3 = common::fresh_path("converge", "wrong-size");
     let o = ember(&["converge", s(&scene), "--out", s(&out3), "--reference", s(&r), "--width", "16", "--height", "16"]);
     assert_eq!(o.status.code(), Some(2));
     assert_eq!(stderr(&o).trim(), format!("error: {}: reference is 16x12 pixels but the study renders 16x16", r.display()));
@@ -153,7 +147,7 @@ fn cli_writes_table_plots_and_a_reusable_reference() {
 #[test]
 fn cli_refuses_a_missing_reference_and_unknown_variants() {
     let scene = common::scene_path("cornell-area.toml");
-    let out = tmpdir("refuse");
+    let out = common::fresh_path("converge", "refuse");
     let o = ember(&["converge", s(&scene), "--out", s(&out), "--reference", "no/such/ref.exr"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).starts_with("error: no/such/ref.exr: cannot read:"), "{}", stderr(&o));

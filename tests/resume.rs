@@ -10,7 +10,7 @@ use ember::film::{Checkpoint, CheckpointError, Film};
 use ember::integrator::{RenderControl, RenderError, RenderSettings, render, render_controlled};
 use ember::scene::Scene;
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
@@ -21,13 +21,6 @@ fn rays_traced(stderr: &[u8]) -> u64 {
     let at = text.find(" rays, ").unwrap_or_else(|| panic!("no ray count in {text}"));
     let start = text[..at].rfind('(').unwrap() + 1;
     text[start..at].parse().unwrap()
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ember-resume-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 /// Long enough (a few seconds on 2 cores) to be interrupted part-way.
@@ -63,7 +56,7 @@ fn start_and_signal(out: &Path, extra: &[&str], after: Duration, signal: &str) -
 
 #[test]
 fn interrupted_and_resumed_renders_equal_the_uninterrupted_one() {
-    let dir = temp_dir("signal");
+    let dir = common::fresh_dir("resume", "signal");
     let reference = dir.join("reference.exr");
     let done = ember(&reference, &[]).output().unwrap();
     assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
@@ -108,7 +101,7 @@ fn interrupted_and_resumed_renders_equal_the_uninterrupted_one() {
 
 #[test]
 fn resume_refuses_other_settings_and_other_scenes() {
-    let dir = temp_dir("refuse");
+    let dir = common::fresh_dir("resume", "refuse");
     let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
     let device = Device::new().unwrap();
     let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();

@@ -7,6 +7,21 @@ use glam::Vec3;
 use std::path::PathBuf;
 use std::sync::Arc;
 
+/// A folder path for one test, `ember-<group>-<name>-<pid>` in the temp dir, with whatever an
+/// earlier run left there removed: it does not exist yet.
+pub fn fresh_path(group: &str, name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ember-{group}-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// [`fresh_path`], created empty.
+pub fn fresh_dir(group: &str, name: &str) -> PathBuf {
+    let d = fresh_path(group, name);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
 /// Path of a file in `scenes/`.
 pub fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
