@@ -9,20 +9,9 @@ use ember::embree::{BuildOptions, Device};
 use ember::film::Film;
 use ember::integrator::{KernelChoice, RenderSettings, RenderStats, render};
 use ember::scene::{DepthLimit, Effects, Scene};
-use std::path::PathBuf;
 
 fn scene_from(name: &str, text: &str) -> Scene {
-    let dir = std::env::temp_dir().join(format!("ember-effects-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    for asset in ["teapot.obj", "earthmap.jpg"] {
-        let dst = dir.join(asset);
-        if !dst.exists() {
-            std::fs::copy(common::scene_path(asset), dst).unwrap();
-        }
-    }
-    let p: PathBuf = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    Scene::load(&p).unwrap_or_else(|e| panic!("{e}"))
+    Scene::load(&common::write_scene("effects", name, text)).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn on(e: &Effects) -> Vec<&'static str> {

@@ -9,21 +9,6 @@ use ember::film::Film;
 use ember::integrator::{Estimator, RenderSettings, render};
 use ember::scene::Scene;
 use glam::Vec3;
-use std::path::PathBuf;
-
-fn write_scene(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ember-render-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    for asset in ["teapot.obj", "cornell_box.obj", "cornell_box.mtl", "earthmap.jpg"] {
-        let dst = dir.join(asset);
-        if !dst.exists() {
-            std::fs::copy(common::scene_path(asset), dst).unwrap();
-        }
-    }
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
 
 fn embree_render(scene: &Scene, settings: &RenderSettings) -> Film {
     let device = Device::new().unwrap();
@@ -54,7 +39,7 @@ fn white_furnace_sphere_in_uniform_sky_is_one_everywhere() {
     // An albedo-1 diffuse sphere under uniform sky radiance 1 reflects exactly radiance 1:
     // every pixel (sphere or sky) must be 1. Tolerance: 1% per pixel (16384 spp), 0.2% for
     // the image mean.
-    let p = write_scene(
+    let p = common::write_scene("render", 
         "furnace.toml",
         r#"
         [camera]
@@ -86,7 +71,7 @@ fn diffuse_plane_under_point_light_matches_inverse_square_cosine() {
     // is the jittered position inside the pixel (about ±1% at 64 spp, so 1024 spp). Tolerance:
     // 1% per pixel.
     let (albedo, intensity, h) = (0.5f32, 40.0f32, 2.0f32);
-    let p = write_scene(
+    let p = common::write_scene("render", 
         "point.toml",
         &format!(
             r#"
@@ -146,7 +131,7 @@ fn plane_under_emissive_quad_matches_form_factor() {
     // light, E is the sum of four corner rectangles. Tolerances: the image mean within 1%,
     // 99% of pixels within 5% (1024 spp, Monte Carlo noise).
     let (albedo, le) = (0.8f64, 3.0f64);
-    let p = write_scene(
+    let p = common::write_scene("render", 
         "formfactor.toml",
         &format!(
             r#"

@@ -22,6 +22,22 @@ pub fn fresh_dir(group: &str, name: &str) -> PathBuf {
     d
 }
 
+/// Writes a scene file `name` into a folder shared by the tests of `group` in this process,
+/// beside copies of the assets sample scenes refer to (teapot, Cornell box, earth texture).
+pub fn write_scene(group: &str, name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ember-{group}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for asset in ["teapot.obj", "cornell_box.obj", "cornell_box.mtl", "earthmap.jpg"] {
+        let dst = dir.join(asset);
+        if !dst.exists() {
+            std::fs::copy(scene_path(asset), dst).unwrap();
+        }
+    }
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
 /// Path of a file in `scenes/`.
 pub fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
