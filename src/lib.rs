@@ -14,6 +14,7 @@ pub mod cli;
 pub mod embree;
 pub mod film;
 pub mod geometry;
+pub mod hash;
 pub mod integrator;
 pub mod light;
 pub mod limits;

@@ -7,6 +7,7 @@
 //! is written atomically, so a crash while writing leaves the previous checkpoint intact.
 
 use super::accum::{Accumulator, PixelState};
+use crate::hash::fnv1a;
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -50,10 +51,6 @@ pub fn checkpoint_path(output: &Path) -> PathBuf {
     output.with_file_name(name)
 }
 
-fn fnv(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
-}
-
 impl Checkpoint {
     pub fn save(&self, path: &Path) -> Result<(), CheckpointError> {
         let mut b = Vec::with_capacity(64 + self.settings.len() + self.accum.pixels.len() * 36);
@@ -71,7 +68,7 @@ impl Checkpoint {
                 b.extend_from_slice(&x.to_le_bytes());
             }
         }
-        let sum = fnv(&b);
+        let sum = fnv1a(&b);
         b.extend_from_slice(&sum.to_le_bytes());
         crate::output::write_file(path, &b)?;
         Ok(())
@@ -87,7 +84,7 @@ impl Checkpoint {
             return Err(corrupt("wrong header"));
         }
         let (body, tail) = b.split_at(b.len() - 8);
-        if fnv(body) != u64::from_le_bytes(tail.try_into().unwrap_or_default()) {
+        if fnv1a(body) != u64::from_le_bytes(tail.try_into().unwrap_or_default()) {
             return Err(corrupt("checksum mismatch: truncated or damaged"));
         }
         let mut r = Reader { b: body, at: 8 };

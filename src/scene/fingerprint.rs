@@ -6,18 +6,17 @@
 
 use super::{MaterialBinding, MaterialKind, Scene};
 use crate::geometry::Geometry;
+use crate::hash::Fnv1a;
 use crate::light::Background;
 use crate::texture::{Image, Texture};
 use glam::{Vec2, Vec3};
 
-/// FNV-1a, 64 bit: stable across builds and platforms (unlike std's `DefaultHasher`).
-struct Fnv(u64);
+/// [`Fnv1a`] (stable across builds) fed with the scene's values.
+struct Fnv(Fnv1a);
 
 impl Fnv {
     fn bytes(&mut self, b: &[u8]) {
-        for &x in b {
-            self.0 = (self.0 ^ x as u64).wrapping_mul(0x0000_0100_0000_01b3);
-        }
+        self.0.write(b);
     }
     fn u32(&mut self, x: u32) {
         self.bytes(&x.to_le_bytes());
@@ -67,7 +66,7 @@ impl Fnv {
 impl Scene {
     /// See the module documentation.
     pub fn fingerprint(&self) -> u64 {
-        let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+        let mut h = Fnv(Fnv1a::default());
         for g in &self.geometry {
             match g {
                 Geometry::Mesh(m) => {
@@ -133,6 +132,6 @@ impl Scene {
             other => h.str(&format!("{other:?}")),
         }
         h.str(&format!("{:?}", self.camera));
-        h.0
+        h.0.finish()
     }
 }
