@@ -44,8 +44,8 @@ pub(crate) fn radiance<const TEX: bool, const GLOSSY: bool, const GLASS: bool, c
     let s = ctx.settings;
     let use_nee = matches!(s.estimator, Estimator::NeeMis | Estimator::NeeOnly) && !ctx.lights.is_empty();
     let uniform_diffuse = s.estimator == Estimator::BsdfUniform;
-    let count_bsdf_emission = s.estimator != Estimator::NeeOnly;
     let mis = MIS && s.estimator == Estimator::NeeMis;
+    let found = FoundEmission { use_nee, count: s.estimator != Estimator::NeeOnly, mis };
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let mut specular = true; // camera rays count as specular: emission seen directly is kept
@@ -56,12 +56,11 @@ pub(crate) fn radiance<const TEX: bool, const GLOSSY: bool, const GLASS: bool, c
         *rays += 1;
         let Some(hit) = ctx.accel.intersect(&ray, 0.0, f32::INFINITY)? else {
             // Without non-delta lights the background is black.
-            let le = if MIS { ctx.scene.background.radiance(ray.d) } else { Vec3::ZERO };
-            if MIS && le != Vec3::ZERO {
-                if specular || !use_nee {
-                    l += beta * le;
-                } else if count_bsdf_emission {
-                    let w = if mis { power_heuristic(prev_pdf, ctx.lights.pdf_background()) } else { 1.0 };
+            if MIS {
+                let le = ctx.scene.background.radiance(ray.d);
+                if le != Vec3::ZERO
+                    && let Some(w) = found.weight(specular, prev_pdf, || ctx.lights.pdf_background())
+                {
                     l += beta * le * w;
                 }
             }
@@ -71,17 +70,12 @@ pub(crate) fn radiance<const TEX: bool, const GLOSSY: bool, const GLASS: bool, c
         let wo = -ray.d;
         let emission = sp.material.emission;
         // Without non-delta lights nothing emits.
-        if MIS && emission != Vec3::ZERO {
-            if specular || !use_nee {
-                l += beta * emission;
-            } else if count_bsdf_emission {
-                let w = if mis {
-                    power_heuristic(prev_pdf, ctx.lights.pdf_emitter(hit.geom, hit.prim, prev_p, sp.p, sp.ng))
-                } else {
-                    1.0
-                };
-                l += beta * emission * w;
-            }
+        if MIS
+            && emission != Vec3::ZERO
+            && let Some(w) =
+                found.weight(specular, prev_pdf, || ctx.lights.pdf_emitter(hit.geom, hit.prim, prev_p, sp.p, sp.ng))
+        {
+            l += beta * emission * w;
         }
         if depth >= ctx.max_depth {
             break;
@@ -159,6 +153,32 @@ pub(crate) fn radiance<const TEX: bool, const GLOSSY: bool, const GLASS: bool, c
         ray = Ray::new(offset_toward(sp.p, ng, wi), wi);
     }
     Ok(l)
+}
+
+/// How emission that a path's ray runs into (an emitter or the background) is counted.
+#[derive(Clone, Copy)]
+struct FoundEmission {
+    use_nee: bool,
+    /// The estimator counts emission found by BSDF sampling (all but NEE-only).
+    count: bool,
+    mis: bool,
+}
+
+impl FoundEmission {
+    /// The weight of emission found after a bounce sampled with density `prev_pdf`, or `None`
+    /// if it is not counted. After a specular bounce (or the camera), or without next-event
+    /// estimation, it counts fully; otherwise only if the estimator counts it, weighted by MIS
+    /// against `light_pdf`, the density with which next-event estimation picks it.
+    #[inline]
+    fn weight(self, specular: bool, prev_pdf: f32, light_pdf: impl FnOnce() -> f32) -> Option<f32> {
+        if specular || !self.use_nee {
+            Some(1.0)
+        } else if self.count {
+            Some(if self.mis { power_heuristic(prev_pdf, light_pdf()) } else { 1.0 })
+        } else {
+            None
+        }
+    }
 }
 
 /// Uniform sampling of the hemisphere above the shading normal (density 1/2π), evaluated with
