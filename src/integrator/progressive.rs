@@ -73,11 +73,13 @@ pub(super) fn run(
 ) -> Result<RenderResult, RenderError> {
     let start = Instant::now();
     let (w, h) = (settings.width, settings.height);
-    let fingerprint = if control.checkpoint.is_some() || control.resume.is_some() { scene.fingerprint() } else { 0 };
+    // Hashing the scene reads all of its data: done only when a checkpoint is read or written.
+    let fingerprint = std::sync::OnceLock::new();
+    let fingerprint = || *fingerprint.get_or_init(|| scene.fingerprint());
     let key = settings.image_key();
     let (mut accum, prior_elapsed, prior_nonfinite) = match control.resume {
         Some((path, c)) => {
-            c.check_matches(path, fingerprint, &key)?;
+            c.check_matches(path, fingerprint(), &key)?;
             (c.accum, c.elapsed, c.nonfinite)
         }
         None => (Accumulator::new(w, h), Duration::ZERO, 0),
@@ -120,7 +122,7 @@ pub(super) fn run(
     let save_checkpoint = |accum: &Accumulator, nonfinite: u64| -> Result<(), RenderError> {
         if let Some((path, _)) = control.checkpoint {
             let c = Checkpoint {
-                scene: fingerprint,
+                scene: fingerprint(),
                 settings: key.clone(),
                 nonfinite: prior_nonfinite + nonfinite,
                 elapsed: prior_elapsed + start.elapsed(),
