@@ -56,4 +56,8 @@ impl Accel for EmbreeAccel {
     fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
         Ok(self.scene.occluded(ray, tmin, tmax)?)
     }
+
+    fn as_embree(&self) -> Option<&EmbreeAccel> {
+        Some(self)
+    }
 }

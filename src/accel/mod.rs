@@ -31,6 +31,12 @@ pub trait Accel: Send + Sync {
     fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError>;
     /// Whether anything lies between `tmin` and `tmax` along the ray.
     fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError>;
+    /// This accelerator as Embree's, if it is: render kernels are compiled for
+    /// [`EmbreeAccel`] directly, so its queries inline into the path loop instead of going
+    /// through the trait object.
+    fn as_embree(&self) -> Option<&EmbreeAccel> {
+        None
+    }
 }
 
 /// Which strategy to build.

@@ -33,13 +33,20 @@ impl CallbackFailure {
         self.flag.store(true, Ordering::Release);
     }
 
-    #[inline]
+    /// After every query: one load on the fast path; the error is built out of line.
+    #[inline(always)]
     pub(super) fn check(&self) -> Result<(), EmbreeError> {
         if !self.flag.load(Ordering::Acquire) {
             return Ok(());
         }
+        Err(self.error())
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn error(&self) -> EmbreeError {
         let m = self.message.lock().unwrap_or_else(|e| e.into_inner());
-        Err(EmbreeError::CallbackPanic(m.clone().unwrap_or_default()))
+        EmbreeError::CallbackPanic(m.clone().unwrap_or_default())
     }
 }
 

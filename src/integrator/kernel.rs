@@ -121,5 +121,8 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     let lens = rng.next_2d();
     let cam = ctx.camera;
     let ray = if LENS { cam.ray(film, lens) } else { Ray::new(cam.position, cam.pinhole_dir(film)) };
-    radiance::<TEX, GLOSSY, GLASS, MIS>(ctx, ray, &mut rng, rays)
+    match ctx.accel.as_embree() {
+        Some(embree) => radiance::<_, TEX, GLOSSY, GLASS, MIS>(ctx, embree, ray, &mut rng, rays),
+        None => radiance::<_, TEX, GLOSSY, GLASS, MIS>(ctx, ctx.accel, ray, &mut rng, rays),
+    }
 }

@@ -31,12 +31,14 @@ pub struct PathContext<'a> {
     pub max_depth: u32,
 }
 
-/// Radiance along `ray`; `rays` counts the rays traced. The const switches are those of
+/// Radiance along `ray`, traced through `accel` (`ctx.accel`, possibly as its concrete type);
+/// `rays` counts the rays traced. The const switches are those of
 /// [`super::kernel::KernelChoice`]: each one off removes the code of an effect the scene
 /// lacks (see there).
 #[inline(always)]
-pub(crate) fn radiance<const TEX: bool, const GLOSSY: bool, const GLASS: bool, const MIS: bool>(
+pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const MIS: bool>(
     ctx: &PathContext,
+    accel: &A,
     mut ray: Ray,
     rng: &mut Rng,
     rays: &mut u64,
@@ -54,7 +56,7 @@ pub(crate) fn radiance<const TEX: bool, const GLOSSY: bool, const GLASS: bool, c
     let mut depth = 0u32;
     loop {
         *rays += 1;
-        let Some(hit) = ctx.accel.intersect(&ray, 0.0, f32::INFINITY)? else {
+        let Some(hit) = accel.intersect(&ray, 0.0, f32::INFINITY)? else {
             // Without non-delta lights the background is black.
             if MIS {
                 let le = ctx.scene.background.radiance(ray.d);
@@ -111,7 +113,7 @@ pub(crate) fn radiance<const TEX: bool, const GLOSSY: bool, const GLASS: bool, c
                         None => (ls.wi, f32::INFINITY),
                     };
                     *rays += 1;
-                    if !ctx.accel.occluded(&Ray::new(o, d), 0.0, tmax)? {
+                    if !accel.occluded(&Ray::new(o, d), 0.0, tmax)? {
                         let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l)) };
                         l += beta * f * ls.radiance * (w / ls.pdf);
                     }
