@@ -12,6 +12,7 @@ pub mod camera;
 pub mod check;
 pub mod cli;
 pub mod embree;
+pub mod fastmath;
 pub mod film;
 pub mod geometry;
 pub mod hash;

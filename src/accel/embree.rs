@@ -57,6 +57,21 @@ impl Accel for EmbreeAccel {
         Ok(self.scene.occluded(ray, tmin, tmax)?)
     }
 
+    #[inline(always)]
+    fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
+        self.scene.intersect_deferred(ray, tmin, tmax)
+    }
+
+    #[inline(always)]
+    fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
+        self.scene.occluded_deferred(ray, tmin, tmax)
+    }
+
+    #[inline(always)]
+    fn deferred_error(&self) -> Result<(), AccelError> {
+        Ok(self.scene.callback_failure()?)
+    }
+
     fn as_embree(&self) -> Option<&EmbreeAccel> {
         Some(self)
     }

@@ -31,6 +31,14 @@ pub trait Accel: Send + Sync {
     fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError>;
     /// Whether anything lies between `tmin` and `tmax` along the ray.
     fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError>;
+    /// [`Accel::intersect`] for tight loops: an error is not returned here but by the next
+    /// [`Accel::deferred_error`] (a loop checks once per path, not once per ray). After an
+    /// error the answers are meaningless; they are discarded with the path.
+    fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit>;
+    /// [`Accel::occluded`] for tight loops (see [`Accel::intersect_deferred`]).
+    fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool;
+    /// The error of any deferred query so far (errors are sticky).
+    fn deferred_error(&self) -> Result<(), AccelError>;
     /// This accelerator as Embree's, if it is: render kernels are compiled for
     /// [`EmbreeAccel`] directly, so its queries inline into the path loop instead of going
     /// through the trait object.
@@ -62,10 +70,19 @@ impl AccelKind {
     /// Builds this accelerator over `geometry` (Embree: on a new default device, with the
     /// default build options; the scene keeps its device alive).
     pub fn build(self, geometry: &[crate::geometry::Geometry]) -> Result<Box<dyn Accel>, crate::embree::EmbreeError> {
+        self.build_with(geometry, crate::embree::BuildOptions::default())
+    }
+
+    /// [`AccelKind::build`] with Embree's build `options` (ignored by the naive loop).
+    pub fn build_with(
+        self,
+        geometry: &[crate::geometry::Geometry],
+        options: crate::embree::BuildOptions,
+    ) -> Result<Box<dyn Accel>, crate::embree::EmbreeError> {
         Ok(match self {
             AccelKind::Embree => {
                 let device = crate::embree::Device::new()?;
-                Box::new(EmbreeAccel::new(&device, geometry, crate::embree::BuildOptions::default())?)
+                Box::new(EmbreeAccel::new(&device, geometry, options)?)
             }
             AccelKind::Naive => Box::new(NaiveAccel::new(geometry)),
         })

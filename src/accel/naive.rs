@@ -36,6 +36,19 @@ impl Accel for NaiveAccel {
     }
 
     fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError> {
+        Ok(self.intersect_deferred(ray, tmin, tmax))
+    }
+
+    fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
+        Ok(self.occluded_deferred(ray, tmin, tmax))
+    }
+
+    /// The naive loop cannot fail: there is never a deferred error.
+    fn deferred_error(&self) -> Result<(), AccelError> {
+        Ok(())
+    }
+
+    fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut tmax = tmax;
         let wt = WatertightRay::new(ray);
@@ -54,17 +67,16 @@ impl Accel for NaiveAccel {
                 Prims::Cylinders(c) => closest_shape(c, ray, tmin, &mut tmax, geom, &mut best),
             }
         }
-        Ok(best)
+        best
     }
 
-    fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
+    fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
         let wt = WatertightRay::new(ray);
-        let hit = self.geometry.iter().any(|g| match g {
+        self.geometry.iter().any(|g| match g {
             Prims::Triangles(tris) => tris.iter().any(|&[a, b, c]| wt.intersect(a, b, c, tmin, tmax).is_some()),
             Prims::Spheres(s) => s.iter().any(|p| p.occludes(ray, tmin, tmax)),
             Prims::Cylinders(c) => c.iter().any(|p| p.occludes(ray, tmin, tmax)),
-        });
-        Ok(hit)
+        })
     }
 }
 

@@ -54,11 +54,33 @@ impl Accel for RecordingAccel<'_> {
         self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: true });
         self.inner.occluded(ray, tmin, tmax)
     }
+
+    fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
+        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: false });
+        self.inner.intersect_deferred(ray, tmin, tmax)
+    }
+
+    fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
+        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: true });
+        self.inner.occluded_deferred(ray, tmin, tmax)
+    }
+
+    fn deferred_error(&self) -> Result<(), AccelError> {
+        self.inner.deferred_error()
+    }
 }
 
 /// One parallel pass of `queries` through `accel` (on the current rayon pool); returns the
-/// number of hits.
+/// number of hits. Embree is called directly (the cheapest way the path tracer calls it: no
+/// trait object, errors checked once per chunk), so that replay measures Embree alone.
 pub fn replay(accel: &dyn Accel, queries: &[RecordedQuery]) -> Result<usize, AccelError> {
+    match accel.as_embree() {
+        Some(embree) => replay_on(embree, queries),
+        None => replay_on(accel, queries),
+    }
+}
+
+fn replay_on<A: Accel + ?Sized>(accel: &A, queries: &[RecordedQuery]) -> Result<usize, AccelError> {
     queries
         .par_chunks(512)
         .try_fold(
@@ -66,11 +88,12 @@ pub fn replay(accel: &dyn Accel, queries: &[RecordedQuery]) -> Result<usize, Acc
             |mut hits, chunk| {
                 for q in chunk {
                     hits += if q.occlusion {
-                        accel.occluded(&q.ray, q.tmin, q.tmax)?
+                        accel.occluded_deferred(&q.ray, q.tmin, q.tmax)
                     } else {
-                        accel.intersect(&q.ray, q.tmin, q.tmax)?.is_some()
+                        accel.intersect_deferred(&q.ray, q.tmin, q.tmax).is_some()
                     } as usize;
                 }
+                accel.deferred_error()?;
                 Ok(hits)
             },
         )

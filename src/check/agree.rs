@@ -132,6 +132,15 @@ mod tests {
         fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
             self.0.occluded(ray, tmin, tmax)
         }
+        fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
+            self.0.intersect_deferred(ray, tmin, tmax).map(|h| Hit { t: h.t * 1.01, ..h })
+        }
+        fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
+            self.0.occluded_deferred(ray, tmin, tmax)
+        }
+        fn deferred_error(&self) -> Result<(), AccelError> {
+            Ok(())
+        }
     }
 
     #[test]

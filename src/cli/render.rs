@@ -1,4 +1,5 @@
 use crate::accel::AccelKind;
+use crate::embree::{BuildOptions, BuildQuality};
 use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
 use crate::integrator::{Estimator, KernelChoice, RenderControl, RenderSettings, render_controlled};
 use crate::limits::{self, MemoryLimit};
@@ -40,6 +41,14 @@ pub struct RenderArgs {
     /// Intersection strategy: embree or naive.
     #[arg(long, default_value = "embree")]
     pub accel: AccelKind,
+    /// Embree BVH build quality: low, medium or high (`ember bench` measures each).
+    #[arg(long, default_value = "medium")]
+    pub bvh_quality: BuildQuality,
+    /// Build the Embree BVH without RTC_SCENE_FLAG_ROBUST, as Embree's own tutorials do:
+    /// faster, but a ray passing exactly through an edge shared by two triangles can miss both
+    /// (hard case axis-parallel-rays).
+    #[arg(long)]
+    pub no_robust: bool,
     /// Adaptive sampling: stop sampling a pixel once its estimated relative error is below
     /// this (e.g. 0.01); --spp is then the most a pixel gets [scene's render.spp, else 1024].
     #[arg(long, value_parser = parse_target_error)]
@@ -181,7 +190,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None
     };
-    let accel = args.accel.build(&scene.geometry)?;
+    let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
+    let accel = args.accel.build_with(&scene.geometry, bvh)?;
     let effects = scene.effects();
     eprintln!("{effects}");
     eprintln!("{}", describe_plan(&effects, settings.max_depth, settings.specialize));

@@ -17,6 +17,28 @@ pub enum BuildQuality {
     High,
 }
 
+impl std::str::FromStr for BuildQuality {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "low" => Ok(BuildQuality::Low),
+            "medium" => Ok(BuildQuality::Medium),
+            "high" => Ok(BuildQuality::High),
+            _ => Err(format!("unknown BVH quality {s:?} (expected low, medium or high)")),
+        }
+    }
+}
+
+impl std::fmt::Display for BuildQuality {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            BuildQuality::Low => "low",
+            BuildQuality::Medium => "medium",
+            BuildQuality::High => "high",
+        })
+    }
+}
+
 /// How a scene is built. The default is medium quality, robust, not compact.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BuildOptions {
@@ -249,6 +271,35 @@ impl Scene {
     /// Bounds of everything in the scene, as Embree computed them.
     pub fn bounds(&self) -> Aabb {
         self.bounds
+    }
+
+    /// Closest hit with `tmin <= t <= tmax`, without the callback-failure check: for loops
+    /// that call [`Scene::callback_failure`] once after a batch of queries (a failure is
+    /// sticky, so none is missed; answers given after one are discarded with the batch).
+    #[inline(always)]
+    pub fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
+        let mut mem = RayHitMem::new(ray, tmin, tmax);
+        // SAFETY: committed scene (Scene is only made by commit); `mem` is initialised,
+        // 16-byte aligned and as large as the running library's RTCRayHit (layout.rs).
+        unsafe { ffi::intersect1(self.scene.raw, &mut mem) };
+        mem.hit()
+    }
+
+    /// [`Scene::occluded`] without the callback-failure check (see
+    /// [`Scene::intersect_deferred`]).
+    #[inline(always)]
+    pub fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
+        let mut r = rtc_ray(ray, tmin, tmax);
+        // SAFETY: committed scene; `r` is an initialised RTCRay (the same 48 bytes in every
+        // Embree version).
+        unsafe { ffi::occluded1(self.scene.raw, &mut r) };
+        r.tfar == f32::NEG_INFINITY
+    }
+
+    /// The error of the first user-geometry callback that panicked on this scene, if any.
+    #[inline(always)]
+    pub fn callback_failure(&self) -> Result<(), EmbreeError> {
+        self.scene.failure.check()
     }
 
     /// Closest hit with `tmin <= t <= tmax`.

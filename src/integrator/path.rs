@@ -56,7 +56,7 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
     let mut depth = 0u32;
     loop {
         *rays += 1;
-        let Some(hit) = accel.intersect(&ray, 0.0, f32::INFINITY)? else {
+        let Some(hit) = accel.intersect_deferred(&ray, 0.0, f32::INFINITY) else {
             // Without non-delta lights the background is black.
             if MIS {
                 let le = ctx.scene.background.radiance(ray.d);
@@ -113,7 +113,7 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
                         None => (ls.wi, f32::INFINITY),
                     };
                     *rays += 1;
-                    if !accel.occluded(&Ray::new(o, d), 0.0, tmax)? {
+                    if !accel.occluded_deferred(&Ray::new(o, d), 0.0, tmax) {
                         let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l)) };
                         l += beta * f * ls.radiance * (w / ls.pdf);
                     }
@@ -154,6 +154,8 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         }
         ray = Ray::new(offset_toward(sp.p, ng, wi), wi);
     }
+    // Queries report errors (a panicked user-geometry callback) once per path.
+    accel.deferred_error()?;
     Ok(l)
 }
 

@@ -166,12 +166,14 @@ impl LightSet {
         self.lights.iter().all(|l| matches!(l, Light::Point(_)))
     }
 
+    #[inline]
     fn choose(&self, u: f32) -> usize {
         let i = self.cdf.partition_point(|&c| c <= u);
         i.min(self.lights.len() - 1)
     }
 
     /// Samples a light and a direction toward it from `p`.
+    #[inline]
     pub fn sample(&self, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
         if self.lights.is_empty() {
             return None;

@@ -1,7 +1,9 @@
 //! Lambertian reflection with cosine-weighted hemisphere sampling (Malley's method: a uniform
 //! point on the unit disk projected up onto the hemisphere).
 
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::FRAC_1_PI;
+
+use crate::fastmath::sin_cos_turns;
 
 use glam::{Vec2, Vec3};
 
@@ -14,18 +16,22 @@ pub(super) struct Diffuse {
 }
 
 impl Diffuse {
+    #[inline]
     pub(super) fn new(albedo: Vec3) -> Self {
         Diffuse { albedo }
     }
 
+    #[inline]
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if same_hemisphere_above(wo, wi) { self.albedo * FRAC_1_PI } else { Vec3::ZERO }
     }
 
+    #[inline]
     pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if same_hemisphere_above(wo, wi) { cosine_hemisphere_pdf(wi) } else { 0.0 }
     }
 
+    #[inline]
     pub(super) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= MIN_COS {
             return None;
@@ -37,14 +43,16 @@ impl Diffuse {
 
 /// A direction in the upper hemisphere with density cos θ / π, for `u` in [0, 1)².
 /// cos θ = √(1 − u.x) ≥ 2⁻¹² for f32 inputs below 1, so the result is never in the plane.
+#[inline]
 pub(super) fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
     let r = u.x.sqrt();
-    let (sin_phi, cos_phi) = (2.0 * PI * u.y).sin_cos();
+    let (sin_phi, cos_phi) = sin_cos_turns(u.y);
     let z = (1.0 - u.x).max(0.0).sqrt();
     Vec3::new(r * cos_phi, r * sin_phi, z)
 }
 
 /// The density of [`sample_cosine_hemisphere`]: cos θ / π (0 below the horizon).
+#[inline]
 pub(super) fn cosine_hemisphere_pdf(wi: Vec3) -> f32 {
     wi.z.max(0.0) * FRAC_1_PI
 }

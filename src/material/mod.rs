@@ -78,6 +78,7 @@ pub struct BsdfSample {
 
 impl Bsdf {
     /// f(wo, wi) for the non-delta part (0 for delta-only BSDFs). Not multiplied by cos.
+    #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         match *self {
             Bsdf::Diffuse { albedo } => Diffuse::new(albedo).eval(wo, wi),
@@ -89,6 +90,7 @@ impl Bsdf {
 
     /// Solid-angle pdf that [`sample`](Self::sample) would produce wi through its non-delta
     /// lobes (0 for pure delta).
+    #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match *self {
             Bsdf::Diffuse { albedo } => Diffuse::new(albedo).pdf(wo, wi),
@@ -104,6 +106,7 @@ impl Bsdf {
     ///
     /// For non-delta samples, `f` and `pdf` are computed at the returned `wi` by the very code
     /// of [`eval`](Self::eval) and [`pdf`](Self::pdf), so MIS weights agree exactly.
+    #[inline]
     pub fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
         let s = match *self {
             Bsdf::Diffuse { albedo } => Diffuse::new(albedo).sample(wo, u),
@@ -118,6 +121,7 @@ impl Bsdf {
     }
 
     /// True if every lobe is delta (mirror conductor, glass): next-event estimation is useless.
+    #[inline]
     pub fn is_delta(&self) -> bool {
         match *self {
             Bsdf::Diffuse { .. } | Bsdf::Plastic { .. } => false,
@@ -127,6 +131,7 @@ impl Bsdf {
     }
 
     /// True if the BSDF transmits (light can leave on the other side), i.e. Dielectric.
+    #[inline]
     pub fn is_transmissive(&self) -> bool {
         matches!(self, Bsdf::Dielectric { .. })
     }
