@@ -8,11 +8,13 @@ pub mod format;
 mod input;
 mod material;
 mod obj;
+mod roulette;
 
 pub use effects::{DepthLimit, Effects};
 pub use error::SceneError;
 pub use material::{Material, MaterialKind};
 pub use obj::{ObjFile, ObjMesh, load_obj, parse_obj};
+pub use roulette::{RR_THROUGHPUT, RrDepth, throughput_depth};
 
 use crate::camera::Camera;
 use crate::geometry::{Aabb, Geometry};
