@@ -61,7 +61,7 @@ pub struct RenderDefaults {
     pub height: Option<u32>,
     pub spp: Option<u32>,
     pub max_depth: Option<u32>,
-    pub rr_depth: Option<u32>,
+    pub rr_depth: Option<RrDepth>,
     pub seed: Option<u64>,
 }
 
