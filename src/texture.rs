@@ -87,6 +87,11 @@ impl Image {
     pub fn mean(&self) -> Vec3 {
         self.pixels.iter().copied().sum::<Vec3>() / self.pixels.len().max(1) as f32
     }
+
+    /// The largest value of each channel over all texels (bilinear lookups never exceed it).
+    pub fn max(&self) -> Vec3 {
+        self.pixels.iter().copied().fold(Vec3::ZERO, Vec3::max)
+    }
 }
 
 /// A colour that may vary over a surface.
@@ -114,6 +119,15 @@ impl Texture {
     /// Whether the value is the same everywhere.
     pub fn is_constant(&self) -> bool {
         matches!(self, Texture::Constant(_))
+    }
+
+    /// The largest value of each channel anywhere on the surface.
+    pub fn max(&self) -> Vec3 {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Image(img) => img.max(),
+            Texture::Checker { a, b, .. } => a.max(*b),
+        }
     }
 
     /// Average colour (for light power estimates and reports).

@@ -352,7 +352,7 @@ fn bad_flags() {
         (&["--threads", "0"], "--threads"),
         (&["--accel", "octree"], "--accel"),
         (&["--estimator", "magic"], "--estimator"),
-        (&["--rr-depth", "banana"], "--rr-depth: expected a number or \"off\", found \"banana\""),
+        (&["--rr-depth", "banana"], "--rr-depth: expected a number, \"off\" or \"auto\", found \"banana\""),
         (&["--seed", "x"], "--seed"),
     ] {
         expect_render_error(&scene, &out, args, &[], "error: ", needle);

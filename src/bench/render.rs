@@ -49,7 +49,7 @@ impl RenderConfig {
             height,
             spp: self.spp,
             max_depth: r.max_depth.unwrap_or(d.max_depth),
-            rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
+            rr_depth: r.rr_depth.unwrap_or_default(),
             seed: r.seed.unwrap_or(d.seed),
             threads,
             progress: false,

@@ -6,7 +6,7 @@ use crate::accel::{Accel, EmbreeAccel, NaiveAccel};
 use crate::embree::{BuildOptions, Device};
 use crate::film::Film;
 use crate::geometry::Geometry;
-use crate::integrator::{Estimator, RenderSettings, render};
+use crate::integrator::{Estimator, RenderSettings, RrDepth, render};
 use crate::scene::Scene;
 use glam::Vec3;
 use std::cell::Cell;
@@ -40,14 +40,15 @@ impl Lab {
         self.nonfinite.set(self.nonfinite.get() + n);
     }
 
-    /// Settings for a `w` × `h` image at `spp`; seed 7, all threads, no progress bar.
+    /// Settings for a `w` × `h` image at `spp`; seed 7, all threads, no progress bar, the
+    /// default Russian roulette (chosen from the scene).
     pub fn settings(&self, w: u32, h: u32, spp: u32) -> RenderSettings {
         RenderSettings { width: w, height: h, spp, seed: 7, progress: false, ..RenderSettings::default() }
     }
 
     /// One-bounce furnace settings: BSDF sampling only, one bounce, no Russian roulette.
     pub fn bsdf_settings(&self, w: u32, h: u32, spp: u32, max_depth: u32) -> RenderSettings {
-        RenderSettings { estimator: Estimator::BsdfOnly, max_depth, rr_depth: u32::MAX, ..self.settings(w, h, spp) }
+        RenderSettings { estimator: Estimator::BsdfOnly, max_depth, rr_depth: RrDepth::Off, ..self.settings(w, h, spp) }
     }
 
     pub fn embree(&self, scene: &Scene) -> Result<EmbreeAccel, CheckError> {

@@ -42,9 +42,15 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     );
     println!("embree:     {} ({} bindings, {})", device.version(), device.backend(), device.ray_hit_layout());
     let effects = scene.effects();
-    let max_depth = scene.render.max_depth.unwrap_or(crate::integrator::RenderSettings::default().max_depth);
+    let d = crate::integrator::RenderSettings::default();
+    let r = &scene.render;
+    let settings = crate::integrator::RenderSettings {
+        max_depth: r.max_depth.unwrap_or(d.max_depth),
+        rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
+        ..d
+    };
     println!("{effects}");
-    println!("{}", super::render::describe_plan(&effects, max_depth, true));
+    println!("{}", super::render::describe_plan(&effects, &settings));
     println!("bvh build:  {:.2} ms (medium quality)", accel.build_time().as_secs_f64() * 1e3);
     Ok(())
 }

@@ -1,7 +1,7 @@
 use crate::accel::AccelKind;
 use crate::embree::{BuildOptions, BuildQuality};
 use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
-use crate::integrator::{Estimator, KernelChoice, RenderControl, RenderSettings, render_controlled};
+use crate::integrator::{Estimator, KernelChoice, RenderControl, RenderSettings, RrDepth, render_controlled};
 use crate::limits::{self, MemoryLimit};
 use crate::scene::{DepthLimit, Effects, Scene};
 use crate::scene::format::MAX_IMAGE_SIDE;
@@ -29,7 +29,8 @@ pub struct RenderArgs {
     /// Maximum bounces: 0 = emitters only, 1 = direct light [scene's render.max_depth, else 8].
     #[arg(long)]
     pub max_depth: Option<u32>,
-    /// Russian roulette after this many bounces; "off" disables it [scene's, else 3].
+    /// Russian roulette after this many bounces; "off" disables it; "auto" chooses from the
+    /// scene's albedo [scene's render.rr_depth, else auto].
     #[arg(long)]
     pub rr_depth: Option<String>,
     /// Worker threads [all cores].
@@ -115,8 +116,7 @@ fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> 
     let d = RenderSettings::default();
     let r = &scene.render;
     let rr_depth = match args.rr_depth.as_deref() {
-        Some("off") => u32::MAX,
-        Some(s) => s.parse().map_err(|_| anyhow::anyhow!("--rr-depth: expected a number or \"off\", found {s:?}"))?,
+        Some(s) => s.parse::<RrDepth>().map_err(|e| anyhow::anyhow!("--rr-depth: {e}"))?,
         None => r.rr_depth.unwrap_or(d.rr_depth),
     };
     Ok(RenderSettings {
@@ -194,7 +194,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let accel = args.accel.build_with(&scene.geometry, bvh)?;
     let effects = scene.effects();
     eprintln!("{effects}");
-    eprintln!("{}", describe_plan(&effects, settings.max_depth, settings.specialize));
+    eprintln!("{}", describe_plan(&effects, &settings));
     install_signal_handler();
     let control = RenderControl {
         stop: Some(&STOP),
@@ -286,9 +286,11 @@ impl std::str::FromStr for CliDuration {
     }
 }
 
-/// `kernel: …; path depth N (why)`: what a render with these settings runs.
-pub(crate) fn describe_plan(effects: &Effects, max_depth: u32, specialize: bool) -> String {
-    let (kernel, used) = KernelChoice::plan(effects, max_depth, specialize);
+/// `kernel: …; path depth N (why); russian roulette …`: what a render with these settings
+/// runs (only `max_depth`, `rr_depth` and `specialize` of `settings` matter).
+pub(crate) fn describe_plan(effects: &Effects, settings: &RenderSettings) -> String {
+    let max_depth = settings.max_depth;
+    let (kernel, used) = KernelChoice::plan(effects, max_depth, settings.specialize);
     let depth = if used == max_depth {
         format!("{used} (--max-depth)")
     } else {
@@ -300,5 +302,22 @@ pub(crate) fn describe_plan(effects: &Effects, max_depth: u32, specialize: bool)
             DepthLimit::Unbounded => format!("{used}"),
         }
     };
-    format!("kernel: {kernel}; path depth {depth}")
+    let rr = match (settings.rr_depth, settings.rr_start(effects)) {
+        (RrDepth::Off, _) => "russian roulette off (--rr-depth off)".to_string(),
+        (RrDepth::After(n), _) => format!("russian roulette from depth {n} (--rr-depth {n})"),
+        (RrDepth::Auto, Some(k)) => format!("russian roulette from depth {k} (scene albedo ≤ {:.2})", effects.albedo),
+        (RrDepth::Auto, None) => {
+            let why = match crate::scene::throughput_depth(effects.albedo) {
+                _ if !effects.scattering => "nothing scatters light".to_string(),
+                None => format!("scene albedo {:.2}: throughput never falls to 1/2", effects.albedo),
+                Some(k) => format!(
+                    "scene albedo ≤ {:.2}: it would start at depth {k}, the path depth is {}",
+                    effects.albedo,
+                    effects.depth_limit().apply(max_depth)
+                ),
+            };
+            format!("russian roulette off ({why})")
+        }
+    };
+    format!("kernel: {kernel}; path depth {depth}; {rr}")
 }

@@ -14,6 +14,7 @@ pub use surface::{SurfacePoint, surface_point};
 use crate::accel::{Accel, AccelError};
 use crate::film::Film;
 use crate::scene::{Effects, Scene};
+pub use crate::scene::RrDepth;
 use std::time::Duration;
 
 /// Which estimator of the rendering equation to use.
@@ -70,8 +71,9 @@ pub struct RenderSettings {
     pub spp: u32,
     /// Maximum number of bounces: 0 shows emitters only, 1 is direct lighting.
     pub max_depth: u32,
-    /// Russian roulette starts after this many bounces (`u32::MAX`: never).
-    pub rr_depth: u32,
+    /// When Russian roulette starts: chosen from the scene ([`Effects::rr_start`]), after a
+    /// given number of bounces, or never.
+    pub rr_depth: RrDepth,
     pub seed: u64,
     /// Worker threads (`None`: all cores).
     pub threads: Option<usize>,
@@ -87,15 +89,22 @@ pub struct RenderSettings {
 }
 
 impl RenderSettings {
-    /// Everything that changes the image, as `key=value` words (thread count, progress display
-    /// and kernel choice do not change it). Checkpoints record this.
-    pub fn image_key(&self) -> String {
-        let rr = if self.rr_depth == u32::MAX { "off".to_string() } else { self.rr_depth.to_string() };
+    /// Everything that changes the image of a scene with `effects`, as `key=value` words
+    /// (thread count, progress display and kernel choice do not change it; the Russian-roulette
+    /// start is the one in force, [`RenderSettings::rr_start`]). Checkpoints record this.
+    pub fn image_key(&self, effects: &Effects) -> String {
+        let rr = self.rr_start(effects).map_or("off".to_string(), |d| d.to_string());
         let te = self.target_error.map_or("none".to_string(), |e| e.to_string());
         format!(
             "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} target-error={te}",
             self.width, self.height, self.spp, self.max_depth, self.seed, self.estimator
         )
+    }
+
+    /// The depth from which Russian roulette runs in a render of a scene with `effects`
+    /// (`None`: never): the same for every kernel.
+    pub fn rr_start(&self, effects: &Effects) -> Option<u32> {
+        self.rr_depth.resolve(effects, self.max_depth)
     }
 }
 
@@ -106,7 +115,7 @@ impl Default for RenderSettings {
             height: 480,
             spp: 64,
             max_depth: 8,
-            rr_depth: 3,
+            rr_depth: RrDepth::Auto,
             seed: 0,
             threads: None,
             estimator: Estimator::NeeMis,
@@ -134,6 +143,8 @@ pub struct RenderStats {
     pub kernel: KernelChoice,
     /// The bounce limit used (the user's, or less where the scene cannot use more).
     pub max_depth: u32,
+    /// The depth from which Russian roulette ran (`None`: it did not).
+    pub rr_start: Option<u32>,
     /// (min, mean, max) samples per pixel.
     pub spp: (u32, f64, u32),
     /// (mean, max) over pixels of the estimated relative standard error.
@@ -151,6 +162,7 @@ impl Default for RenderStats {
             effects: Effects::default(),
             kernel: KernelChoice::GENERAL,
             max_depth: 0,
+            rr_start: None,
             spp: (0, 0.0, 0),
             error_estimate: (f64::INFINITY, f64::INFINITY),
         }

@@ -29,6 +29,9 @@ pub struct PathContext<'a> {
     pub settings: &'a RenderSettings,
     /// Bounce limit in force (the user's, or less where the scene cannot use more).
     pub max_depth: u32,
+    /// Russian roulette runs after this many bounces (`u32::MAX`: never); resolved from
+    /// [`RenderSettings::rr_depth`] for the scene.
+    pub rr_depth: u32,
 }
 
 /// Radiance along `ray`, traced through `accel` (`ctx.accel`, possibly as its concrete type);
@@ -138,7 +141,7 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         prev_pdf = bs.pdf;
         prev_p = sp.p;
         depth += 1;
-        if depth >= s.rr_depth {
+        if depth >= ctx.rr_depth {
             let q = (1.0 - beta.max_element()).max(0.05);
             if rng.next_f32() < q {
                 break;

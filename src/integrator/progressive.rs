@@ -76,7 +76,8 @@ pub(super) fn run(
     // Hashing the scene reads all of its data: done only when a checkpoint is read or written.
     let fingerprint = std::sync::OnceLock::new();
     let fingerprint = || *fingerprint.get_or_init(|| scene.fingerprint());
-    let key = settings.image_key();
+    let effects = scene.effects();
+    let key = settings.image_key(&effects);
     let (mut accum, prior_elapsed, prior_nonfinite) = match control.resume {
         Some((path, c)) => {
             c.check_matches(path, fingerprint(), &key)?;
@@ -86,9 +87,10 @@ pub(super) fn run(
     };
     let camera = scene.camera(w as f32 / h as f32);
     let lights = scene.light_set();
-    let effects = scene.effects();
     let (kernel, max_depth) = KernelChoice::plan(&effects, settings.max_depth, settings.specialize);
-    let mut stats = RenderStats { effects, kernel, max_depth, ..Default::default() };
+    // An estimator setting, not a kernel switch: the same whether specialised or not.
+    let rr_start = settings.rr_start(&effects);
+    let mut stats = RenderStats { effects, kernel, max_depth, rr_start, ..Default::default() };
     let finish = |accum: Accumulator, mut stats: RenderStats, nonfinite: u64, complete: bool| {
         stats.elapsed = start.elapsed();
         stats.earlier_sessions = prior_elapsed;
@@ -109,7 +111,7 @@ pub(super) fn run(
         return Ok(finish(accum, stats, 0, true));
     }
     let sample = kernel.sample_fn();
-    let ctx = PathContext { scene, accel, lights: &lights, camera: &camera, settings, max_depth };
+    let ctx = PathContext { scene, accel, lights: &lights, camera: &camera, settings, max_depth, rr_depth: rr_start.unwrap_or(u32::MAX) };
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
     let n_rounds = rounds(settings);
     let bar = progress_bar(settings.progress, tiles.len() as u64 * n_rounds as u64);

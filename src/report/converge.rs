@@ -13,7 +13,7 @@ use super::metrics::{ImageError, SizeMismatch, image_error};
 use super::plot::{LineStyle, PlotError, PlotOptions, Series, log_log_plot_with};
 use crate::accel::Accel;
 use crate::film::Film;
-use crate::integrator::{Estimator, RenderError, RenderSettings, RenderStats, render};
+use crate::integrator::{Estimator, RenderError, RenderSettings, RenderStats, RrDepth, render};
 use crate::sampler::mix64;
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -165,7 +165,7 @@ impl Study {
             height: self.height,
             spp,
             max_depth: variant.max_depth.unwrap_or(self.max_depth),
-            rr_depth: if variant.russian_roulette { self.rr_depth } else { u32::MAX },
+            rr_depth: if variant.russian_roulette { RrDepth::After(self.rr_depth) } else { RrDepth::Off },
             seed,
             threads: self.threads,
             estimator: variant.estimator,

@@ -216,7 +216,7 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
         height: r.height.map(|s| s.0),
         spp: r.spp.map(|s| s.0),
         max_depth: r.max_depth,
-        rr_depth: r.rr_depth,
+        rr_depth: r.rr_depth.map(|v| v.0),
         seed: r.seed,
     }
 }

@@ -4,7 +4,14 @@
 //!
 //! Only what the scene *uses* counts: a material defined but bound to no primitive, or a
 //! texture on an unused material, does not switch an effect on.
+//!
+//! The analysis also sets the render's bounds that are estimator settings rather than kernel
+//! switches: the path depth ([`Effects::depth_limit`]: none or one bounce when nothing can
+//! bounce light onward) and, from the brightest material in use ([`Effects::albedo`]), the
+//! depth at which Russian roulette starts ([`Effects::rr_start`], `super::roulette`). The
+//! user's `--max-depth` bounds both; an explicit `--rr-depth` replaces the latter.
 
+use super::roulette::material_albedo;
 use super::{MaterialBinding, MaterialKind, Scene};
 use crate::geometry::Geometry;
 use crate::light::Background;
@@ -13,7 +20,7 @@ use crate::texture::Texture;
 use std::fmt;
 
 /// The effects present in a scene.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Effects {
     pub triangles: bool,
     pub spheres: bool,
@@ -45,6 +52,9 @@ pub struct Effects {
     pub indirect: bool,
     /// Some light exists (emitter, point light or non-black background).
     pub lit: bool,
+    /// The largest albedo of a material in use (0 if nothing scatters): the best fraction of
+    /// light one bounce can send on (see `super::roulette::material_albedo`).
+    pub albedo: f32,
 }
 
 /// How long paths need to be for this scene.
@@ -113,6 +123,9 @@ impl Effects {
                 e.emissive = true;
             }
             e.textures |= m.texture().is_some();
+            if scatters(&m.kind) {
+                e.albedo = e.albedo.max(material_albedo(&m.kind));
+            }
             match &m.kind {
                 MaterialKind::Diffuse { .. } => e.diffuse = true,
                 MaterialKind::Plastic { .. } => {

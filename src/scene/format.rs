@@ -76,6 +76,34 @@ impl<'de> Deserialize<'de> for Unit {
     }
 }
 
+/// `rr_depth`: a number of bounces, `"off"` or `"auto"`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RrDepthValue(pub super::RrDepth);
+
+impl<'de> Deserialize<'de> for RrDepthValue {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl de::Visitor<'_> for Visitor {
+            type Value = RrDepthValue;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number of bounces, \"off\" or \"auto\"")
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<RrDepthValue, E> {
+                u32::try_from(v)
+                    .map(|n| RrDepthValue(super::RrDepth::After(n)))
+                    .map_err(|_| E::custom(format!("expected a number of bounces, \"off\" or \"auto\", found {v}")))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<RrDepthValue, E> {
+                match v {
+                    "off" | "auto" => v.parse().map(RrDepthValue).map_err(E::custom),
+                    _ => Err(E::custom(format!("expected a number of bounces, \"off\" or \"auto\", found {v:?}"))),
+                }
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
 /// Largest accepted image side.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
@@ -135,7 +163,7 @@ pub struct RenderSection {
     pub height: Option<Side>,
     pub spp: Option<Count>,
     pub max_depth: Option<u32>,
-    pub rr_depth: Option<u32>,
+    pub rr_depth: Option<RrDepthValue>,
     pub seed: Option<u64>,
 }
 

@@ -8,11 +8,13 @@ pub mod format;
 mod input;
 mod material;
 mod obj;
+mod roulette;
 
 pub use effects::{DepthLimit, Effects};
 pub use error::SceneError;
 pub use material::{Material, MaterialKind};
 pub use obj::{ObjFile, ObjMesh, load_obj, parse_obj};
+pub use roulette::{RR_THROUGHPUT, RrDepth, throughput_depth};
 
 use crate::camera::Camera;
 use crate::geometry::{Aabb, Geometry};
@@ -59,7 +61,7 @@ pub struct RenderDefaults {
     pub height: Option<u32>,
     pub spp: Option<u32>,
     pub max_depth: Option<u32>,
-    pub rr_depth: Option<u32>,
+    pub rr_depth: Option<RrDepth>,
     pub seed: Option<u64>,
 }
 
