@@ -11,12 +11,14 @@ use std::f32::consts::FRAC_PI_2;
 #[inline(always)]
 pub fn sin_cos_turns(t: f32) -> (f32, f32) {
     let t4 = 4.0 * t;
-    let q = t4.round();
-    let x = (t4 - q) * FRAC_PI_2;
+    // The nearest quarter turn, rounded through an integer conversion (a call to `roundf`
+    // on baseline x86-64): `t4 + 0.5` is not negative, so truncation rounds it down.
+    let q = (t4 + 0.5) as i32;
+    let x = (t4 - q as f32) * FRAC_PI_2;
     let x2 = x * x;
     let s = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0))));
     let c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0))));
-    match (q as i32) & 3 {
+    match q & 3 {
         0 => (s, c),
         1 => (c, -s),
         2 => (-s, -c),

@@ -273,8 +273,8 @@ impl LightSet {
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (sin_phi, cos_phi) = crate::fastmath::sin_cos_turns(u.y);
+    Vec3::new(r * cos_phi, r * sin_phi, z)
 }
 
 /// 1 − cosθmax of the cone a sphere subtends from a point at distance² `d2` from its centre
