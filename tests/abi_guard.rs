@@ -154,3 +154,61 @@ fn random_rays_on_a_mixed_scene_keep_the_guards() {
     // Both kinds of geometry were exercised.
     assert!(hits > 300 && user_hits > 30, "{hits} hits, {user_hits} on user geometry");
 }
+
+/// Checks what a packet probe wrote past the common 640 bytes: nothing for the 80-byte
+/// layout; for the 96-byte one, exactly the `instPrimID` lanes of the lanes that hit (set to
+/// `RTC_INVALID_GEOMETRY_ID`); beyond 672 bytes, nothing ever.
+fn check_packet_words(p: &ember::embree::PacketProbe, hits: &[bool; 8], what: &str) {
+    use ember::embree::PACKET_COMMON_WORDS;
+    let written = p.written_past_common();
+    let expected: Vec<usize> = match p.layout {
+        RayHitLayout::NoInstPrimId => vec![],
+        RayHitLayout::WithInstPrimId => (0..8).filter(|&i| hits[i]).map(|i| PACKET_COMMON_WORDS + i).collect(),
+    };
+    assert_eq!(written, expected, "{what}: {:x?}", &p.words[PACKET_COMMON_WORDS..]);
+    for &w in &expected {
+        assert_eq!(p.words[w], INVALID_ID, "{what}: instPrimID lane {}", w - PACKET_COMMON_WORDS);
+    }
+}
+
+#[test]
+fn packets_answer_as_single_rays_and_keep_the_guards() {
+    let device = Device::new().unwrap();
+    let geometry = common::teapot_spheres_cylinders();
+    let accel = ember::accel::EmbreeAccel::new(&device, &geometry, BuildOptions::default()).unwrap();
+    let scene = accel.scene();
+    let mut rng = Rng::new(8, 5);
+    let (mut hits, mut user_hits) = (0, 0);
+    for k in 0..400 {
+        // Coherent packets (one origin, nearby directions) as the path tracer sends them, and
+        // every 4th one with idle lanes.
+        let o = Vec3::new(rng.next_f32() * 12.0 - 6.0, rng.next_f32() * 8.0 - 2.0, rng.next_f32() * 10.0 - 5.0);
+        let d = common::unit_vector(&mut rng);
+        let rays: [Ray; 8] = std::array::from_fn(|_| {
+            let jitter = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.02 - Vec3::splat(0.01);
+            Ray::new(o, (d + jitter).normalize())
+        });
+        let active: [bool; 8] = std::array::from_fn(|i| k % 4 != 0 || i % 3 != 1);
+        let (packet, probe) = scene.probe_intersect8(&rays, active, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(packet, scene.intersect8_deferred(&rays, active, 0.0, f32::INFINITY), "packet {k}");
+        for i in 0..8 {
+            let single = if active[i] { scene.intersect(&rays[i], 0.0, f32::INFINITY).unwrap() } else { None };
+            match (packet[i], single) {
+                (None, None) => {}
+                (Some(a), Some(b)) => {
+                    // Same primitive; distances and coordinates as close as SIMD and scalar
+                    // arithmetic allow.
+                    assert_eq!((a.geom, a.prim), (b.geom, b.prim), "packet {k} lane {i}");
+                    assert!((a.t - b.t).abs() <= 1e-5 * a.t.max(1.0), "packet {k} lane {i}: {a:?} {b:?}");
+                    assert!((a.u - b.u).abs() < 1e-4 && (a.v - b.v).abs() < 1e-4, "packet {k} lane {i}: {a:?} {b:?}");
+                    hits += 1;
+                    user_hits += usize::from(a.geom as usize >= geometry.len() - 2);
+                }
+                (a, b) => panic!("packet {k} lane {i}: packet {a:?}, single ray {b:?}"),
+            }
+        }
+        let hit_lanes = std::array::from_fn(|i| packet[i].is_some());
+        check_packet_words(&probe, &hit_lanes, &format!("packet {k}"));
+    }
+    assert!(hits > 300 && user_hits > 30, "{hits} hits, {user_hits} on user geometry");
+}

@@ -1,4 +1,4 @@
-use super::{Accel, AccelError};
+use super::{Accel, AccelError, LANES};
 use crate::embree::{BuildOptions, Device, EmbreeError, Scene, SceneBuilder};
 use crate::geometry::{Geometry, Hit, Ray};
 use std::time::{Duration, Instant};
@@ -65,6 +65,17 @@ impl Accel for EmbreeAccel {
     #[inline(always)]
     fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
         self.scene.occluded_deferred(ray, tmin, tmax)
+    }
+
+    #[inline(always)]
+    fn intersect_packet_deferred(
+        &self,
+        rays: &[Ray; LANES],
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: f32,
+    ) -> [Option<Hit>; LANES] {
+        self.scene.intersect8_deferred(rays, active, tmin, tmax)
     }
 
     #[inline(always)]

@@ -12,6 +12,7 @@ pub use self::embree::EmbreeAccel;
 pub use naive::NaiveAccel;
 
 use crate::embree::EmbreeError;
+pub use crate::embree::LANES;
 use crate::geometry::{Hit, Ray};
 use std::fmt;
 use std::str::FromStr;
@@ -37,6 +38,19 @@ pub trait Accel: Send + Sync {
     fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit>;
     /// [`Accel::occluded`] for tight loops (see [`Accel::intersect_deferred`]).
     fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool;
+    /// Closest hits of the `active` lanes of a packet of [`LANES`] rays on
+    /// `[tmin, tmax]`, errors deferred (inactive lanes give `None`). Meant for coherent rays
+    /// (the samples of one pixel): Embree traces them together. The default asks lane by
+    /// lane.
+    fn intersect_packet_deferred(
+        &self,
+        rays: &[Ray; LANES],
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: f32,
+    ) -> [Option<Hit>; LANES] {
+        std::array::from_fn(|i| if active[i] { self.intersect_deferred(&rays[i], tmin, tmax) } else { None })
+    }
     /// The error of any deferred query so far (errors are sticky).
     fn deferred_error(&self) -> Result<(), AccelError>;
     /// This accelerator as Embree's, if it is: render kernels are compiled for

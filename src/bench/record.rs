@@ -1,7 +1,7 @@
 //! An accelerator wrapper that records every query it answers, to replay the path tracer's
 //! exact rays through Embree alone.
 
-use crate::accel::{Accel, AccelError};
+use crate::accel::{Accel, AccelError, LANES};
 use crate::geometry::{Hit, Ray};
 use rayon::prelude::*;
 use std::sync::Mutex;
@@ -63,6 +63,21 @@ impl Accel for RecordingAccel<'_> {
     fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
         self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: true });
         self.inner.occluded_deferred(ray, tmin, tmax)
+    }
+
+    /// Recorded as single closest-hit queries (replay traces them one by one); answered
+    /// by the inner accelerator's packet query, so the render is the one it would be.
+    fn intersect_packet_deferred(
+        &self,
+        rays: &[Ray; LANES],
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: f32,
+    ) -> [Option<Hit>; LANES] {
+        for (ray, _) in rays.iter().zip(active).filter(|(_, a)| *a) {
+            self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: false });
+        }
+        self.inner.intersect_packet_deferred(rays, active, tmin, tmax)
     }
 
     fn deferred_error(&self) -> Result<(), AccelError> {

@@ -10,6 +10,7 @@
 //! the running library's `RTCRayHit` size — is decided at run time in `layout.rs`.
 
 use super::layout::{RayHitLayout, RayHitMem};
+use super::packet::{RayHit8Mem, Valid8};
 use std::ffi::{c_char, c_void};
 
 #[cfg(not(feature = "embree4"))]
@@ -23,7 +24,7 @@ use embree4_sys as raw;
 
 pub(super) use raw::{
     RTCBounds, RTCBoundsFunctionArguments, RTCBuildQuality, RTCBufferType, RTCDevice, RTCDeviceProperty, RTCFormat,
-    RTCGeometry, RTCGeometryType, RTCIntersectFunctionNArguments, RTCOccludedFunctionNArguments, RTCRay, RTCScene,
+    RTCGeometry, RTCGeometryType, RTCIntersectFunctionNArguments, RTCOccludedFunctionNArguments, RTCRay, RTCRay8, RTCScene,
     RTCSceneFlags, rtcAttachGeometryByID, rtcCommitGeometry, rtcCommitScene, rtcGetDeviceProperty, rtcGetSceneBounds,
     rtcNewDevice, rtcNewGeometry, rtcNewScene, rtcReleaseDevice, rtcReleaseGeometry, rtcReleaseScene,
     rtcSetGeometryBoundsFunction, rtcSetGeometryIntersectFunction, rtcSetGeometryOccludedFunction,
@@ -43,6 +44,10 @@ pub(super) type ErrorFunction = unsafe extern "C" fn(user: *mut c_void, code: u3
 // is another matter (layout.rs).
 const _: () = assert!(size_of::<RTCRay>() == 48);
 const _: () = assert!(size_of::<raw::RTCRayHit>() == 80 && align_of::<raw::RTCRayHit>() == 16);
+const _: () = assert!(size_of::<RTCRay8>() == 384 && align_of::<RTCRay8>() == 32);
+const _: () = assert!(size_of::<raw::RTCRayHit8>() == 640 && align_of::<raw::RTCRayHit8>() == 32);
+// Ours is the binding's layout plus the 4.3+ instPrimID lanes at the end.
+const _: () = assert!(size_of::<RayHit8Mem>() == 640 + 32 && align_of::<RayHit8Mem>() == 32);
 
 #[cfg(not(feature = "embree4"))]
 mod backend {
@@ -128,6 +133,20 @@ mod backend {
         let mut ctx = context();
         // SAFETY: per this function's contract; `ctx` lives across the call.
         unsafe { raw::rtcOccluded1(scene, &mut ctx, ray) }
+    }
+
+    /// `rtcIntersect8` on the lanes of `mem` that `valid` marks, hinted as coherent.
+    ///
+    /// # Safety
+    /// `scene` is a committed scene; `mem` is initialised ray-hit memory for 8 rays, as large
+    /// as the library's `RTCRayHit8` and 32-byte aligned (a `RayHit8Mem` is).
+    #[inline]
+    pub(in super::super) unsafe fn intersect8(valid: &Valid8, scene: RTCScene, mem: *mut RayHit8Mem) {
+        let mut ctx = context();
+        ctx.flags = raw::RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type) and
+        // `ctx` lives across the call.
+        unsafe { raw::rtcIntersect8(valid.0.as_ptr(), scene, &mut ctx, mem.cast::<raw::RTCRayHit8>()) }
     }
 
     /// The instance id (and instance primitive id) a user-geometry hit must record, taken
@@ -221,6 +240,18 @@ mod backend {
     pub(in super::super) unsafe fn occluded1(scene: RTCScene, ray: *mut RTCRay) {
         // SAFETY: per this function's contract; NULL arguments are documented as allowed.
         unsafe { raw::rtcOccluded1(scene, ray, std::ptr::null_mut()) }
+    }
+
+    /// `rtcIntersect8` on the lanes of `mem` that `valid` marks.
+    ///
+    /// # Safety
+    /// `scene` is a committed scene; `mem` is initialised ray-hit memory for 8 rays, as large
+    /// as the library's `RTCRayHit8` and 32-byte aligned (a `RayHit8Mem` is).
+    #[inline]
+    pub(in super::super) unsafe fn intersect8(valid: &Valid8, scene: RTCScene, mem: *mut RayHit8Mem) {
+        // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type); NULL
+        // arguments are documented as allowed.
+        unsafe { raw::rtcIntersect8(valid.0.as_ptr(), scene, mem.cast::<raw::RTCRayHit8>(), std::ptr::null_mut()) }
     }
 
     /// The instance id and instance primitive id a user-geometry hit must record, taken from

@@ -22,6 +22,7 @@ mod device;
 mod error;
 mod ffi;
 mod layout;
+mod packet;
 mod probe;
 mod scene;
 mod user;
@@ -29,7 +30,8 @@ mod user;
 pub use device::Device;
 pub use error::{EmbreeError, ErrorCode};
 pub use layout::{EmbreeVersion, RayHitLayout};
-pub use probe::{GUARD, GuardProbe, PROBE_WORDS};
+pub use packet::LANES;
+pub use probe::{GUARD, GuardProbe, PACKET_COMMON_WORDS, PROBE_WORDS, PacketProbe};
 pub use scene::{BuildOptions, BuildQuality, Scene, SceneBuilder};
 
 /// `RTC_INVALID_GEOMETRY_ID`: the id Embree reports for "no geometry / no instance".

@@ -6,6 +6,7 @@
 use super::error::EmbreeError;
 use super::ffi;
 use super::layout::{HIT_WORD, RayHitLayout, RayHitMem, rtc_ray};
+use super::packet::{LANES, RayHit8Mem};
 use super::scene::Scene;
 use crate::geometry::{Hit, Ray};
 
@@ -71,5 +72,59 @@ impl Scene {
         // SAFETY: as above.
         let occluded = unsafe { (*p).tfar } == f32::NEG_INFINITY;
         Ok((occluded, GuardProbe { layout: self.scene.layout, initialised: size_of::<ffi::RTCRay>(), words: mem.0 }))
+    }
+}
+
+/// Words of packet probe memory: the 672-byte 8-ray ray-hit memory and 64 bytes beyond it.
+pub const PACKET_PROBE_WORDS: usize = 168 + 16;
+/// Words of an 8-ray packet every layout has: the ray block (12 × 8) and the common hit
+/// block (8 × 8). Embree 4.3+ adds the 8 `instPrimID` words after it.
+pub const PACKET_COMMON_WORDS: usize = 160;
+
+/// The memory of one probed packet query ([`Scene::intersect8_deferred`]) after the call.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PacketProbe {
+    /// The library's ray-hit layout, as decided at device creation.
+    pub layout: RayHitLayout,
+    /// All words after the call; those from [`PACKET_COMMON_WORDS`] on started as [`GUARD`].
+    pub words: Vec<u32>,
+}
+
+impl PacketProbe {
+    /// Indices of words past the common part that the query changed.
+    pub fn written_past_common(&self) -> Vec<usize> {
+        (PACKET_COMMON_WORDS..self.words.len()).filter(|&i| self.words[i] != GUARD).collect()
+    }
+}
+
+#[repr(C, align(32))]
+struct PacketProbeMem([u32; PACKET_PROBE_WORDS]);
+
+impl Scene {
+    /// [`Scene::intersect8_deferred`] in guarded memory: the hits and what the query wrote.
+    pub fn probe_intersect8(
+        &self,
+        rays: &[Ray; LANES],
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: f32,
+    ) -> Result<([Option<Hit>; LANES], PacketProbe), EmbreeError> {
+        let mut mem = PacketProbeMem([GUARD; PACKET_PROBE_WORDS]);
+        let (init, valid) = RayHit8Mem::new(rays, active, tmin, tmax);
+        // SAFETY: RayHit8Mem is plain 32-bit words (repr C, no padding between fields); its
+        // first PACKET_COMMON_WORDS words are the ray block and the common hit block.
+        let init_words =
+            unsafe { std::slice::from_raw_parts(&init as *const RayHit8Mem as *const u32, PACKET_COMMON_WORDS) };
+        mem.0[..PACKET_COMMON_WORDS].copy_from_slice(init_words);
+        let p = mem.0.as_mut_ptr().cast::<RayHit8Mem>();
+        // SAFETY: committed scene; `p` is 32-byte aligned and points to 736 bytes, more than
+        // any RTCRayHit8; the fields Embree reads (rays, geomID, instID) are initialised, the
+        // rest of the hit is output; `valid` is a 32-byte aligned mask.
+        unsafe { ffi::intersect8(&valid, self.scene.raw, p) };
+        self.scene.failure.check()?;
+        // SAFETY: `p` is aligned and its 672 bytes are initialised words.
+        let after = unsafe { &*p };
+        let hits = std::array::from_fn(|i| if active[i] { after.hit(i) } else { None });
+        Ok((hits, PacketProbe { layout: self.scene.layout, words: mem.0.to_vec() }))
     }
 }

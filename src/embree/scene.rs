@@ -2,6 +2,7 @@ use super::device::Device;
 use super::error::EmbreeError;
 use super::ffi;
 use super::layout::{RayHitLayout, RayHitMem, rtc_ray};
+use super::packet::{LANES, RayHit8Mem};
 use super::user::{self, CallbackFailure, UserData};
 use crate::geometry::{Aabb, Hit, Ray, Shape};
 use glam::Vec3;
@@ -294,6 +295,24 @@ impl Scene {
         // Embree version).
         unsafe { ffi::occluded1(self.scene.raw, &mut r) };
         r.tfar == f32::NEG_INFINITY
+    }
+
+    /// Closest hits of the `active` lanes of 8 rays on `[tmin, tmax]`, with one
+    /// `rtcIntersect8` (inactive lanes give `None`); errors deferred as in
+    /// [`Scene::intersect_deferred`]. For coherent rays (Embree is told so).
+    #[inline]
+    pub fn intersect8_deferred(
+        &self,
+        rays: &[Ray; LANES],
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: f32,
+    ) -> [Option<Hit>; LANES] {
+        let (mut mem, valid) = RayHit8Mem::new(rays, active, tmin, tmax);
+        // SAFETY: committed scene; `mem` is initialised, 32-byte aligned and as large as the
+        // largest known RTCRayHit8 (packet.rs); `valid` is a 32-byte aligned mask.
+        unsafe { ffi::intersect8(&valid, self.scene.raw, &mut mem) };
+        std::array::from_fn(|i| if active[i] { mem.hit(i) } else { None })
     }
 
     /// The error of the first user-geometry callback that panicked on this scene, if any.

@@ -16,6 +16,10 @@
 //!   point lights exist, so emission is never found by BSDF-sampled rays, and neither MIS
 //!   weights nor light densities are computed.
 //!
+//! Every kernel takes the samples of a pixel in groups of [`LANES`] (8): their camera rays
+//! share an origin and nearly a direction, so they are traced as one Embree packet
+//! (`rtcIntersect8`, hinted coherent); each path then continues on its own.
+//!
 //! 2⁵ = 32 instances are compiled; one is chosen per render. Geometry types a scene lacks are
 //! not a dimension: they are simply not registered with the accelerator. The general kernel
 //! (every switch on) is what `--no-specialize` runs; for any scene it computes the same image
@@ -24,12 +28,13 @@
 //! identically in both.
 
 use super::path::{PathContext, radiance};
-use crate::accel::AccelError;
+use crate::accel::{Accel, AccelError, LANES};
 use crate::geometry::Ray;
 use crate::sampler::Rng;
 use crate::scene::Effects;
 use glam::{Vec2, Vec3};
 use std::fmt;
+use std::ops::Range;
 
 /// The feature switches of a kernel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -104,25 +109,57 @@ impl fmt::Display for KernelChoice {
     }
 }
 
-/// One sample of one pixel: camera ray, then the path. `rays` counts the rays traced.
-pub(crate) type SampleFn = fn(&PathContext, u32, u32, u32, &mut u64) -> Result<Vec3, AccelError>;
+/// Samples `samples` (at most [`LANES`], within one group of `LANES` aligned on sample
+/// index 0) of pixel (x, y), written to `out[..samples.len()]`; `rays` counts the rays traced.
+pub(crate) type SampleFn = fn(&PathContext, u32, u32, Range<u32>, &mut [Vec3; LANES], &mut u64) -> Result<(), AccelError>;
 
+/// The samples of a pixel go together: their camera rays are coherent (one origin, directions
+/// within the pixel), so they are traced as one packet; each path then continues alone. Every
+/// sample draws its own random numbers, so its value does not depend on the others.
 fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const MIS: bool>(
     ctx: &PathContext,
     x: u32,
     y: u32,
-    s: u32,
+    samples: Range<u32>,
+    out: &mut [Vec3; LANES],
     rays: &mut u64,
-) -> Result<Vec3, AccelError> {
+) -> Result<(), AccelError> {
     let (w, h) = (ctx.settings.width, ctx.settings.height);
-    let mut rng = Rng::for_sample(ctx.settings.seed, y as u64 * w as u64 + x as u64, s as u64);
-    let film = Vec2::new((x as f32 + rng.next_f32()) / w as f32, (y as f32 + rng.next_f32()) / h as f32);
-    // Drawn in every kernel, so all kernels consume the same random numbers.
-    let lens = rng.next_2d();
+    let n = samples.len();
+    debug_assert!(n <= LANES && (n == 0 || samples.start / LANES as u32 == (samples.end - 1) / LANES as u32));
+    let pixel = y as u64 * w as u64 + x as u64;
+    let mut rngs: [Rng; LANES] =
+        std::array::from_fn(|i| Rng::for_sample(ctx.settings.seed, pixel, samples.start as u64 + i as u64));
     let cam = ctx.camera;
-    let ray = if LENS { cam.ray(film, lens) } else { Ray::new(cam.position, cam.pinhole_dir(film)) };
+    let camera_rays: [Ray; LANES] = std::array::from_fn(|i| {
+        let rng = &mut rngs[i];
+        let film = Vec2::new((x as f32 + rng.next_f32()) / w as f32, (y as f32 + rng.next_f32()) / h as f32);
+        // Drawn in every kernel, so all kernels consume the same random numbers.
+        let lens = rng.next_2d();
+        if LENS { cam.ray(film, lens) } else { Ray::new(cam.position, cam.pinhole_dir(film)) }
+    });
+    let active: [bool; LANES] = std::array::from_fn(|i| i < n);
     match ctx.accel.as_embree() {
-        Some(embree) => radiance::<_, TEX, GLOSSY, GLASS, MIS>(ctx, embree, ray, &mut rng, rays),
-        None => radiance::<_, TEX, GLOSSY, GLASS, MIS>(ctx, ctx.accel, ray, &mut rng, rays),
+        Some(embree) => trace::<_, TEX, GLOSSY, GLASS, MIS>(ctx, embree, &camera_rays, active, &mut rngs, out, rays),
+        None => trace::<_, TEX, GLOSSY, GLASS, MIS>(ctx, ctx.accel, &camera_rays, active, &mut rngs, out, rays),
     }
+}
+
+#[inline(always)]
+fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const MIS: bool>(
+    ctx: &PathContext,
+    accel: &A,
+    camera_rays: &[Ray; LANES],
+    active: [bool; LANES],
+    rngs: &mut [Rng; LANES],
+    out: &mut [Vec3; LANES],
+    rays: &mut u64,
+) -> Result<(), AccelError> {
+    let hits = accel.intersect_packet_deferred(camera_rays, active, 0.0, f32::INFINITY);
+    for i in (0..LANES).filter(|&i| active[i]) {
+        *rays += 1;
+        out[i] = radiance::<A, TEX, GLOSSY, GLASS, MIS>(ctx, accel, camera_rays[i], hits[i], &mut rngs[i], rays);
+    }
+    // Queries report errors (a panicked user-geometry callback) once per packet of paths.
+    accel.deferred_error()
 }

@@ -5,8 +5,8 @@
 use super::surface::surface_point;
 use crate::camera::Camera;
 use super::{Estimator, RenderSettings};
-use crate::accel::{Accel, AccelError};
-use crate::geometry::{Frame, Ray, offset_toward};
+use crate::accel::Accel;
+use crate::geometry::{Frame, Hit, Ray, offset_toward};
 use crate::light::LightSet;
 use crate::material::{Bsdf, BsdfSample};
 use crate::sampler::Rng;
@@ -34,8 +34,10 @@ pub struct PathContext<'a> {
     pub rr_depth: u32,
 }
 
-/// Radiance along `ray`, traced through `accel` (`ctx.accel`, possibly as its concrete type);
-/// `rays` counts the rays traced. The const switches are those of
+/// Radiance along the camera ray `ray`, whose closest hit `first` the caller traced, then
+/// through `accel` (`ctx.accel`, possibly as its concrete type); `rays` counts the rays traced
+/// after the first. Queries defer their errors: the caller checks
+/// [`Accel::deferred_error`] before using the result. The const switches are those of
 /// [`super::kernel::KernelChoice`]: each one off removes the code of an effect the scene
 /// lacks (see there).
 #[inline(always)]
@@ -43,9 +45,10 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
     ctx: &PathContext,
     accel: &A,
     mut ray: Ray,
+    first: Option<Hit>,
     rng: &mut Rng,
     rays: &mut u64,
-) -> Result<Vec3, AccelError> {
+) -> Vec3 {
     let s = ctx.settings;
     let use_nee = matches!(s.estimator, Estimator::NeeMis | Estimator::NeeOnly) && !ctx.lights.is_empty();
     let uniform_diffuse = s.estimator == Estimator::BsdfUniform;
@@ -57,9 +60,16 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
     let mut prev_pdf = 0.0f32;
     let mut prev_p = ray.o;
     let mut depth = 0u32;
+    let mut first = Some(first);
     loop {
-        *rays += 1;
-        let Some(hit) = accel.intersect_deferred(&ray, 0.0, f32::INFINITY) else {
+        let found_hit = match first.take() {
+            Some(camera_hit) => camera_hit,
+            None => {
+                *rays += 1;
+                accel.intersect_deferred(&ray, 0.0, f32::INFINITY)
+            }
+        };
+        let Some(hit) = found_hit else {
             // Without non-delta lights the background is black.
             if MIS {
                 let le = ctx.scene.background.radiance(ray.d);
@@ -157,9 +167,7 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         }
         ray = Ray::new(offset_toward(sp.p, ng, wi), wi);
     }
-    // Queries report errors (a panicked user-geometry callback) once per path.
-    accel.deferred_error()?;
-    Ok(l)
+    l
 }
 
 /// How emission that a path's ray runs into (an emitter or the background) is counted.

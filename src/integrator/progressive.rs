@@ -10,7 +10,7 @@
 use super::kernel::KernelChoice;
 use super::path::PathContext;
 use super::{RenderError, RenderSettings, RenderStats};
-use crate::accel::Accel;
+use crate::accel::{Accel, LANES};
 use rayon::prelude::*;
 use crate::film::{Accumulator, Checkpoint, PixelState};
 use crate::scene::Scene;
@@ -144,6 +144,7 @@ pub(super) fn run(
             let (x0, y0) = (tx * TILE, ty * TILE);
             let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
             let mut rays = 0u64;
+            let mut values = [glam::Vec3::ZERO; LANES];
             'pixels: for y in y0..y1 {
                 for x in x0..x1 {
                     if stop_requested() {
@@ -155,14 +156,21 @@ pub(super) fn run(
                     let mut p = shared.lock().unwrap_or_else(|e| e.into_inner()).pixels[i];
                     let Some(target) = round_target(settings, round, &p) else { continue };
                     let mut pixel_bad = 0;
-                    for s in p.count..target {
-                        let v = sample(&ctx, x, y, s, &mut rays).map_err(RenderError::from)?;
-                        if v.is_finite() {
-                            p.add(v);
-                        } else {
-                            pixel_bad += 1;
-                            p.add(glam::Vec3::ZERO);
+                    let mut s = p.count;
+                    while s < target {
+                        // Samples go in groups of LANES aligned on sample 0, whatever the
+                        // rounds: a sample's packet mates never depend on when it is taken.
+                        let end = target.min((s / LANES as u32 + 1) * LANES as u32);
+                        sample(&ctx, x, y, s..end, &mut values, &mut rays).map_err(RenderError::from)?;
+                        for &v in &values[..(end - s) as usize] {
+                            if v.is_finite() {
+                                p.add(v);
+                            } else {
+                                pixel_bad += 1;
+                                p.add(glam::Vec3::ZERO);
+                            }
                         }
+                        s = end;
                     }
                     let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
                     a.pixels[i] = p;

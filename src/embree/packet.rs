@@ -1,0 +1,83 @@
+//! Packets of 8 rays (`rtcIntersect8`): coherent rays, such as the samples of one pixel, are
+//! traced together through the BVH, which costs Embree less per ray than one call per ray.
+
+use super::ffi;
+use crate::geometry::{Hit, Ray};
+use glam::Vec3;
+
+/// Rays per packet.
+pub const LANES: usize = 8;
+
+/// `RTCRayHit8` memory as large as the largest known layout: the ray block (12 × 8 words),
+/// the hit block (8 × 8 words) and room for Embree 4.3+'s `instPrimID` lanes, which come last
+/// (`layout.rs` explains the two layouts; a library with the smaller one never touches the
+/// last 32 bytes). 32-byte aligned, as Embree requires of 8-wide packets.
+#[repr(C, align(32))]
+pub(super) struct RayHit8Mem {
+    pub(super) ray: ffi::RTCRay8,
+    pub(super) ng: [[f32; LANES]; 3],
+    pub(super) u: [f32; LANES],
+    pub(super) v: [f32; LANES],
+    pub(super) prim_id: [u32; LANES],
+    pub(super) geom_id: [u32; LANES],
+    pub(super) inst_id: [u32; LANES],
+    pub(super) inst_prim_id: [u32; LANES],
+}
+
+/// Embree's `valid` mask: -1 for an active lane, 0 for an inactive one; 32-byte aligned.
+#[repr(C, align(32))]
+pub(super) struct Valid8(pub(super) [i32; LANES]);
+
+impl RayHit8Mem {
+    /// A query for the `active` lanes of `rays` on `[tmin, tmax]`, with no hit yet. Inactive
+    /// lanes hold a harmless ray (Embree does not read them).
+    #[inline]
+    pub(super) fn new(rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> (RayHit8Mem, Valid8) {
+        let none = ffi::INVALID_GEOMETRY_ID;
+        let lane = |f: &dyn Fn(&Ray) -> f32, idle: f32| -> [f32; LANES] {
+            std::array::from_fn(|i| if active[i] { f(&rays[i]) } else { idle })
+        };
+        let ray = ffi::RTCRay8 {
+            org_x: lane(&|r| r.o.x, 0.0),
+            org_y: lane(&|r| r.o.y, 0.0),
+            org_z: lane(&|r| r.o.z, 0.0),
+            tnear: [tmin; LANES],
+            dir_x: lane(&|r| r.d.x, 0.0),
+            dir_y: lane(&|r| r.d.y, 0.0),
+            dir_z: lane(&|r| r.d.z, 1.0),
+            time: [0.0; LANES],
+            tfar: [tmax; LANES],
+            // A mask of 0 would hit nothing; every geometry keeps Embree's default mask.
+            mask: [u32::MAX; LANES],
+            id: [0; LANES],
+            flags: [0; LANES],
+        };
+        let mem = RayHit8Mem {
+            ray,
+            ng: [[0.0; LANES]; 3],
+            u: [0.0; LANES],
+            v: [0.0; LANES],
+            prim_id: [none; LANES],
+            geom_id: [none; LANES],
+            inst_id: [none; LANES],
+            inst_prim_id: [none; LANES],
+        };
+        (mem, Valid8(std::array::from_fn(|i| if active[i] { -1 } else { 0 })))
+    }
+
+    /// Lane `i`'s hit after the query, if any.
+    #[inline]
+    pub(super) fn hit(&self, i: usize) -> Option<Hit> {
+        if self.geom_id[i] == ffi::INVALID_GEOMETRY_ID {
+            return None;
+        }
+        Some(Hit {
+            t: self.ray.tfar[i],
+            geom: self.geom_id[i],
+            prim: self.prim_id[i],
+            u: self.u[i],
+            v: self.v[i],
+            ng: Vec3::new(self.ng[0][i], self.ng[1][i], self.ng[2][i]),
+        })
+    }
+}
