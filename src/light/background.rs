@@ -16,13 +16,16 @@ pub enum Background {
 }
 
 impl Background {
+    /// Radiance arriving from the unit direction `d` (the path tracer's ray directions and
+    /// sampled directions are unit vectors).
     #[inline]
     pub fn radiance(&self, d: Vec3) -> Vec3 {
         match self {
             Background::Black => Vec3::ZERO,
             Background::Constant(c) => *c,
             Background::Gradient { zenith, horizon, ground } => {
-                let y = d.y / d.length();
+                // `d` is a unit vector: its y is the sine of the elevation.
+                let y = d.y;
                 if y >= 0.0 { horizon.lerp(*zenith, y.min(1.0)) } else { horizon.lerp(*ground, (-y).min(1.0)) }
             }
             Background::Image { image, scale } => {

@@ -21,7 +21,8 @@ pub struct PointLight {
 #[derive(Clone, Debug, PartialEq)]
 enum Light {
     Point(PointLight),
-    Triangle { p: [Vec3; 3], area: f32, emission: Vec3 },
+    /// `normal`: the unit normal of the winding order, computed once here, not per sample.
+    Triangle { p: [Vec3; 3], normal: Vec3, area: f32, emission: Vec3 },
     Sphere { sphere: Sphere, emission: Vec3 },
     Background,
 }
@@ -98,7 +99,8 @@ impl LightSet {
                         let area = if area.is_finite() { area } else { 0.0 };
                         per.push(lights.len() as u32);
                         power.push(luminance(e) * area * PI);
-                        lights.push(Light::Triangle { p, area, emission: e });
+                        let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+                        lights.push(Light::Triangle { p, normal, area, emission: e });
                     }
                 }
                 Geometry::Spheres(s) => {
@@ -199,14 +201,14 @@ impl LightSet {
                     delta: true,
                 })
             }
-            Light::Triangle { p: tri, area, emission } => {
+            Light::Triangle { p: tri, normal: n, area, emission } => {
                 if *area <= 0.0 {
                     return None;
                 }
                 let su = u.x.sqrt();
                 let (b0, b1) = (1.0 - su, u.y * su);
                 let q = b0 * tri[0] + b1 * tri[1] + (1.0 - b0 - b1) * tri[2];
-                let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
+                let n = *n;
                 let d = q - p;
                 let d2 = d.length_squared();
                 let wi = d / d2.sqrt();
