@@ -10,8 +10,11 @@
 # Usage: scripts/compare-embree-pathtracer.sh [OUT_DIR]   (default: target/compare-embree)
 # Environment: SIZE (512), SPP (64), DEPTH (8), THREADS (2).
 #
+# ember runs three times: with its defaults, with the tutorial's Embree settings
+# (--no-robust), and with those and the low-quality BVH (--no-robust --bvh-quality low).
+#
 # Images: OUT_DIR/pathtracer.ppm (the tutorial writes linear values, clamped, without the sRGB
-# curve) and OUT_DIR/ember.png (sRGB). When python3 with Pillow is available, the mean linear
+# curve) and OUT_DIR/ember.png (sRGB, default settings). When python3 with Pillow is available, the mean linear
 # RGB of both is printed, which should agree within noise and 8-bit rounding.
 set -euo pipefail
 
@@ -55,20 +58,30 @@ echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 pt_times=$(timed "$out/pathtracer.log" \
     pathtracer -c "$ecs" --size "$size" "$size" --spp "$spp" --max-path-length "$depth" \
     --threads "$threads" -o "$out/pathtracer.ppm")
-em_times=$(timed "$out/ember.log" \
-    "$ember" render "$root/scenes/cornell.toml" -o "$out/ember.png" --width "$size" --height "$size" \
-    --spp "$spp" --max-depth "$depth" --rr-depth off --threads "$threads")
 read -r pt_wall pt_user pt_sys <<<"$pt_times"
-read -r em_wall em_user em_sys <<<"$em_times"
+pt_cpu=$(echo "$pt_user $pt_sys" | awk '{print $1 + $2}')
+printf '%-52s %7.2f s wall, %7.2f s CPU\n' "pathtracer (Embree tutorial: scene flags 0, medium)" "$pt_wall" "$pt_cpu"
 
+# ember three ways: its defaults (robust BVH), the tutorial's Embree settings (no robust
+# flag, medium quality), and those with the low-quality build, the fastest on this 34-triangle
+# box (ember bench --scene scenes/cornell_box.obj).
+variants=("default (robust, medium)|" "--no-robust (as the tutorial)|--no-robust" "--no-robust --bvh-quality low|--no-robust --bvh-quality low")
+for v in "${variants[@]}"; do
+    label=${v%%|*}
+    flags=${v#*|}
+    tag=$(echo "$flags" | tr -d ' -')
+    # shellcheck disable=SC2086
+    em_times=$(timed "$out/ember$tag.log" \
+        "$ember" render "$root/scenes/cornell.toml" -o "$out/ember$tag.png" --width "$size" --height "$size" \
+        --spp "$spp" --max-depth "$depth" --rr-depth off --threads "$threads" $flags)
+    read -r em_wall em_user em_sys <<<"$em_times"
+    em_cpu=$(echo "$em_user $em_sys" | awk '{print $1 + $2}')
+    printf '%-52s %7.2f s wall, %7.2f s CPU; pathtracer/ember %.2f (wall), %.2f (CPU)\n' "ember $label" "$em_wall" "$em_cpu" \
+        "$(echo "$pt_wall $em_wall" | awk '{print $1 / $2}')" "$(echo "$pt_cpu $em_cpu" | awk '{print $1 / $2}')"
+done
 echo "load average after:  $(cut -d' ' -f1-3 /proc/loadavg)"
-printf 'pathtracer (Embree tutorial): %7.2f s wall, %7.2f s CPU\n' "$pt_wall" "$(echo "$pt_user $pt_sys" | awk '{print $1 + $2}')"
-printf 'ember:                        %7.2f s wall, %7.2f s CPU\n' "$em_wall" "$(echo "$em_user $em_sys" | awk '{print $1 + $2}')"
-awk -v p="$pt_wall" -v e="$em_wall" -v pc="$pt_user $pt_sys" -v ec="$em_user $em_sys" 'BEGIN {
-    split(pc, a, " "); split(ec, b, " ");
-    printf "ratio pathtracer/ember: %.2f (wall), %.2f (CPU); above 1 means ember is faster\n", p / e, (a[1] + a[2]) / (b[1] + b[2]);
-}'
-sed -n 's/^rendered/ember: rendered/p' "$out/ember.log"
+echo "(a ratio above 1 means ember is faster)"
+sed -n 's/^rendered/ember (default): rendered/p' "$out/ember.log"
 
 if python3 -c 'import PIL' 2>/dev/null; then
     python3 - "$out/pathtracer.ppm" "$out/ember.png" <<'EOF'

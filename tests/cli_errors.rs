@@ -352,6 +352,7 @@ fn bad_flags() {
         (&["--threads", "0"], "--threads"),
         (&["--accel", "octree"], "--accel"),
         (&["--estimator", "magic"], "--estimator"),
+        (&["--bvh-quality", "best"], "unknown BVH quality \"best\" (expected low, medium or high)"),
         (&["--rr-depth", "banana"], "--rr-depth: expected a number, \"off\" or \"auto\", found \"banana\""),
         (&["--seed", "x"], "--seed"),
     ] {

@@ -243,6 +243,31 @@ fn naive_and_embree_give_the_same_image() {
 }
 
 #[test]
+fn every_bvh_build_gives_the_same_image() {
+    // `--bvh-quality` and `--no-robust` change how Embree builds and traverses, not what is
+    // hit: same tolerance as naive vs Embree above (a ray grazing an edge may round to the
+    // neighbouring triangle). The teapot scene: a smooth mesh, a quad floor, an area light.
+    use ember::embree::BuildQuality;
+    let scene = Scene::load(&common::scene_path("teapot.toml")).unwrap();
+    let s = RenderSettings { max_depth: 3, ..settings(40, 30, 4) };
+    let reference = embree_render(&scene, &s);
+    let device = Device::new().unwrap();
+    for quality in [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High] {
+        for robust in [false, true] {
+            let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions { quality, robust, ..BuildOptions::default() }).unwrap();
+            let (b, _) = render(&scene, &accel, &s).unwrap();
+            let diffs: Vec<f32> =
+                reference.pixels.iter().zip(&b.pixels).map(|(p, q)| (*p - *q).abs().max_element()).collect();
+            let mean_diff = diffs.iter().sum::<f32>() / diffs.len() as f32;
+            let close = diffs.iter().filter(|&&d| d <= 1e-3).count();
+            let what = format!("{quality} quality, robust {robust}");
+            assert!(mean_diff <= 0.005 * image_mean(&reference) as f32, "{what}: mean difference {mean_diff}");
+            assert!(close * 100 >= diffs.len() * 99, "{what}: {close} of {} pixels within 1e-3", diffs.len());
+        }
+    }
+}
+
+#[test]
 fn image_is_bit_identical_for_one_and_two_threads() {
     let scene = Scene::load(&common::scene_path("spheres.toml")).unwrap();
     let device = Device::new().unwrap();
