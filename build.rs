@@ -111,12 +111,13 @@ fn clang_available() -> bool {
             for e in entries.flatten() {
                 let p = e.path();
                 let s = p.to_string_lossy();
-                if globs.iter().any(|g| s.starts_with(g)) {
-                    if s.contains("libclang") || p.join("lib").read_dir().map_or(false, |mut d| {
-                        d.any(|f| f.map_or(false, |f| f.file_name().to_string_lossy().starts_with("libclang")))
-                    }) {
-                        found = true;
-                    }
+                if globs.iter().any(|g| s.starts_with(g))
+                    && (s.contains("libclang")
+                        || p.join("lib").read_dir().is_ok_and(|mut d| {
+                            d.any(|f| f.is_ok_and(|f| f.file_name().to_string_lossy().starts_with("libclang")))
+                        }))
+                {
+                    found = true;
                 }
             }
         }

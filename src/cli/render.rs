@@ -131,7 +131,6 @@ fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> 
         progress: true,
         specialize: !args.no_specialize,
         target_error: args.target_error,
-        ..d
     })
 }
 

@@ -109,27 +109,28 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         let wo_l = frame.to_local(wo);
 
         // Next-event estimation.
-        if use_nee && !((GLOSSY || GLASS) && bsdf.is_delta()) {
-            if let Some(ls) = ctx.lights.sample(sp.p, rng.next_f32(), rng.next_2d()) {
-                let wi_l = frame.to_local(ls.wi);
-                let side = ls.wi.dot(ng);
-                let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
-                if f != Vec3::ZERO && ls.radiance != Vec3::ZERO && (transmissive || side > 0.0) {
-                    let o = offset_toward(sp.p, ng, ls.wi);
-                    let (d, tmax) = match ls.point {
-                        // Toward a point on a light: stop just short of it (the light's own
-                        // surface is not an occluder), measured in units of the full segment.
-                        Some(q) => {
-                            let q = if ls.delta { q } else { offset_toward(q, ls.normal, o - q) };
-                            (q - o, 1.0)
-                        }
-                        None => (ls.wi, f32::INFINITY),
-                    };
-                    *rays += 1;
-                    if !accel.occluded_deferred(&Ray::new(o, d), 0.0, tmax) {
-                        let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l)) };
-                        l += beta * f * ls.radiance * (w / ls.pdf);
+        if use_nee
+            && !((GLOSSY || GLASS) && bsdf.is_delta())
+            && let Some(ls) = ctx.lights.sample(sp.p, rng.next_f32(), rng.next_2d())
+        {
+            let wi_l = frame.to_local(ls.wi);
+            let side = ls.wi.dot(ng);
+            let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
+            if f != Vec3::ZERO && ls.radiance != Vec3::ZERO && (transmissive || side > 0.0) {
+                let o = offset_toward(sp.p, ng, ls.wi);
+                let (d, tmax) = match ls.point {
+                    // Toward a point on a light: stop just short of it (the light's own
+                    // surface is not an occluder), measured in units of the full segment.
+                    Some(q) => {
+                        let q = if ls.delta { q } else { offset_toward(q, ls.normal, o - q) };
+                        (q - o, 1.0)
                     }
+                    None => (ls.wi, f32::INFINITY),
+                };
+                *rays += 1;
+                if !accel.occluded_deferred(&Ray::new(o, d), 0.0, tmax) {
+                    let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l)) };
+                    l += beta * f * ls.radiance * (w / ls.pdf);
                 }
             }
         }
