@@ -18,9 +18,8 @@ fn main() {
         return;
     }
 
-    let include_dir = env::var_os("EMBREE3_INCLUDE_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("/usr/include"));
+    let include_dir =
+        env::var_os("EMBREE3_INCLUDE_DIR").map(PathBuf::from).unwrap_or_else(|| PathBuf::from("/usr/include"));
     let header = include_dir.join("embree3/rtcore.h");
     if !header.is_file() {
         fail(&format!(
@@ -70,9 +69,8 @@ fn locate_embree4() {
         println!("cargo:rustc-link-arg=-Wl,-rpath,{}", dir.display());
         return;
     }
-    let mut dirs: Vec<PathBuf> = env::var_os("LIBRARY_PATH")
-        .map(|p| env::split_paths(&p).collect())
-        .unwrap_or_default();
+    let mut dirs: Vec<PathBuf> =
+        env::var_os("LIBRARY_PATH").map(|p| env::split_paths(&p).collect()).unwrap_or_default();
     let multiarch = format!("/usr/lib/{}-linux-gnu", env::var("CARGO_CFG_TARGET_ARCH").unwrap_or_default());
     for d in ["/usr/local/lib", multiarch.as_str(), "/usr/lib", "/usr/lib64", "/lib"] {
         dirs.push(PathBuf::from(d));

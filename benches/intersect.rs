@@ -19,7 +19,12 @@ fn camera_rays(geometry: &[Geometry], n: u32) -> Vec<Ray> {
     let b = geometry.iter().fold(ember::geometry::Aabb::EMPTY, |b, g| b.union(&g.bounds()));
     let cam = Camera::framing(&b, 30.0, 1.0);
     (0..n * n)
-        .map(|i| cam.ray(glam::Vec2::new(((i % n) as f32 + 0.5) / n as f32, ((i / n) as f32 + 0.5) / n as f32), glam::Vec2::ZERO))
+        .map(|i| {
+            cam.ray(
+                glam::Vec2::new(((i % n) as f32 + 0.5) / n as f32, ((i / n) as f32 + 0.5) / n as f32),
+                glam::Vec2::ZERO,
+            )
+        })
         .collect()
 }
 

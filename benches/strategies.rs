@@ -33,7 +33,11 @@ fn workloads(device: &Device, g: &[Geometry]) -> Vec<(RayKind, Vec<Query>)> {
     let camera = rays::coherent(&b, 128);
     let (reference, _) = medium().build(device, g).unwrap();
     let shadow = rays::occlusion(reference.as_ref(), &b, &camera, 7).unwrap();
-    vec![(RayKind::Coherent, camera), (RayKind::Incoherent, rays::incoherent(&b, 16_384, 7)), (RayKind::Occlusion, shadow)]
+    vec![
+        (RayKind::Coherent, camera),
+        (RayKind::Incoherent, rays::incoherent(&b, 16_384, 7)),
+        (RayKind::Occlusion, shadow),
+    ]
 }
 
 fn trace(c: &mut Criterion, group: &str, id: &str, accel: &dyn Accel, kind: RayKind, q: &[Query]) {
@@ -70,7 +74,10 @@ fn user_geometry_vs_tessellated(c: &mut Criterion) {
     let s = load("shapes-100");
     let tess = s.tessellated().unwrap();
     let work = workloads(&device, &s.geometry);
-    for (st, g) in [(medium(), &s.geometry), (Strategy::Embree { quality: BuildQuality::Medium, robust: false, tessellated: true }, &tess)] {
+    for (st, g) in [
+        (medium(), &s.geometry),
+        (Strategy::Embree { quality: BuildQuality::Medium, robust: false, tessellated: true }, &tess),
+    ] {
         let (accel, _) = st.build(&device, g).unwrap();
         for (kind, q) in &work {
             trace(c, "shapes-100_rays", st.name(), accel.as_ref(), *kind, q);
@@ -101,7 +108,11 @@ fn builds(c: &mut Criterion) {
 
 /// Small and quick; no HTML plots (plotters has no system fonts here, see benches/intersect.rs).
 fn config() -> Criterion {
-    Criterion::default().without_plots().sample_size(10).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(1))
+    Criterion::default()
+        .without_plots()
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1))
 }
 
 criterion_group! { name = benches; config = config(); targets = rays_per_workload, robust_flag, user_geometry_vs_tessellated, naive_loop, builds }

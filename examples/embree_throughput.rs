@@ -51,7 +51,10 @@ fn measure(accel: &EmbreeAccel, rays: &[Ray], repeats: u32, parallel: bool) -> (
     for _ in 0..repeats {
         let t = Instant::now();
         hits = if parallel {
-            rays.par_iter().with_min_len(1024).filter(|r| accel.intersect(r, 0.0, f32::INFINITY).unwrap().is_some()).count()
+            rays.par_iter()
+                .with_min_len(1024)
+                .filter(|r| accel.intersect(r, 0.0, f32::INFINITY).unwrap().is_some())
+                .count()
         } else {
             rays.iter().filter(|r| accel.intersect(r, 0.0, f32::INFINITY).unwrap().is_some()).count()
         };

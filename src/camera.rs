@@ -43,16 +43,7 @@ impl Camera {
         let right = right.normalize();
         let up = right.cross(forward);
         let half_h = (0.5 * vfov_deg.to_radians()).tan();
-        Camera {
-            position,
-            right,
-            up,
-            forward,
-            half_w: half_h * aspect,
-            half_h,
-            aperture_radius,
-            focus_distance,
-        }
+        Camera { position, right, up, forward, half_w: half_h * aspect, half_h, aperture_radius, focus_distance }
     }
 
     /// A camera that frames `bounds` from the front-right-above, the way a user would first

@@ -79,7 +79,9 @@ impl MemoryLimit {
     /// 75% of `available` bytes, or the fallback when unknown.
     pub fn from_available(available: Option<u64>) -> MemoryLimit {
         match available {
-            Some(a) => MemoryLimit { bytes: Some((a as f64 * AVAILABLE_SHARE) as u64), source: LimitSource::Available(a) },
+            Some(a) => {
+                MemoryLimit { bytes: Some((a as f64 * AVAILABLE_SHARE) as u64), source: LimitSource::Available(a) }
+            }
             None => MemoryLimit { bytes: Some(FALLBACK_BYTES), source: LimitSource::Fallback },
         }
     }
@@ -205,7 +207,9 @@ pub fn texture_bytes(width: u32, height: u32) -> u64 {
 /// de-duplication map, and the mesh (measured: 218 MB peak for a 37.6 MB file of 501,501
 /// vertices and 1,000,000 triangles, 430 MB for twice that).
 pub fn obj_bytes(file_len: u64, vertices: u64, triangles: u64) -> u64 {
-    file_len.saturating_add(vertices.saturating_mul(OBJ_BYTES_PER_VERTEX)).saturating_add(triangles.saturating_mul(OBJ_BYTES_PER_TRIANGLE))
+    file_len
+        .saturating_add(vertices.saturating_mul(OBJ_BYTES_PER_VERTEX))
+        .saturating_add(triangles.saturating_mul(OBJ_BYTES_PER_TRIANGLE))
 }
 
 const OBJ_BYTES_PER_VERTEX: u64 = 100;

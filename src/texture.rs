@@ -56,8 +56,11 @@ impl Image {
         let rgb = img.to_rgb8();
         drop(img);
         let (width, height) = rgb.dimensions();
-        let pixels =
-            rgb.pixels().map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0).map(|c| c.map(srgb_to_linear)).collect();
+        let pixels = rgb
+            .pixels()
+            .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)
+            .map(|c| c.map(srgb_to_linear))
+            .collect();
         Ok(Image { width, height, pixels })
     }
 
@@ -100,7 +103,11 @@ pub enum Texture {
     Constant(Vec3),
     Image(Arc<Image>),
     /// Alternating squares, `scale` squares per unit of u and v.
-    Checker { a: Vec3, b: Vec3, scale: f32 },
+    Checker {
+        a: Vec3,
+        b: Vec3,
+        scale: f32,
+    },
 }
 
 impl Texture {

@@ -23,7 +23,8 @@ use std::sync::Arc;
 const INST_PRIM_WORD: usize = 20;
 
 fn quad_scene(device: &Device) -> Scene {
-    let v = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)];
+    let v =
+        [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)];
     let mut b = SceneBuilder::new(device, BuildOptions::default()).unwrap();
     b.add_triangles(&v, &[[0, 1, 2], [0, 2, 3]]).unwrap();
     b.commit().unwrap()
@@ -40,7 +41,11 @@ fn check_hit_words(p: &GuardProbe, hit: bool, what: &str) {
     let written = p.written_past_initialised();
     match (p.layout, hit) {
         (_, false) | (RayHitLayout::NoInstPrimId, true) => {
-            assert!(written.is_empty(), "{what}: words {written:?} past the ray-hit memory were overwritten: {:x?}", p.words)
+            assert!(
+                written.is_empty(),
+                "{what}: words {written:?} past the ray-hit memory were overwritten: {:x?}",
+                p.words
+            )
         }
         (RayHitLayout::WithInstPrimId, true) => {
             assert_eq!(written, vec![INST_PRIM_WORD], "{what}: {:x?}", p.words);
@@ -90,9 +95,10 @@ fn triangle_hits_write_nothing_past_the_ray_hit_memory() {
 fn user_geometry_hits_write_nothing_past_the_ray_hit_memory() {
     let device = Device::new().unwrap();
     let scene = sphere_scene(&device);
-    for (i, (o, prim, t)) in [(Vec3::new(0.0, 0.0, 5.0), 0, 4.0), (Vec3::new(3.0, 0.0, 5.0), 1, 4.5), (Vec3::new(0.3, 0.2, 5.0), 0, 0.0)]
-        .into_iter()
-        .enumerate()
+    for (i, (o, prim, t)) in
+        [(Vec3::new(0.0, 0.0, 5.0), 0, 4.0), (Vec3::new(3.0, 0.0, 5.0), 1, 4.5), (Vec3::new(0.3, 0.2, 5.0), 0, 0.0)]
+            .into_iter()
+            .enumerate()
     {
         let ray = Ray::new(o, -Vec3::Z);
         let (hit, probe) = scene.probe_intersect(&ray, 0.0, f32::INFINITY).unwrap();

@@ -42,7 +42,11 @@ fn a_lower_target_error_gives_a_lower_measured_error() {
     // Honest estimate: the measured relative RMS error is within a factor 2 of the mean
     // estimated per-pixel relative error for the tight target.
     let measured = tight.sqrt();
-    assert!(measured < 2.0 * ts.error_estimate.0 && measured > 0.5 * ts.error_estimate.0, "{measured} vs {:?}", ts.error_estimate);
+    assert!(
+        measured < 2.0 * ts.error_estimate.0 && measured > 0.5 * ts.error_estimate.0,
+        "{measured} vs {:?}",
+        ts.error_estimate
+    );
 }
 
 #[test]
@@ -50,7 +54,14 @@ fn adaptive_renders_are_bit_identical_across_thread_counts() {
     let scene = Scene::load(&common::scene_path("spheres.toml")).unwrap();
     let device = Device::new().unwrap();
     let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
-    let s = RenderSettings { width: 32, height: 20, spp: 128, max_depth: 4, target_error: Some(0.05), ..Default::default() };
+    let s = RenderSettings {
+        width: 32,
+        height: 20,
+        spp: 128,
+        max_depth: 4,
+        target_error: Some(0.05),
+        ..Default::default()
+    };
     let one = render(&scene, &accel, &RenderSettings { threads: Some(1), ..s.clone() }).unwrap();
     let two = render(&scene, &accel, &RenderSettings { threads: Some(2), ..s.clone() }).unwrap();
     assert_eq!(one.0, two.0);

@@ -46,7 +46,21 @@ fn quick_run_writes_the_matrix_plot_and_render_table() {
     assert!(stdout.contains(&format!("Embree {version}")), "{stdout}");
 
     let (header, rows) = read_csv(&out.join("bench.csv"));
-    for col in ["scene", "strategy", "triangles", "build_ms", "rays", "ray_count", "mrays_per_s", "ns_per_ray", "naive_ray_count", "speedup_vs_naive", "checked", "mismatches", "mismatches_at_edges"] {
+    for col in [
+        "scene",
+        "strategy",
+        "triangles",
+        "build_ms",
+        "rays",
+        "ray_count",
+        "mrays_per_s",
+        "ns_per_ray",
+        "naive_ray_count",
+        "speedup_vs_naive",
+        "checked",
+        "mismatches",
+        "mismatches_at_edges",
+    ] {
         assert!(header.iter().any(|h| h == col), "bench.csv lacks {col}: {header:?}");
     }
     // Every strategy × workload of the quick set, once each.
@@ -101,7 +115,16 @@ fn quick_run_writes_the_matrix_plot_and_render_table() {
     assert_eq!((png.width(), png.height()), (900, 600));
 
     let (header, rows) = read_csv(&out.join("render.csv"));
-    for col in ["scene", "rays", "closest_queries", "occlusion_queries", "samples_per_s_1t", "samples_per_s_2t", "thread_scaling", "path_tracer_percent_of_embree"] {
+    for col in [
+        "scene",
+        "rays",
+        "closest_queries",
+        "occlusion_queries",
+        "samples_per_s_1t",
+        "samples_per_s_2t",
+        "thread_scaling",
+        "path_tracer_percent_of_embree",
+    ] {
         assert!(header.iter().any(|h| h == col), "render.csv lacks {col}: {header:?}");
     }
     assert_eq!(rows.iter().map(|r| r["scene"].as_str()).collect::<Vec<_>>(), ["cornell.toml", "teapot.toml"]);

@@ -51,7 +51,11 @@ fn render_writes_a_png_atomically() {
     let img = image::open(&out).unwrap();
     assert_eq!((img.width(), img.height()), (64, 48));
     // No temporary file left behind.
-    let leftovers: Vec<_> = std::fs::read_dir(&d).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().ends_with(".tmp")).collect();
+    let leftovers: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
     assert!(leftovers.is_empty());
 }
 
@@ -61,7 +65,18 @@ fn exr_output_is_linear_float_and_matches_png() {
     let (exr, png) = (d.join("o.exr"), d.join("o.png"));
     let scene = common::scene_path("cornell-area.toml");
     for out in [&exr, &png] {
-        let o = ember(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "16", "--height", "16", "--spp", "4"]);
+        let o = ember(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--spp",
+            "4",
+        ]);
         assert!(o.status.success(), "{}", stderr(&o));
     }
     let film = ember::film::Film::load_exr(&exr).unwrap();
@@ -81,7 +96,18 @@ fn environment_image_background_lights_the_scene() {
         "[background]\ntype = \"image\"\nfile = \"env.jpg\"\nscale = 2.0\n[materials.m]\ntype = \"diffuse\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n",
     );
     let out = d.join("env.exr");
-    let o = ember(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "16", "--height", "16", "--spp", "16"]);
+    let o = ember(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--spp",
+        "16",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let film = ember::film::Film::load_exr(&out).unwrap();
     // The framing camera sees the sphere in the middle; it must be lit (not black).
@@ -126,12 +152,24 @@ fn strict_fails_on_non_finite_samples_and_writes_nothing() {
     let d = common::fresh_dir("cli", "strict");
     let scene = write(&d, "hot.toml", OVERFLOW);
     let out = d.join("hot.png");
-    let args = ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "16", "--height", "16", "--spp", "4"];
+    let args = [
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--spp",
+        "4",
+    ];
     // Without --strict: rendered, and the summary counts the dropped samples.
     let o = ember(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     let summary = stderr(&o);
-    let count: u64 = summary.split(" non-finite samples dropped").next().unwrap().rsplit(' ').next().unwrap().parse().unwrap();
+    let count: u64 =
+        summary.split(" non-finite samples dropped").next().unwrap().rsplit(' ').next().unwrap().parse().unwrap();
     assert!(count > 0, "{summary}");
     std::fs::remove_file(&out).unwrap();
     // With --strict: exit 2, a message naming the scene and the count, no image.
@@ -144,7 +182,19 @@ fn strict_fails_on_non_finite_samples_and_writes_nothing() {
     assert!(e.contains("--strict allows none"), "{e}");
     assert!(!out.exists());
     // A clean scene passes --strict.
-    let o = ember(&["render", common::scene_path("spheres.toml").to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "16", "--height", "12", "--spp", "2", "--strict"]);
+    let o = ember(&[
+        "render",
+        common::scene_path("spheres.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--spp",
+        "2",
+        "--strict",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains(" 0 non-finite samples dropped"), "{}", stderr(&o));
 }
@@ -157,7 +207,10 @@ fn degenerate_triangles_are_skipped_with_a_warning() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("triangles:  1\n"), "{}", String::from_utf8_lossy(&o.stdout));
     let e = stderr(&o);
-    assert!(e.starts_with(&format!("warning: {}: object", p.display())) && e.contains("skipped 3 degenerate triangle(s)"), "{e}");
+    assert!(
+        e.starts_with(&format!("warning: {}: object", p.display())) && e.contains("skipped 3 degenerate triangle(s)"),
+        "{e}"
+    );
     // Only degenerate triangles: an error, not an empty scene.
     let p = write(&d, "all.obj", "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n");
     let o = ember(&["info", p.to_str().unwrap()]);

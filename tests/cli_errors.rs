@@ -38,7 +38,8 @@ fn s(p: &Path) -> &str {
 
 /// The names in `dir`, sorted.
 fn listing(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut v: Vec<String> =
+        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     v.sort();
     v
 }
@@ -79,7 +80,8 @@ fn expect_scene_error(name: &str, toml: &str, line: Option<usize>, needle: &str)
     expect_render_error(&scene, &d.join("out.png"), &[], &[], &at(&scene, line), needle);
 }
 
-const SPHERE_OK: &str = "[materials.m]\ntype = \"diffuse\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n";
+const SPHERE_OK: &str =
+    "[materials.m]\ntype = \"diffuse\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n";
 const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
 #[test]
@@ -98,7 +100,14 @@ fn missing_file() {
 fn unknown_scene_format() {
     let d = common::fresh_dir("cli-errors", "format");
     let p = write(&d, "scene.txt", SPHERE_OK);
-    expect_render_error(&p, &d.join("out.png"), &[], &[], &at(&p, None), "unknown scene format (expected .toml or .obj)");
+    expect_render_error(
+        &p,
+        &d.join("out.png"),
+        &[],
+        &[],
+        &at(&p, None),
+        "unknown scene format (expected .toml or .obj)",
+    );
 }
 
 #[test]
@@ -149,9 +158,17 @@ fn directory_given_as_file() {
     // Files a scene names: the scene's line that names them.
     let mesh_dir = d.join("folder.obj");
     let scene = write(&d, "mesh.toml", "[[meshes]]\nfile = \"folder.obj\"\n");
-    expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(2)), &format!("mesh {}: is a directory", mesh_dir.display()));
+    expect_render_error(
+        &scene,
+        &out,
+        &[],
+        &[],
+        &at(&scene, Some(2)),
+        &format!("mesh {}: is a directory", mesh_dir.display()),
+    );
     std::fs::create_dir_all(d.join("tex.png")).unwrap();
-    let scene = write(&d, "tex.toml", SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ntexture = \"tex.png\""));
+    let scene =
+        write(&d, "tex.toml", SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ntexture = \"tex.png\""));
     expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(1)), "tex.png: is a directory");
 }
 
@@ -187,12 +204,20 @@ fn face_index_out_of_range() {
     let d = common::fresh_dir("cli-errors", "range");
     let out = d.join("out.png");
     for (text, line, needle) in [
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n", 5, "face vertex index 7 is out of range (1 to 3 defined so far)"),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n",
+            5,
+            "face vertex index 7 is out of range (1 to 3 defined so far)",
+        ),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", 4, "face vertex index 0 is out of range"),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n", 4, "face vertex index -4 is out of range"),
         // Indices refer to vertices defined above the face.
         ("v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n", 3, "face vertex index 3 is out of range (1 to 2 defined so far)"),
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n", 5, "face texture coordinate index 2 is out of range (1 to 1 defined so far)"),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n",
+            5,
+            "face texture coordinate index 2 is out of range (1 to 1 defined so far)",
+        ),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//9\n", 5, "face normal index 9 is out of range"),
     ] {
         let p = write(&d, "range.obj", text);
@@ -203,10 +228,25 @@ fn face_index_out_of_range() {
 #[test]
 fn malformed_toml() {
     expect_scene_error("unclosed", "[materials.m\ntype = 1\n", Some(1), "unclosed table, expected `]`");
-    expect_scene_error("unquoted", &format!("{SPHERE_OK}[render]\nseed = banana\n"), Some(8), "string values must be quoted");
+    expect_scene_error(
+        "unquoted",
+        &format!("{SPHERE_OK}[render]\nseed = banana\n"),
+        Some(8),
+        "string values must be quoted",
+    );
     expect_scene_error("duplicate", &format!("[render]\nspp = 1\nspp = 2\n{SPHERE_OK}"), Some(3), "duplicate key");
-    expect_scene_error("type", &format!("[render]\nspp = \"many\"\n{SPHERE_OK}"), Some(2), "invalid type: string \"many\"");
-    expect_scene_error("vector", &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[0.0, 0.0]"), Some(4), "expected 3 numbers, found 2");
+    expect_scene_error(
+        "type",
+        &format!("[render]\nspp = \"many\"\n{SPHERE_OK}"),
+        Some(2),
+        "invalid type: string \"many\"",
+    );
+    expect_scene_error(
+        "vector",
+        &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[0.0, 0.0]"),
+        Some(4),
+        "expected 3 numbers, found 2",
+    );
     expect_scene_error("empty", "", None, "the scene has no geometry");
 }
 
@@ -214,25 +254,80 @@ fn malformed_toml() {
 fn unknown_key() {
     expect_scene_error("top", &format!("{SPHERE_OK}colour = 3\n"), Some(7), "unknown field `colour`");
     expect_scene_error("render", &format!("[render]\nsamples = 4\n{SPHERE_OK}"), Some(2), "unknown field `samples`");
-    expect_scene_error("sphere", &SPHERE_OK.replace("radius = 1.0", "radius = 1.0\nradios = 2.0"), Some(6), "unknown field `radios`");
+    expect_scene_error(
+        "sphere",
+        &SPHERE_OK.replace("radius = 1.0", "radius = 1.0\nradios = 2.0"),
+        Some(6),
+        "unknown field `radios`",
+    );
     expect_scene_error("variant", &SPHERE_OK.replace("\"diffuse\"", "\"velvet\""), Some(2), "unknown variant `velvet`");
-    expect_scene_error("material", &SPHERE_OK.replace("material = \"m\"", "material = \"steel\""), Some(6), "unknown material \"steel\" (defined: m)");
+    expect_scene_error(
+        "material",
+        &SPHERE_OK.replace("material = \"m\"", "material = \"steel\""),
+        Some(6),
+        "unknown material \"steel\" (defined: m)",
+    );
 }
 
 #[test]
 fn out_of_range_values() {
-    expect_scene_error("negative-radius", &SPHERE_OK.replace("radius = 1.0", "radius = -2.0"), Some(5), "must be greater than 0, found -2");
-    expect_scene_error("zero-radius", &SPHERE_OK.replace("radius = 1.0", "radius = 0.0"), Some(5), "must be greater than 0, found 0");
+    expect_scene_error(
+        "negative-radius",
+        &SPHERE_OK.replace("radius = 1.0", "radius = -2.0"),
+        Some(5),
+        "must be greater than 0, found -2",
+    );
+    expect_scene_error(
+        "zero-radius",
+        &SPHERE_OK.replace("radius = 1.0", "radius = 0.0"),
+        Some(5),
+        "must be greater than 0, found 0",
+    );
     expect_scene_error("spp-zero", &format!("[render]\nspp = 0\n{SPHERE_OK}"), Some(2), "must be at least 1, found 0");
-    expect_scene_error("huge-width", &format!("[render]\nwidth = 100000\n{SPHERE_OK}"), Some(2), "must be between 1 and 16384, found 100000");
-    expect_scene_error("negative-depth", &format!("[render]\nmax_depth = -1\n{SPHERE_OK}"), Some(2), "invalid value: integer `-1`");
-    expect_scene_error("colour", &SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ncolor = [0.5, -0.1, 0.5]"), Some(1), "colour components must not be negative");
+    expect_scene_error(
+        "huge-width",
+        &format!("[render]\nwidth = 100000\n{SPHERE_OK}"),
+        Some(2),
+        "must be between 1 and 16384, found 100000",
+    );
+    expect_scene_error(
+        "negative-depth",
+        &format!("[render]\nmax_depth = -1\n{SPHERE_OK}"),
+        Some(2),
+        "invalid value: integer `-1`",
+    );
+    expect_scene_error(
+        "colour",
+        &SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ncolor = [0.5, -0.1, 0.5]"),
+        Some(1),
+        "colour components must not be negative",
+    );
     // Inside a material the value's own span is lost (serde buffers tagged enums): the line
     // is the material's header.
-    expect_scene_error("roughness", &SPHERE_OK.replace("type = \"diffuse\"", "type = \"metal\"\nroughness = 1.5"), Some(1), "must be between 0 and 1, found 1.5");
-    expect_scene_error("fov", &format!("[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 180\n{SPHERE_OK}"), Some(4), "fov must be below 180 degrees, found 180");
-    expect_scene_error("aperture", &format!("[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\naperture = -1.0\n{SPHERE_OK}"), None, "camera aperture must not be negative");
-    expect_scene_error("look-at", &format!("[camera]\nposition = [1.0, 2.0, 3.0]\nlook_at = [1.0, 2.0, 3.0]\n{SPHERE_OK}"), None, "camera position and look_at are the same point");
+    expect_scene_error(
+        "roughness",
+        &SPHERE_OK.replace("type = \"diffuse\"", "type = \"metal\"\nroughness = 1.5"),
+        Some(1),
+        "must be between 0 and 1, found 1.5",
+    );
+    expect_scene_error(
+        "fov",
+        &format!("[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 180\n{SPHERE_OK}"),
+        Some(4),
+        "fov must be below 180 degrees, found 180",
+    );
+    expect_scene_error(
+        "aperture",
+        &format!("[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\naperture = -1.0\n{SPHERE_OK}"),
+        None,
+        "camera aperture must not be negative",
+    );
+    expect_scene_error(
+        "look-at",
+        &format!("[camera]\nposition = [1.0, 2.0, 3.0]\nlook_at = [1.0, 2.0, 3.0]\n{SPHERE_OK}"),
+        None,
+        "camera position and look_at are the same point",
+    );
     expect_scene_error(
         "quad",
         "[materials.m]\ntype = \"diffuse\"\n[[quads]]\ncorner = [0.0, 0.0, 0.0]\nedge1 = [1.0, 0.0, 0.0]\nedge2 = [2.0, 0.0, 0.0]\nmaterial = \"m\"\n",
@@ -253,18 +348,50 @@ fn out_of_range_values() {
 
 #[test]
 fn nan_and_inf_values() {
-    expect_scene_error("nan", &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[nan, 0.0, 0.0]"), Some(4), "NaN is not a finite number");
-    expect_scene_error("inf", &SPHERE_OK.replace("radius = 1.0", "radius = inf"), Some(5), "inf is not a finite number");
-    expect_scene_error("neg-inf", &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[0.0, -inf, 0.0]"), Some(4), "-inf is not a finite number");
-    expect_scene_error("overflow", &SPHERE_OK.replace("radius = 1.0", "radius = 1e39"), Some(5), "is not a finite number");
+    expect_scene_error(
+        "nan",
+        &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[nan, 0.0, 0.0]"),
+        Some(4),
+        "NaN is not a finite number",
+    );
+    expect_scene_error(
+        "inf",
+        &SPHERE_OK.replace("radius = 1.0", "radius = inf"),
+        Some(5),
+        "inf is not a finite number",
+    );
+    expect_scene_error(
+        "neg-inf",
+        &SPHERE_OK.replace("[0.0, 0.0, 0.0]", "[0.0, -inf, 0.0]"),
+        Some(4),
+        "-inf is not a finite number",
+    );
+    expect_scene_error(
+        "overflow",
+        &SPHERE_OK.replace("radius = 1.0", "radius = 1e39"),
+        Some(5),
+        "is not a finite number",
+    );
     let d = common::fresh_dir("cli-errors", "nan-obj");
     let out = d.join("out.png");
     for (text, line, needle) in [
         // (A non-finite vertex *position* is not an error: its triangles are skipped with a
         // warning, tests/cli.rs degenerate_triangles_are_skipped_with_a_warning.)
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 inf\nf 1/1 2/1 3/1\n", 4, "texture coordinate: \"inf\" is not a finite number"),
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 1e39\nf 1/1 2/1 3/1\n", 4, "texture coordinate: \"1e39\" is not a finite number"),
-        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 NaN\nf 1//1 2//1 3//1\n", 4, "vertex normal: \"NaN\" is not a finite number"),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 inf\nf 1/1 2/1 3/1\n",
+            4,
+            "texture coordinate: \"inf\" is not a finite number",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 1e39\nf 1/1 2/1 3/1\n",
+            4,
+            "texture coordinate: \"1e39\" is not a finite number",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 NaN\nf 1//1 2//1 3//1\n",
+            4,
+            "vertex normal: \"NaN\" is not a finite number",
+        ),
     ] {
         let p = write(&d, "nan.obj", text);
         expect_render_error(&p, &out, &[], &[], &at(&p, Some(line)), needle);
@@ -292,7 +419,14 @@ fn unwritable_output_path() {
     assert!(out.is_dir() && listing(&out).is_empty());
     // A folder nobody may create files in: /sys refuses even root.
     if Path::new("/sys").is_dir() {
-        expect_render_error(&scene, Path::new("/sys/out.png"), &[], &[], "error: /sys/out.png: cannot write: ", "ermission denied");
+        expect_render_error(
+            &scene,
+            Path::new("/sys/out.png"),
+            &[],
+            &[],
+            "error: /sys/out.png: cannot write: ",
+            "ermission denied",
+        );
     } else {
         eprintln!("skipped the /sys case: no /sys folder");
     }
@@ -324,13 +458,29 @@ fn unsupported_output_extension() {
 fn texture_errors() {
     let d = common::fresh_dir("cli-errors", "texture");
     let out = d.join("out.png");
-    let textured = |file: &str| SPHERE_OK.replace("type = \"diffuse\"", &format!("type = \"diffuse\"\ntexture = \"{file}\""));
+    let textured =
+        |file: &str| SPHERE_OK.replace("type = \"diffuse\"", &format!("type = \"diffuse\"\ntexture = \"{file}\""));
     let scene = write(&d, "missing.toml", textured("nothere.png"));
-    expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(1)), &format!("texture {}: no such file", d.join("nothere.png").display()));
+    expect_render_error(
+        &scene,
+        &out,
+        &[],
+        &[],
+        &at(&scene, Some(1)),
+        &format!("texture {}: no such file", d.join("nothere.png").display()),
+    );
     write(&d, "fake.png", "this is not a PNG");
     let scene = write(&d, "corrupt.toml", textured("fake.png"));
-    expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(1)), &format!("texture {}: ", d.join("fake.png").display()));
-    let scene = write(&d, "background.toml", format!("[background]\ntype = \"image\"\nfile = \"nothere.jpg\"\n{SPHERE_OK}"));
+    expect_render_error(
+        &scene,
+        &out,
+        &[],
+        &[],
+        &at(&scene, Some(1)),
+        &format!("texture {}: ", d.join("fake.png").display()),
+    );
+    let scene =
+        write(&d, "background.toml", format!("[background]\ntype = \"image\"\nfile = \"nothere.jpg\"\n{SPHERE_OK}"));
     expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(1)), "nothere.jpg: no such file");
 }
 
@@ -389,7 +539,11 @@ fn memory_limits() {
     assert!(stderr(&o).contains("needs ~1.5 MB to load"), "{}", stderr(&o));
     // A texture, refused from its header before decoding.
     std::fs::copy(common::scene_path("earthmap.jpg"), d.join("earth.jpg")).unwrap();
-    let textured = write(&d, "textured.toml", SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ntexture = \"earth.jpg\""));
+    let textured = write(
+        &d,
+        "textured.toml",
+        SPHERE_OK.replace("type = \"diffuse\"", "type = \"diffuse\"\ntexture = \"earth.jpg\""),
+    );
     expect_render_error(
         &textured,
         &out,
@@ -413,9 +567,19 @@ fn memory_limits() {
         "rendering 0 triangles, 2000 spheres and cylinders at 16x16 needs ~311.7 kB (scene data 32.0 kB, Embree BVH 250.0 kB, film 29.7 kB), more than the 300.0 kB limit",
     );
     // An unreadable limit.
-    expect_render_error(&scene, &out, &[], &[("EMBER_MEMORY_LIMIT", "lots")], "error: EMBER_MEMORY_LIMIT=\"lots\": ", "not a size");
+    expect_render_error(
+        &scene,
+        &out,
+        &[],
+        &[("EMBER_MEMORY_LIMIT", "lots")],
+        "error: EMBER_MEMORY_LIMIT=\"lots\": ",
+        "not a size",
+    );
     // The same scenes render under a sufficient limit.
-    let o = ember_env(&["render", s(&many), "-o", s(&out), "--width", "8", "--height", "8", "--spp", "1"], &[("EMBER_MEMORY_LIMIT", "300k")]);
+    let o = ember_env(
+        &["render", s(&many), "-o", s(&out), "--width", "8", "--height", "8", "--spp", "1"],
+        &[("EMBER_MEMORY_LIMIT", "300k")],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.is_file());
 }
@@ -439,7 +603,10 @@ fn progressive_render_flags() {
     let out = d.join("out.png");
     let scene = write(&d, "scene.toml", SPHERE_OK);
     for (args, needle) in [
-        (&["--target-error", "0"][..], "invalid value '0' for '--target-error <TARGET_ERROR>': expected a relative error between 0 and 1"),
+        (
+            &["--target-error", "0"][..],
+            "invalid value '0' for '--target-error <TARGET_ERROR>': expected a relative error between 0 and 1",
+        ),
         (&["--target-error", "1.5"], "expected a relative error between 0 and 1 (e.g. 0.01), found \"1.5\""),
         (&["--target-error", "small"], "found \"small\""),
         (&["--checkpoint-every", "5x"], "unknown unit \"x\" in \"5x\" (use s, m or h)"),
@@ -462,7 +629,14 @@ fn damaged_checkpoint() {
     let mut truncated = b"EMBERCK\x01".to_vec();
     truncated.extend_from_slice(&[7; 20]);
     std::fs::write(&ckpt, truncated).unwrap();
-    expect_render_error(&scene, &out, &args, &[], &at(&ckpt, None), "not a valid ember checkpoint (checksum mismatch: truncated or damaged)");
+    expect_render_error(
+        &scene,
+        &out,
+        &args,
+        &[],
+        &at(&ckpt, None),
+        "not a valid ember checkpoint (checksum mismatch: truncated or damaged)",
+    );
     std::fs::remove_file(&ckpt).unwrap();
     expect_render_error(&scene, &out, &args, &[], &at(&ckpt, None), "no checkpoint to resume from");
 }
@@ -472,7 +646,20 @@ fn converge_errors() {
     let d = common::fresh_dir("cli-errors", "converge");
     let file = write(&d, "taken", "a file, not a folder");
     let scene = write(&d, "scene.toml", SPHERE_OK);
-    let o = ember(&["converge", s(&scene), "--out", s(&file), "--width", "4", "--height", "4", "--max-spp", "1", "--variants", "nee-mis"]);
+    let o = ember(&[
+        "converge",
+        s(&scene),
+        "--out",
+        s(&file),
+        "--width",
+        "4",
+        "--height",
+        "4",
+        "--max-spp",
+        "1",
+        "--variants",
+        "nee-mis",
+    ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).starts_with(&format!("{}cannot create folder", at(&file, None))), "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "a file, not a folder");

@@ -109,7 +109,8 @@ fn cli_writes_table_plots_and_a_reusable_reference() {
     assert!(table.contains("time to reach relMSE 0.01"), "{table}");
     assert!(table.contains("not reached within 4 spp"), "{table}");
     // No temporary files left behind.
-    let mut names: Vec<String> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    let mut names: Vec<String> =
+        std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
     names.sort();
     assert_eq!(
         names,
@@ -137,7 +138,10 @@ fn cli_writes_table_plots_and_a_reusable_reference() {
     let out3 = common::fresh_path("converge", "wrong-size");
     let o = ember(&["converge", s(&scene), "--out", s(&out3), "--reference", s(&r), "--width", "16", "--height", "16"]);
     assert_eq!(o.status.code(), Some(2));
-    assert_eq!(stderr(&o).trim(), format!("error: {}: reference is 16x12 pixels but the study renders 16x16", r.display()));
+    assert_eq!(
+        stderr(&o).trim(),
+        format!("error: {}: reference is 16x12 pixels but the study renders 16x16", r.display())
+    );
     assert!(!out3.exists());
 
     std::fs::remove_dir_all(&out).unwrap();

@@ -31,7 +31,10 @@ fn small(spp: u32) -> RenderSettings {
 #[test]
 fn sample_scenes_have_the_effects_they_use() {
     let cases: [(&str, &[&str]); 8] = [
-        ("teapot.toml", &["triangles", "diffuse", "glossy", "emissive", "texture", "area lights", "sky", "indirect light"]),
+        (
+            "teapot.toml",
+            &["triangles", "diffuse", "glossy", "emissive", "texture", "area lights", "sky", "indirect light"],
+        ),
         ("cornell.toml", &["triangles", "diffuse", "point lights", "indirect light"]),
         ("cornell-area.toml", &["triangles", "diffuse", "emissive", "area lights", "indirect light"]),
         (
@@ -51,7 +54,10 @@ fn sample_scenes_have_the_effects_they_use() {
                 "indirect light",
             ],
         ),
-        ("dof.toml", &["triangles", "spheres", "diffuse", "glossy", "texture", "sky", "depth of field", "indirect light"]),
+        (
+            "dof.toml",
+            &["triangles", "spheres", "diffuse", "glossy", "texture", "sky", "depth of field", "indirect light"],
+        ),
         ("teapot.obj", &["triangles", "diffuse", "sky", "indirect light"]),
         // Embree's file defines an emissive material whose light face is commented out: unused
         // materials do not count, so the mesh gets a sky.
@@ -171,17 +177,22 @@ fn unused_materials_and_textures_do_not_switch_effects_on() {
 fn specialised_and_general_kernels_give_bit_identical_images() {
     // Every scene in scenes/, plus the one-sphere scene (whose specialised kernel also uses a
     // shorter path depth). Bit-identical: each switch only removes work whose result is known.
-    let mut scenes: Vec<(String, Scene)> = ["teapot.toml", "cornell.toml", "cornell-area.toml", "spheres.toml", "dof.toml"]
-        .iter()
-        .chain(["teapot.obj", "cornell_box.obj", "bunny.obj"].iter())
-        .map(|n| (n.to_string(), Scene::load(&common::scene_path(n)).unwrap()))
-        .collect();
+    let mut scenes: Vec<(String, Scene)> =
+        ["teapot.toml", "cornell.toml", "cornell-area.toml", "spheres.toml", "dof.toml"]
+            .iter()
+            .chain(["teapot.obj", "cornell_box.obj", "bunny.obj"].iter())
+            .map(|n| (n.to_string(), Scene::load(&common::scene_path(n)).unwrap()))
+            .collect();
     scenes.push(("one-sphere".into(), scene_from("one-sphere-2.toml", ONE_SPHERE)));
     for (name, scene) in &scenes {
         let (a, sa) = render_with(scene, &small(2));
         let (b, sb) = render_with(scene, &RenderSettings { specialize: false, ..small(2) });
         assert_eq!(sb.kernel, KernelChoice::GENERAL);
-        let same = a.pixels.iter().zip(&b.pixels).all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits));
+        let same = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits));
         assert!(same, "{name}: kernel {} differs from the general kernel", sa.kernel);
         assert!(a.mean().max_element() > 0.005, "{name} is black");
     }

@@ -8,7 +8,12 @@ use glam::Vec3;
 use std::sync::Arc;
 
 fn quad() -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let v = vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)];
+    let v = vec![
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 1.0, 0.0),
+    ];
     (v, vec![[0, 1, 2], [0, 2, 3]])
 }
 

@@ -96,7 +96,9 @@ fn embree_equals_naive_on_100k_random_rays() {
                         t.bad.push(format!("ray {i}: normals differ {:?} vs {:?}", e.ng, n.ng));
                     }
                 }
-                (Some(e), Some(n)) if close(ray, e.t, n.t) && near_triangle_edge(&geometry, ray, &n, 1e-4) => t.edge += 1,
+                (Some(e), Some(n)) if close(ray, e.t, n.t) && near_triangle_edge(&geometry, ray, &n, 1e-4) => {
+                    t.edge += 1
+                }
                 (Some(h), None) | (None, Some(h)) if near_triangle_edge(&geometry, ray, &h, 1e-4) => t.edge += 1,
                 (e, n) => t.bad.push(format!("ray {i} {ray:?}: embree {e:?} vs naive {n:?}")),
             }

@@ -8,7 +8,15 @@ use ember::check::{Quality, catalog, find};
 fn check(name: &str) {
     let case = find(name).unwrap_or_else(|| panic!("no hard case named {name:?}"));
     let r = case.run(Quality::Full);
-    println!("{name}: error {} (limit {}, {}), {} non-finite, {:.1} s: {}", r.worst_error, r.limit, r.metric, r.nonfinite, r.elapsed.as_secs_f64(), r.detail);
+    println!(
+        "{name}: error {} (limit {}, {}), {} non-finite, {:.1} s: {}",
+        r.worst_error,
+        r.limit,
+        r.metric,
+        r.nonfinite,
+        r.elapsed.as_secs_f64(),
+        r.detail
+    );
     assert_eq!(r.nonfinite, 0, "{name}: non-finite values: {}", r.detail);
     assert!(r.pass, "{name}: {} = {} over the limit {}: {}", r.metric, r.worst_error, r.limit, r.detail);
 }

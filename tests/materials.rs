@@ -501,8 +501,7 @@ fn flags() {
 /// A unit vector, uniform on the sphere most of the time, but one time in four with a
 /// troublesome cosine (0, ±tiny, ±1, …) to hit the edge cases.
 fn random_unit(rng: &mut Rng) -> Vec3 {
-    const SPECIAL_Z: [f32; 12] =
-        [0.0, -0.0, 1e-7, -1e-7, 1e-30, -1e-30, 1e-4, -1e-4, 1.0, -1.0, 1e-9, 2e-9];
+    const SPECIAL_Z: [f32; 12] = [0.0, -0.0, 1e-7, -1e-7, 1e-30, -1e-30, 1e-4, -1e-4, 1.0, -1.0, 1e-9, 2e-9];
     let u = rng.next_2d();
     let z = if rng.next_f32() < 0.25 {
         SPECIAL_Z[(rng.next_u32() % SPECIAL_Z.len() as u32) as usize]

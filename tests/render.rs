@@ -24,7 +24,10 @@ fn pixel_average(x: u32, y: u32, w: u32, h: u32, f: impl Fn(glam::Vec2) -> f64) 
     let mut sum = 0.0;
     for j in 0..8 {
         for i in 0..8 {
-            sum += f(glam::Vec2::new((x as f32 + (i as f32 + 0.5) / 8.0) / w as f32, (y as f32 + (j as f32 + 0.5) / 8.0) / h as f32));
+            sum += f(glam::Vec2::new(
+                (x as f32 + (i as f32 + 0.5) / 8.0) / w as f32,
+                (y as f32 + (j as f32 + 0.5) / 8.0) / h as f32,
+            ));
         }
     }
     sum / 64.0
@@ -39,7 +42,8 @@ fn white_furnace_sphere_in_uniform_sky_is_one_everywhere() {
     // An albedo-1 diffuse sphere under uniform sky radiance 1 reflects exactly radiance 1:
     // every pixel (sphere or sky) must be 1. Tolerance: 1% per pixel (16384 spp), 0.2% for
     // the image mean.
-    let p = common::write_scene("render", 
+    let p = common::write_scene(
+        "render",
         "furnace.toml",
         r#"
         [camera]
@@ -71,7 +75,8 @@ fn diffuse_plane_under_point_light_matches_inverse_square_cosine() {
     // is the jittered position inside the pixel (about ±1% at 64 spp, so 1024 spp). Tolerance:
     // 1% per pixel.
     let (albedo, intensity, h) = (0.5f32, 40.0f32, 2.0f32);
-    let p = common::write_scene("render", 
+    let p = common::write_scene(
+        "render",
         "point.toml",
         &format!(
             r#"
@@ -131,7 +136,8 @@ fn plane_under_emissive_quad_matches_form_factor() {
     // light, E is the sum of four corner rectangles. Tolerances: the image mean within 1%,
     // 99% of pixels within 5% (1024 spp, Monte Carlo noise).
     let (albedo, le) = (0.8f64, 3.0f64);
-    let p = common::write_scene("render", 
+    let p = common::write_scene(
+        "render",
         "formfactor.toml",
         &format!(
             r#"
@@ -254,7 +260,9 @@ fn every_bvh_build_gives_the_same_image() {
     let device = Device::new().unwrap();
     for quality in [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High] {
         for robust in [false, true] {
-            let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions { quality, robust, ..BuildOptions::default() }).unwrap();
+            let accel =
+                EmbreeAccel::new(&device, &scene.geometry, BuildOptions { quality, robust, ..BuildOptions::default() })
+                    .unwrap();
             let (b, _) = render(&scene, &accel, &s).unwrap();
             let diffs: Vec<f32> =
                 reference.pixels.iter().zip(&b.pixels).map(|(p, q)| (*p - *q).abs().max_element()).collect();
@@ -275,7 +283,12 @@ fn image_is_bit_identical_for_one_and_two_threads() {
     let one = render(&scene, &accel, &RenderSettings { threads: Some(1), ..settings(48, 30, 4) }).unwrap().0;
     let two = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
     let again = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
-    assert!(one.pixels.iter().zip(&two.pixels).all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)));
+    assert!(
+        one.pixels
+            .iter()
+            .zip(&two.pixels)
+            .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits))
+    );
     assert_eq!(two, again);
     let other_seed = render(&scene, &accel, &RenderSettings { seed: 1, ..settings(48, 30, 4) }).unwrap().0;
     assert_ne!(one, other_seed, "the seed must matter");

@@ -135,7 +135,13 @@ fn resume_refuses_other_settings_and_other_scenes() {
     // On the command line: exit 2, the file named, nothing written.
     let out = dir.join("cli.exr");
     let run = Command::new(env!("CARGO_BIN_EXE_ember"))
-        .args(["render", common::scene_path("cornell-area.toml").to_str().unwrap(), "-o", out.to_str().unwrap(), "--resume"])
+        .args([
+            "render",
+            common::scene_path("cornell-area.toml").to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--resume",
+        ])
         .output()
         .unwrap();
     let msg = String::from_utf8_lossy(&run.stderr);

@@ -156,7 +156,8 @@ fn an_explicit_choice_wins_over_the_scene() {
     assert_eq!(off.render.rr_depth, Some(RrDepth::Off));
     let auto = scene("dim-file-auto.toml", &format!("[render]\nrr_depth = \"auto\"\n{DIM}"));
     assert_eq!(auto.render.rr_depth, Some(RrDepth::Auto));
-    let bad = Scene::load(&common::write_scene("rr-auto", "dim-bad.toml", &format!("[render]\nrr_depth = \"never\"\n{DIM}")));
+    let bad =
+        Scene::load(&common::write_scene("rr-auto", "dim-bad.toml", &format!("[render]\nrr_depth = \"never\"\n{DIM}")));
     let msg = bad.unwrap_err().to_string();
     assert!(msg.contains("expected a number of bounces, \"off\" or \"auto\", found \"never\""), "{msg}");
 }
@@ -168,7 +169,8 @@ fn ember(args: &[&str]) -> Output {
 /// The `kernel:` line a render of `scene` prints with `extra` arguments.
 fn kernel_line(scene: &std::path::Path, extra: &[&str]) -> String {
     let out = common::fresh_dir("rr-auto", &format!("line-{}", extra.join("_"))).join("out.exr");
-    let args = ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "8", "--height", "6", "--spp", "1"];
+    let args =
+        ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "8", "--height", "6", "--spp", "1"];
     let o = ember(&[&args[..], extra].concat());
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert!(o.status.success(), "{err}");
@@ -190,7 +192,8 @@ fn the_kernel_line_states_where_roulette_starts_and_why() {
 
     let cornell = common::scene_path("cornell-area.toml");
     assert!(
-        kernel_line(&cornell, &[]).ends_with("; russian roulette off (scene albedo 1.00: throughput never falls to 1/2)"),
+        kernel_line(&cornell, &[])
+            .ends_with("; russian roulette off (scene albedo 1.00: throughput never falls to 1/2)"),
         "{}",
         kernel_line(&cornell, &[])
     );
@@ -200,7 +203,8 @@ fn the_kernel_line_states_where_roulette_starts_and_why() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success());
     assert!(
-        out.lines().any(|l| l.starts_with("kernel:") && l.ends_with("; russian roulette from depth 3 (scene albedo ≤ 0.75)")),
+        out.lines()
+            .any(|l| l.starts_with("kernel:") && l.ends_with("; russian roulette from depth 3 (scene albedo ≤ 0.75)")),
         "{out}"
     );
 }

@@ -120,7 +120,8 @@ fn cylinder_arbitrary_axis_matches_rotated_frame() {
 
 #[test]
 fn user_geometry_through_embree_gives_the_same_answers() {
-    let spheres: Vec<Sphere> = vec![Sphere::new(Vec3::new(0.0, 0.0, 5.0), 1.0), Sphere::new(Vec3::new(3.0, 0.0, 5.0), 0.5)];
+    let spheres: Vec<Sphere> =
+        vec![Sphere::new(Vec3::new(0.0, 0.0, 5.0), 1.0), Sphere::new(Vec3::new(3.0, 0.0, 5.0), 0.5)];
     let cylinders = vec![Cylinder::new(Vec3::new(-3.0, -1.0, 5.0), Vec3::new(-3.0, 1.0, 5.0), 0.5)];
     let geometry = vec![Geometry::Spheres(spheres.into()), Geometry::Cylinders(cylinders.into())];
     let device = Device::new().unwrap();

@@ -59,7 +59,8 @@ impl Accel for NaiveAccel {
                     for (pi, &[a, b, c]) in tris.iter().enumerate() {
                         if let Some(h) = wt.intersect(a, b, c, tmin, tmax) {
                             tmax = h.t;
-                            best = Some(Hit { t: h.t, geom, prim: pi as u32, u: h.u, v: h.v, ng: (b - a).cross(c - a) });
+                            best =
+                                Some(Hit { t: h.t, geom, prim: pi as u32, u: h.u, v: h.v, ng: (b - a).cross(c - a) });
                         }
                     }
                 }

@@ -2,12 +2,12 @@
 //! BVH build times, throughput, the speedup over the naive loop measured in the same run, and
 //! a check of every strategy's answers against the naive loop's.
 
+use super::BenchError;
 use super::check::{Agreement, compare};
 use super::measure::{Answer, Timing, answers, time_answers, time_queries};
 use super::rays::{self, Query, RayKind};
 use super::scenes::{BenchScene, Family};
 use super::strategy::Strategy;
-use super::BenchError;
 use crate::accel::{Accel, EmbreeAccel, NaiveAccel};
 use crate::embree::{BuildOptions, Device};
 use crate::geometry::{Aabb, Geometry};
@@ -126,7 +126,11 @@ fn bounds(geometry: &[Geometry]) -> Aabb {
 
 /// Builds with `strategy`; Embree builds shorter than 70 ms are repeated (three in all) and
 /// the fastest is reported, small builds being noisy.
-fn build(strategy: Strategy, device: &Device, geometry: &[Geometry]) -> Result<(Box<dyn Accel>, Option<Duration>), BenchError> {
+fn build(
+    strategy: Strategy,
+    device: &Device,
+    geometry: &[Geometry],
+) -> Result<(Box<dyn Accel>, Option<Duration>), BenchError> {
     let (mut accel, mut best) = strategy.build(device, geometry)?;
     for _ in 1..3 {
         match best {
@@ -219,12 +223,17 @@ pub fn run_scene(
     let tess_naive = tessellated.as_ref().map(|g| NaiveAccel::new(g));
 
     for strategy in Strategy::for_scene(scene.shapes() > 0).into_iter().filter(|s| *s != Strategy::Naive) {
-        let geometry = if strategy.tessellated() { tessellated.as_deref().unwrap_or(&scene.geometry) } else { &scene.geometry };
+        let geometry =
+            if strategy.tessellated() { tessellated.as_deref().unwrap_or(&scene.geometry) } else { &scene.geometry };
         let (accel, build_time) = build(strategy, device, geometry)?;
         for (kind, queries) in &work.sets {
             let (time, hits) = time_queries(accel.as_ref(), queries, kind.closest(), cfg.timing)?;
-            let NaiveReference { queries: sub, answers: ref_answers, ns_per_ray: naive_ns, cpu_ns_per_ray: naive_cpu_ns } =
-                &reference[kind];
+            let NaiveReference {
+                queries: sub,
+                answers: ref_answers,
+                ns_per_ray: naive_ns,
+                cpu_ns_per_ray: naive_cpu_ns,
+            } = &reference[kind];
             let agreement = match (&tess_naive, strategy.tessellated()) {
                 (Some(tn), true) => {
                     if !tess_reference.contains_key(kind) {
@@ -280,13 +289,25 @@ fn sig(x: f64) -> String {
     if !x.is_finite() {
         return "-".into();
     }
-    let digits = if x >= 100.0 { 0 } else if x >= 10.0 { 1 } else if x >= 1.0 { 2 } else { 3 };
+    let digits = if x >= 100.0 {
+        0
+    } else if x >= 10.0 {
+        1
+    } else if x >= 1.0 {
+        2
+    } else {
+        3
+    };
     if x < 0.01 { format!("{x:.2e}") } else { format!("{x:.digits$}") }
 }
 
 fn primitives_cell(m: &Measurement) -> String {
     if m.shapes > 0 && m.traced_triangles == m.triangles {
-        if m.triangles > 0 { format!("{} tris + {} shapes", m.triangles, m.shapes) } else { format!("{} shapes", m.shapes) }
+        if m.triangles > 0 {
+            format!("{} tris + {} shapes", m.triangles, m.shapes)
+        } else {
+            format!("{} shapes", m.shapes)
+        }
     } else {
         format!("{} tris", m.traced_triangles)
     }
@@ -419,7 +440,8 @@ pub fn csv_table(ms: &[Measurement]) -> Table {
 /// every point, as for the ×naive column; else wall time per ray.
 pub fn scaling_plot(path: &Path, ms: &[Measurement]) -> Result<(), BenchError> {
     let procedural = ms.iter().any(|m| m.family == Family::Procedural);
-    let keep = |m: &&Measurement| if procedural { m.family == Family::Procedural } else { m.shapes == 0 || m.triangles > 0 };
+    let keep =
+        |m: &&Measurement| if procedural { m.family == Family::Procedural } else { m.shapes == 0 || m.triangles > 0 };
     let cpu = ms.iter().filter(keep).all(|m| m.cpu.is_some());
     let per_ray = |m: &Measurement| if cpu { m.cpu_ns_per_ray().unwrap_or(f64::NAN) } else { m.ns_per_ray() };
     let mut series = Vec::new();

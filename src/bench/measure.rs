@@ -37,21 +37,23 @@ impl Answer {
 
 /// One pass over `queries` (closest hit or any hit); returns the number of hits.
 pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool) -> Result<usize, AccelError> {
-    queries.par_chunks(CHUNK).try_fold(
-        || 0usize,
-        |mut hits, chunk| {
-            for q in chunk {
-                let hit = if closest {
-                    accel.intersect(&q.ray, 0.0, q.tmax)?.is_some()
-                } else {
-                    accel.occluded(&q.ray, 0.0, q.tmax)?
-                };
-                hits += hit as usize;
-            }
-            Ok(hits)
-        },
-    )
-    .try_reduce(|| 0, |a, b| Ok(a + b))
+    queries
+        .par_chunks(CHUNK)
+        .try_fold(
+            || 0usize,
+            |mut hits, chunk| {
+                for q in chunk {
+                    let hit = if closest {
+                        accel.intersect(&q.ray, 0.0, q.tmax)?.is_some()
+                    } else {
+                        accel.occluded(&q.ray, 0.0, q.tmax)?
+                    };
+                    hits += hit as usize;
+                }
+                Ok(hits)
+            },
+        )
+        .try_reduce(|| 0, |a, b| Ok(a + b))
 }
 
 /// Wall and CPU time of a measurement.
@@ -64,8 +66,14 @@ pub struct Times {
 
 /// The best pass over `queries` (wall time and, separately, CPU time of the pool's threads),
 /// and the hit count (the same every pass).
-pub fn time_queries(accel: &dyn Accel, queries: &[Query], closest: bool, timing: Timing) -> Result<(Times, usize), AccelError> {
-    let (mut best, mut total, mut passes, mut hits) = (Times { wall: Duration::MAX, cpu: None }, Duration::ZERO, 0u32, 0usize);
+pub fn time_queries(
+    accel: &dyn Accel,
+    queries: &[Query],
+    closest: bool,
+    timing: Timing,
+) -> Result<(Times, usize), AccelError> {
+    let (mut best, mut total, mut passes, mut hits) =
+        (Times { wall: Duration::MAX, cpu: None }, Duration::ZERO, 0u32, 0usize);
     if queries.is_empty() {
         return Ok((Times::default(), 0));
     }

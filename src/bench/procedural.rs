@@ -64,7 +64,9 @@ fn bump(d: Vec3) -> f32 {
 pub fn shape_field(spheres: usize, cylinders: usize, seed: u64) -> (Vec<Sphere>, Vec<Cylinder>) {
     let mut rng = Rng::new(seed, 0x5eed);
     let mut v = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
-    let s = (0..spheres).map(|_| Sphere::new(Vec3::new(v(-10.0, 10.0), v(-10.0, 10.0), v(-10.0, 10.0)), v(0.3, 0.9))).collect();
+    let s = (0..spheres)
+        .map(|_| Sphere::new(Vec3::new(v(-10.0, 10.0), v(-10.0, 10.0), v(-10.0, 10.0)), v(0.3, 0.9)))
+        .collect();
     let c = (0..cylinders)
         .map(|_| {
             let p0 = Vec3::new(v(-10.0, 10.0), v(-10.0, 10.0), v(-10.0, 10.0));
@@ -85,7 +87,9 @@ mod tests {
     #[test]
     fn blob_counts_and_resolutions() {
         assert_eq!(blob(3).triangle_count(), blob_triangles(3));
-        for (target, n, tris) in [(1_000, 9, 972), (10_000, 29, 10_092), (100_000, 91, 99_372), (1_000_000, 289, 1_002_252)] {
+        for (target, n, tris) in
+            [(1_000, 9, 972), (10_000, 29, 10_092), (100_000, 91, 99_372), (1_000_000, 289, 1_002_252)]
+        {
             assert_eq!(blob_resolution(target), n);
             assert_eq!(blob_triangles(n), tris);
         }

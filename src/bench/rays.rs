@@ -123,7 +123,8 @@ mod tests {
 
     #[test]
     fn subsample_spreads_and_bounds() {
-        let q: Vec<Query> = (0..10).map(|i| Query { ray: Ray::new(Vec3::splat(i as f32), Vec3::X), tmax: 1.0 }).collect();
+        let q: Vec<Query> =
+            (0..10).map(|i| Query { ray: Ray::new(Vec3::splat(i as f32), Vec3::X), tmax: 1.0 }).collect();
         let s = subsample(&q, 3);
         assert_eq!(s.iter().map(|q| q.ray.o.x).collect::<Vec<_>>(), vec![0.0, 4.0, 8.0]);
         assert_eq!(subsample(&q, 100).len(), 10);

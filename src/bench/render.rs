@@ -117,8 +117,12 @@ impl RenderMeasurement {
 
 /// Best of repeated `f` runs by wall time (each returning its own wall time), with the
 /// least CPU time of the pool's threads over the runs.
-fn best_of<T>(timing: Timing, mut f: impl FnMut() -> Result<(T, Duration), BenchError>) -> Result<(T, Times), BenchError> {
-    let (mut best, mut times, mut total, mut passes) = (None::<T>, Times { wall: Duration::MAX, cpu: None }, Duration::ZERO, 0);
+fn best_of<T>(
+    timing: Timing,
+    mut f: impl FnMut() -> Result<(T, Duration), BenchError>,
+) -> Result<(T, Times), BenchError> {
+    let (mut best, mut times, mut total, mut passes) =
+        (None::<T>, Times { wall: Duration::MAX, cpu: None }, Duration::ZERO, 0);
     while passes < timing.min_passes.max(1) || total < timing.min_total {
         let (r, cpu) = cpu_of(&mut f);
         let (value, wall) = r?;

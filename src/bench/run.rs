@@ -45,7 +45,12 @@ fn write_table(dir: &Path, name: &str, t: &Table) -> Result<PathBuf, BenchError>
 fn cpu_model() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|m| m.trim().to_string()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
         .unwrap_or_else(|| "unknown CPU".into())
 }
 
@@ -74,18 +79,30 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
     } else {
         Vec::new()
     };
-    let specialize_files =
-        if opts.sections.contains(&Section::Specialize) { specialize::scene_files(&opts.scenes_dir)? } else { Vec::new() };
-    std::fs::create_dir_all(&opts.out).map_err(|e| BenchError::Invalid(format!("{}: cannot create folder: {e}", opts.out.display())))?;
+    let specialize_files = if opts.sections.contains(&Section::Specialize) {
+        specialize::scene_files(&opts.scenes_dir)?
+    } else {
+        Vec::new()
+    };
+    std::fs::create_dir_all(&opts.out)
+        .map_err(|e| BenchError::Invalid(format!("{}: cannot create folder: {e}", opts.out.display())))?;
     let device = Device::new()?;
     // The first commit in a process also starts Embree's threads: keep it out of the timings.
     drop(EmbreeAccel::new(&device, &[], BuildOptions::default())?);
     let pool = match opts.threads {
-        Some(n) => Some(rayon::ThreadPoolBuilder::new().num_threads(n).build().map_err(|e| BenchError::Invalid(e.to_string()))?),
+        Some(n) => Some(
+            rayon::ThreadPoolBuilder::new().num_threads(n).build().map_err(|e| BenchError::Invalid(e.to_string()))?,
+        ),
         None => None,
     };
     let threads = pool.as_ref().map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
-    println!("ember bench{}: Embree {}, {}, {} cores", if opts.quick { " --quick" } else { "" }, device.version(), cpu_model(), std::thread::available_parallelism().map_or(1, |n| n.get()));
+    println!(
+        "ember bench{}: Embree {}, {}, {} cores",
+        if opts.quick { " --quick" } else { "" },
+        device.version(),
+        cpu_model(),
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    );
     println!("load average at start: {}", load_average());
     let start = Instant::now();
     let mut log = |s: &str| eprintln!("{s}");
@@ -100,12 +117,7 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
              (column \"rays\" of its row) of about {:.1e} primitive tests, {}..{} rays. ×naive = naive CPU time per \
              ray / strategy CPU time per ray (all threads; wall time where CPU time cannot be read), robust to other \
              load on the machine. Mismatches: answers differing from the naive loop's on that subsample.",
-            cfg.image_side,
-            cfg.incoherent,
-            cfg.timing.min_passes,
-            cfg.naive_tests,
-            cfg.naive_min,
-            cfg.naive_max
+            cfg.image_side, cfg.incoherent, cfg.timing.min_passes, cfg.naive_tests, cfg.naive_min, cfg.naive_max
         );
         let mut all = Vec::new();
         for scene in &matrix_scenes {
@@ -129,9 +141,7 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
             "Path tracer vs Embree alone ({} spp, width {}, scene depth and Russian roulette): the path tracer's rays/s \
              (2 threads) over Embree's on the same rays, recorded from the path tracer and replayed through \
              rtcIntersect1/rtcOccluded1 on 2 threads; samples/s with 2 threads over 1. Best of >= {} renders.",
-            cfg.spp,
-            cfg.width,
-            cfg.timing.min_passes
+            cfg.spp, cfg.width, cfg.timing.min_passes
         );
         let mut ms = Vec::new();
         for file in ["cornell.toml", "teapot.toml"] {
@@ -150,9 +160,7 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
         println!(
             "Specialised vs general kernel (RenderSettings.specialize), all cores, {} spp, width {}; best of >= {} \
              alternating renders each.",
-            cfg.spp,
-            cfg.width,
-            cfg.timing.min_passes
+            cfg.spp, cfg.width, cfg.timing.min_passes
         );
         let mut ms = Vec::new();
         for file in specialize_files {

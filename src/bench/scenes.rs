@@ -28,7 +28,8 @@ pub struct BenchScene {
 }
 
 /// Built-in scene names, in the order of the full run.
-pub const BUILTIN: [&str; 8] = ["teapot", "bunny", "blob-1k", "blob-10k", "blob-100k", "blob-1m", "shapes-100", "shapes-1k"];
+pub const BUILTIN: [&str; 8] =
+    ["teapot", "bunny", "blob-1k", "blob-10k", "blob-100k", "blob-1m", "shapes-100", "shapes-1k"];
 /// The default run.
 pub const DEFAULT_SET: [&str; 7] = ["teapot", "bunny", "blob-1k", "blob-10k", "blob-100k", "blob-1m", "shapes-1k"];
 /// The `--quick` run.
@@ -110,7 +111,9 @@ impl BenchScene {
                 .map(|g| match g {
                     Geometry::Mesh(m) => Geometry::Mesh(m.clone()),
                     Geometry::Spheres(s) => Geometry::Mesh(Arc::new(tessellate_spheres(s, TESSELLATION_SEGMENTS).mesh)),
-                    Geometry::Cylinders(c) => Geometry::Mesh(Arc::new(tessellate_cylinders(c, TESSELLATION_SEGMENTS).mesh)),
+                    Geometry::Cylinders(c) => {
+                        Geometry::Mesh(Arc::new(tessellate_cylinders(c, TESSELLATION_SEGMENTS).mesh))
+                    }
                 })
                 .collect(),
         )

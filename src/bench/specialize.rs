@@ -75,7 +75,11 @@ pub fn measure_scene(path: &Path, device: &Device, cfg: &RenderConfig) -> Result
         passes += 1;
     }
     let identical = match (&films[0], &films[1]) {
-        (Some(a), Some(b)) => a.pixels.iter().zip(&b.pixels).all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits)),
+        (Some(a), Some(b)) => a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits)),
         _ => false,
     };
     let name = path.file_name().map_or(path.display().to_string(), |n| n.to_string_lossy().into_owned());
@@ -106,8 +110,17 @@ pub fn summary_table(ms: &[SpecializeMeasurement]) -> Table {
     t
 }
 
-pub const CSV_COLUMNS: [&str; 9] =
-    ["scene", "width", "height", "spp", "samples", "general_us_per_sample", "specialized_us_per_sample", "speedup", "identical_image"];
+pub const CSV_COLUMNS: [&str; 9] = [
+    "scene",
+    "width",
+    "height",
+    "spp",
+    "samples",
+    "general_us_per_sample",
+    "specialized_us_per_sample",
+    "speedup",
+    "identical_image",
+];
 
 pub fn csv_table(ms: &[SpecializeMeasurement]) -> Table {
     let mut t = Table::new(CSV_COLUMNS);

@@ -50,7 +50,11 @@ impl Strategy {
 
     /// Builds the accelerator over `geometry` (already tessellated if the strategy says so).
     /// Embree's build time (registration and BVH) is returned; the naive loop has none.
-    pub fn build(self, device: &Device, geometry: &[Geometry]) -> Result<(Box<dyn Accel>, Option<Duration>), EmbreeError> {
+    pub fn build(
+        self,
+        device: &Device,
+        geometry: &[Geometry],
+    ) -> Result<(Box<dyn Accel>, Option<Duration>), EmbreeError> {
         Ok(match self {
             Strategy::Naive => (Box::new(NaiveAccel::new(geometry)), None),
             Strategy::Embree { quality, robust, .. } => {

@@ -48,7 +48,12 @@ impl Agreement {
 
 /// Compares `accels` (geometry i is `solids[i]`) on `rays`; `delta(ray)` is the origin
 /// perturbation that covers f32 rounding for that ray.
-pub fn agree(accels: &[&dyn Accel], solids: &[Solid], rays: &[Ray], delta: impl Fn(&Ray) -> f64) -> Result<Agreement, AccelError> {
+pub fn agree(
+    accels: &[&dyn Accel],
+    solids: &[Solid],
+    rays: &[Ray],
+    delta: impl Fn(&Ray) -> f64,
+) -> Result<Agreement, AccelError> {
     let jiggles = [DVec3::new(0.7, 0.5, 0.3).normalize(), DVec3::new(-0.3, 0.8, -0.5).normalize()];
     let mut a = Agreement { by_accel: accels.iter().map(|x| (x.name(), 0, 0.0)).collect(), ..Agreement::default() };
     for ray in rays {
@@ -61,7 +66,8 @@ pub fn agree(accels: &[&dyn Accel], solids: &[Solid], rays: &[Ray], delta: impl 
                 answers.push(first_hit(solids, o + s * j, d).map(|(i, h)| (i, h.t)));
             }
         }
-        let (tlo, thi) = answers.iter().flatten().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), h| (lo.min(h.1), hi.max(h.1)));
+        let (tlo, thi) =
+            answers.iter().flatten().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), h| (lo.min(h.1), hi.max(h.1)));
         // Starting on a surface (a hit within δ of the origin) is ambiguous too: the hit at the
         // origin may be reported or not (Embree's range includes tmin).
         let near = 2.0 * dl / d.length();
@@ -81,7 +87,13 @@ pub fn agree(accels: &[&dyn Accel], solids: &[Solid], rays: &[Ray], delta: impl 
                 (None, None) => !occluded,
                 (Some(h), Some((i, t))) => {
                     let t32 = h.t as f64;
-                    let out = if t32 < tlo { tlo - t32 } else if t32 > thi { t32 - thi } else { 0.0 };
+                    let out = if t32 < tlo {
+                        tlo - t32
+                    } else if t32 > thi {
+                        t32 - thi
+                    } else {
+                        0.0
+                    };
                     a.worst_t = a.worst_t.max(out / t.max(1e-30));
                     a.by_accel[k].2 = a.by_accel[k].2.max(out / t.max(1e-30));
                     h.geom as usize == i && occluded

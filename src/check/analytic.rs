@@ -7,12 +7,26 @@ use glam::DVec3;
 #[derive(Clone, Copy, Debug)]
 pub enum Solid {
     /// Parallelogram `corner + a·e1 + b·e2`, a, b in [0, 1].
-    Quad { corner: DVec3, e1: DVec3, e2: DVec3 },
-    Sphere { center: DVec3, radius: f64 },
+    Quad {
+        corner: DVec3,
+        e1: DVec3,
+        e2: DVec3,
+    },
+    Sphere {
+        center: DVec3,
+        radius: f64,
+    },
     /// Capped cylinder around the axis p0 → p1.
-    Cylinder { p0: DVec3, p1: DVec3, radius: f64 },
+    Cylinder {
+        p0: DVec3,
+        p1: DVec3,
+        radius: f64,
+    },
     /// Axis-aligned box.
-    Box { min: DVec3, max: DVec3 },
+    Box {
+        min: DVec3,
+        max: DVec3,
+    },
 }
 
 /// A reference hit: distance (in units of the direction), point, unit outward normal.
@@ -58,10 +72,8 @@ impl Solid {
                     return None;
                 }
                 let s = disc.sqrt();
-                let mut ts: Vec<(f64, DVec3)> = [(-b - s) / a, (-b + s) / a]
-                    .into_iter()
-                    .map(|t| (t, ((o + t * d) - center) / radius))
-                    .collect();
+                let mut ts: Vec<(f64, DVec3)> =
+                    [(-b - s) / a, (-b + s) / a].into_iter().map(|t| (t, ((o + t * d) - center) / radius)).collect();
                 best(&mut ts)
             }
             Solid::Cylinder { p0, p1, radius } => {

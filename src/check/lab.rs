@@ -82,8 +82,9 @@ impl Lab {
     /// (grey values), for statistical tolerances.
     pub fn render_seeds(&self, scene: &Scene, s: &RenderSettings, k: u64) -> Result<(Film, Vec<f64>), CheckError> {
         let accel = self.embree(scene)?;
-        let films: Vec<Film> =
-            (0..k).map(|seed| self.render_with(scene, &accel, &RenderSettings { seed: 1000 + seed, ..s.clone() })).collect::<Result<_, _>>()?;
+        let films: Vec<Film> = (0..k)
+            .map(|seed| self.render_with(scene, &accel, &RenderSettings { seed: 1000 + seed, ..s.clone() }))
+            .collect::<Result<_, _>>()?;
         let mut mean = Film::new(s.width, s.height);
         let mut se = vec![0.0; mean.pixels.len()];
         for (i, (m_px, se_px)) in mean.pixels.iter_mut().zip(&mut se).enumerate() {

@@ -33,7 +33,9 @@ impl Reference {
     /// `f(film)` is the closed-form value at film position `film` in [0, 1]² (x right, y
     /// down), the same convention as [`crate::camera::Camera::ray`].
     pub fn new(width: u32, height: u32, grid: u32, f: impl Fn(Vec2) -> f64 + Sync) -> Reference {
-        let at = |x: u32, y: u32, fx: f32, fy: f32| Vec2::new((x as f32 + fx) / width as f32, (y as f32 + fy) / height as f32);
+        let at = |x: u32, y: u32, fx: f32, fy: f32| {
+            Vec2::new((x as f32 + fx) / width as f32, (y as f32 + fy) / height as f32)
+        };
         let pixels = (0..width * height)
             .into_par_iter()
             .map(|i| {

@@ -16,9 +16,7 @@ pub struct Stage {
 
 impl Stage {
     pub fn new(name: &str) -> Stage {
-        Stage {
-            scene: Scene::empty(format!("check:{name}")),
-        }
+        Stage { scene: Scene::empty(format!("check:{name}")) }
     }
 
     /// Adds a material; returns its id.
@@ -83,13 +81,25 @@ impl Stage {
 /// The quad of the scene format as a two-triangle mesh.
 pub fn quad_mesh(corner: Vec3, e1: Vec3, e2: Vec3) -> TriMesh {
     let uvs = vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)];
-    TriMesh::new("quad", vec![corner, corner + e1, corner + e1 + e2, corner + e2], vec![[0, 1, 2], [0, 2, 3]], vec![], uvs)
-        .expect("a quad's indices are in range")
+    TriMesh::new(
+        "quad",
+        vec![corner, corner + e1, corner + e1 + e2, corner + e2],
+        vec![[0, 1, 2], [0, 2, 3]],
+        vec![],
+        uvs,
+    )
+    .expect("a quad's indices are in range")
 }
 
 /// A closed axis-aligned box (12 triangles, outward winding).
 pub fn box_mesh(min: Vec3, max: Vec3) -> TriMesh {
-    let c = |i: u32| Vec3::new(if i & 1 == 0 { min.x } else { max.x }, if i & 2 == 0 { min.y } else { max.y }, if i & 4 == 0 { min.z } else { max.z });
+    let c = |i: u32| {
+        Vec3::new(
+            if i & 1 == 0 { min.x } else { max.x },
+            if i & 2 == 0 { min.y } else { max.y },
+            if i & 4 == 0 { min.z } else { max.z },
+        )
+    };
     let positions = (0..8).map(c).collect();
     let faces: [[u32; 4]; 6] = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
     let indices = faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect();
@@ -101,16 +111,43 @@ pub fn box_mesh(min: Vec3, max: Vec3) -> TriMesh {
 pub fn icosphere(center: Vec3, radius: f32, levels: u32) -> TriMesh {
     let t = (1.0 + 5.0f32.sqrt()) / 2.0;
     let mut v: Vec<Vec3> = [
-        (-1.0, t, 0.0), (1.0, t, 0.0), (-1.0, -t, 0.0), (1.0, -t, 0.0),
-        (0.0, -1.0, t), (0.0, 1.0, t), (0.0, -1.0, -t), (0.0, 1.0, -t),
-        (t, 0.0, -1.0), (t, 0.0, 1.0), (-t, 0.0, -1.0), (-t, 0.0, 1.0),
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
     ]
     .iter()
     .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
     .collect();
     let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
-        [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
     ];
     for _ in 0..levels {
         let mut mid = std::collections::HashMap::new();
@@ -145,8 +182,10 @@ pub fn teapot() -> TriMesh {
     TEAPOT
         .get_or_init(|| {
             let text = include_str!("../../scenes/teapot.obj");
-            let obj = parse_obj(text.as_bytes(), Path::new("teapot.obj (built in)"), &|_| Err(std::io::Error::other("no MTL files here")))
-                .expect("the built-in teapot parses");
+            let obj = parse_obj(text.as_bytes(), Path::new("teapot.obj (built in)"), &|_| {
+                Err(std::io::Error::other("no MTL files here"))
+            })
+            .expect("the built-in teapot parses");
             let mut mesh = obj.meshes.into_iter().next().expect("the teapot has a mesh").mesh;
             mesh.compute_vertex_normals();
             mesh
@@ -168,10 +207,12 @@ pub fn map_scene(scene: &Scene, point: impl Fn(Vec3) -> Vec3, scale: f32) -> Sce
                 m.positions.iter_mut().for_each(|p| *p = point(*p));
                 Geometry::Mesh(Arc::new(m))
             }
-            Geometry::Spheres(s) => Geometry::Spheres(s.iter().map(|s| Sphere::new(point(s.center), s.radius * scale)).collect()),
-            Geometry::Cylinders(c) => {
-                Geometry::Cylinders(c.iter().map(|c| Cylinder::new(point(c.p0), point(c.p1), c.radius * scale)).collect())
+            Geometry::Spheres(s) => {
+                Geometry::Spheres(s.iter().map(|s| Sphere::new(point(s.center), s.radius * scale)).collect())
             }
+            Geometry::Cylinders(c) => Geometry::Cylinders(
+                c.iter().map(|c| Cylinder::new(point(c.p0), point(c.p1), c.radius * scale)).collect(),
+            ),
         })
         .collect();
     for l in &mut out.point_lights {

@@ -33,7 +33,8 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let quality = if args.quick { Quality::Quick } else { Quality::Full };
-    let cases: Vec<_> = all.into_iter().filter(|c| args.cases.is_empty() || args.cases.iter().any(|n| n == c.name)).collect();
+    let cases: Vec<_> =
+        all.into_iter().filter(|c| args.cases.is_empty() || args.cases.iter().any(|n| n == c.name)).collect();
     let device = Device::new()?;
     println!(
         "ember {} hard cases ({} run, {} on {} threads)",
@@ -43,7 +44,10 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         rayon::current_num_threads()
     );
     drop(device);
-    println!("{:<22} {:<6} {:>10} {:>10}  {:<17} {:>10}  detail", "case", "result", "error", "limit", "measure", "non-finite");
+    println!(
+        "{:<22} {:<6} {:>10} {:>10}  {:<17} {:>10}  detail",
+        "case", "result", "error", "limit", "measure", "non-finite"
+    );
     let start = Instant::now();
     let mut failed = Vec::new();
     for case in &cases {

@@ -96,7 +96,10 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     let largest = *study.ladder.last().expect("the ladder has at least 1 spp");
     let reference = match given {
         Some(film) => {
-            eprintln!("reference: {} (given; its own error also lands in every measurement)", args.reference.as_ref().unwrap().display());
+            eprintln!(
+                "reference: {} (given; its own error also lands in every measurement)",
+                args.reference.as_ref().unwrap().display()
+            );
             film
         }
         None => {
@@ -140,7 +143,13 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     write_file(&csv, to_csv(&all, study.max_depth, study.repeats).as_bytes())?;
     let plots = write_plots(&args.out, &all, study.max_depth, args.target)?;
 
-    println!("{:<28} {:>12} {:>12}   time to reach relMSE {}", "variant", format!("relMSE@{largest}"), format!("MAE@{largest}"), args.target);
+    println!(
+        "{:<28} {:>12} {:>12}   time to reach relMSE {}",
+        "variant",
+        format!("relMSE@{largest}"),
+        format!("MAE@{largest}"),
+        args.target
+    );
     for points in &per_variant {
         let last = &points[points.len() - 1];
         println!(

@@ -3,8 +3,8 @@ use crate::embree::{BuildOptions, BuildQuality};
 use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
 use crate::integrator::{Estimator, KernelChoice, RenderControl, RenderSettings, RrDepth, render_controlled};
 use crate::limits::{self, MemoryLimit};
-use crate::scene::{DepthLimit, Effects, Scene};
 use crate::scene::format::MAX_IMAGE_SIDE;
+use crate::scene::{DepthLimit, Effects, Scene};
 use clap::Args;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -81,7 +81,12 @@ fn parse_target_error(s: &str) -> Result<f32, String> {
 }
 
 /// Refuses an image, or image plus scene plus BVH, that would exceed the memory limit.
-fn check_memory(args: &RenderArgs, scene: &Scene, settings: &RenderSettings, limit: &MemoryLimit) -> anyhow::Result<()> {
+fn check_memory(
+    args: &RenderArgs,
+    scene: &Scene,
+    settings: &RenderSettings,
+    limit: &MemoryLimit,
+) -> anyhow::Result<()> {
     let at = |e: limits::LimitError| anyhow::anyhow!("{}: {e}", args.scene.display());
     let (w, h) = (settings.width, settings.height);
     let film = limits::film_bytes(w, h);
@@ -148,7 +153,9 @@ fn install_signal_handler() {
             eprintln!("\ninterrupted again: quitting without a checkpoint");
             std::process::exit(130);
         }
-        eprintln!("\ninterrupt: finishing the pixels in flight, then writing a checkpoint (interrupt again to quit at once)");
+        eprintln!(
+            "\ninterrupt: finishing the pixels in flight, then writing a checkpoint (interrupt again to quit at once)"
+        );
     });
     if let Err(e) = result {
         eprintln!("warning: cannot catch interrupts ({e}); an interrupted render will be lost");
@@ -232,7 +239,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             .map_err(|e| anyhow::anyhow!("{}: cannot remove finished checkpoint: {e}", checkpoint.display()))?;
     }
     let (min_spp, mean_spp, max_spp) = stats.spp;
-    let spp = if min_spp == max_spp { format!("{max_spp} spp") } else { format!("{min_spp}..{max_spp} spp (mean {mean_spp:.1})") };
+    let spp = if min_spp == max_spp {
+        format!("{max_spp} spp")
+    } else {
+        format!("{min_spp}..{max_spp} spp (mean {mean_spp:.1})")
+    };
     eprintln!(
         "rendered {}x{} at {spp} in {:.2} s{}: {:.2} Mrays/s ({} rays, {} accel), {} non-finite samples dropped -> {}",
         settings.width,
@@ -294,7 +305,9 @@ pub(crate) fn describe_plan(effects: &Effects, settings: &RenderSettings) -> Str
         format!("{used} (--max-depth)")
     } else {
         match effects.depth_limit() {
-            DepthLimit::EmittersOnly => format!("{used} (nothing scatters light: emitters only; --max-depth {max_depth})"),
+            DepthLimit::EmittersOnly => {
+                format!("{used} (nothing scatters light: emitters only; --max-depth {max_depth})")
+            }
             DepthLimit::DirectOnly => {
                 format!("{used} (direct light only: nothing can bounce light onward; --max-depth {max_depth})")
             }

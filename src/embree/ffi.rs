@@ -23,11 +23,11 @@ mod raw {
 use embree4_sys as raw;
 
 pub(super) use raw::{
-    RTCBounds, RTCBoundsFunctionArguments, RTCBuildQuality, RTCBufferType, RTCDevice, RTCDeviceProperty, RTCFormat,
-    RTCGeometry, RTCGeometryType, RTCIntersectFunctionNArguments, RTCOccludedFunctionNArguments, RTCRay, RTCRay8, RTCScene,
-    RTCSceneFlags, rtcAttachGeometryByID, rtcCommitGeometry, rtcCommitScene, rtcGetDeviceProperty, rtcGetSceneBounds,
-    rtcNewDevice, rtcNewGeometry, rtcNewScene, rtcReleaseDevice, rtcReleaseGeometry, rtcReleaseScene,
-    rtcSetGeometryBoundsFunction, rtcSetGeometryIntersectFunction, rtcSetGeometryOccludedFunction,
+    RTCBounds, RTCBoundsFunctionArguments, RTCBufferType, RTCBuildQuality, RTCDevice, RTCDeviceProperty, RTCFormat,
+    RTCGeometry, RTCGeometryType, RTCIntersectFunctionNArguments, RTCOccludedFunctionNArguments, RTCRay, RTCRay8,
+    RTCScene, RTCSceneFlags, rtcAttachGeometryByID, rtcCommitGeometry, rtcCommitScene, rtcGetDeviceProperty,
+    rtcGetSceneBounds, rtcNewDevice, rtcNewGeometry, rtcNewScene, rtcReleaseDevice, rtcReleaseGeometry,
+    rtcReleaseScene, rtcSetGeometryBoundsFunction, rtcSetGeometryIntersectFunction, rtcSetGeometryOccludedFunction,
     rtcSetGeometryUserData, rtcSetGeometryUserPrimitiveCount, rtcSetNewGeometryBuffer, rtcSetSceneBuildQuality,
     rtcSetSceneFlags,
 };

@@ -231,7 +231,9 @@ mod tests {
 
     #[test]
     fn unknown_versions_are_refused_with_a_clear_error() {
-        for (backend, v) in [(4, (4, 5, 0)), (4, (5, 0, 0)), (3, (3, 14, 0)), (3, (4, 4, 0)), (4, (3, 13, 5)), (4, (2, 17, 7))] {
+        for (backend, v) in
+            [(4, (4, 5, 0)), (4, (5, 0, 0)), (3, (3, 14, 0)), (3, (4, 4, 0)), (4, (3, 13, 5)), (4, (2, 17, 7))]
+        {
             let e = layout(backend, v).unwrap_err();
             let text = e.to_string();
             let version = format!("{}.{}.{}", v.0, v.1, v.2);

@@ -46,7 +46,8 @@ impl Scene {
         let init = RayHitMem::new(ray, tmin, tmax);
         // SAFETY: RayHitMem is plain 32-bit words (repr C, no padding between fields); its
         // first COMMON_BYTES are the ray and the common hit fields.
-        let init_words = unsafe { std::slice::from_raw_parts(&init as *const RayHitMem as *const u32, COMMON_BYTES / 4) };
+        let init_words =
+            unsafe { std::slice::from_raw_parts(&init as *const RayHitMem as *const u32, COMMON_BYTES / 4) };
         mem.0[..COMMON_BYTES / 4].copy_from_slice(init_words);
         let p = mem.0.as_mut_ptr().cast::<RayHitMem>();
         // SAFETY: committed scene; `p` is 16-byte aligned and points to 128 bytes, more than

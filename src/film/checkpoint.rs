@@ -165,7 +165,13 @@ mod tests {
                 p.add(Vec3::new(0.1 * s as f32, 1.0 / (1 + i) as f32, 3.0));
             }
         }
-        Checkpoint { scene: 42, settings: "spp=16 seed=1".into(), nonfinite: 2, elapsed: Duration::from_millis(1500), accum }
+        Checkpoint {
+            scene: 42,
+            settings: "spp=16 seed=1".into(),
+            nonfinite: 2,
+            elapsed: Duration::from_millis(1500),
+            accum,
+        }
     }
 
     #[test]

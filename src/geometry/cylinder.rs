@@ -78,7 +78,11 @@ impl Cylinder {
         };
         let (z0, z1, cap_in, cap_out) = if dz != 0.0 {
             let (u, v) = ((0.0 - oz) / dz, (h - oz) / dz);
-            if u <= v { (u, v, CylinderPart::Cap0, CylinderPart::Cap1) } else { (v, u, CylinderPart::Cap1, CylinderPart::Cap0) }
+            if u <= v {
+                (u, v, CylinderPart::Cap0, CylinderPart::Cap1)
+            } else {
+                (v, u, CylinderPart::Cap1, CylinderPart::Cap0)
+            }
         } else if (0.0..=h).contains(&oz) {
             (f32::NEG_INFINITY, f32::INFINITY, CylinderPart::Side, CylinderPart::Side)
         } else {
@@ -109,15 +113,14 @@ impl Cylinder {
         let radial = rel - z * a;
         let angle = (radial.dot(frame.b).atan2(radial.dot(frame.t)) + PI) / (2.0 * PI);
         match part {
-            CylinderPart::Side => {
-                ShapeHit { t, u: angle, v: (z / h).clamp(0.0, 1.0), ng: face_ray(radial / self.radius, ray.d, entering) }
-            }
-            CylinderPart::Cap0 => {
-                ShapeHit { t, u: angle, v: (radial.length() / self.radius).min(1.0), ng: -a }
-            }
-            CylinderPart::Cap1 => {
-                ShapeHit { t, u: angle, v: (radial.length() / self.radius).min(1.0), ng: a }
-            }
+            CylinderPart::Side => ShapeHit {
+                t,
+                u: angle,
+                v: (z / h).clamp(0.0, 1.0),
+                ng: face_ray(radial / self.radius, ray.d, entering),
+            },
+            CylinderPart::Cap0 => ShapeHit { t, u: angle, v: (radial.length() / self.radius).min(1.0), ng: -a },
+            CylinderPart::Cap1 => ShapeHit { t, u: angle, v: (radial.length() / self.radius).min(1.0), ng: a },
         }
     }
 

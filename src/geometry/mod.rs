@@ -16,9 +16,13 @@ pub use cylinder::{Cylinder, CylinderPart};
 pub use frame::Frame;
 pub use mesh::{MeshError, TriMesh};
 pub use ray::{Hit, Ray, ShapeHit};
-pub use spawn::{POINT_ERROR_ULPS, offset_ray_origin, offset_ray_origin_bounded, offset_toward, offset_toward_bounded, point_error};
+pub use spawn::{
+    POINT_ERROR_ULPS, offset_ray_origin, offset_ray_origin_bounded, offset_toward, offset_toward_bounded, point_error,
+};
 pub use sphere::Sphere;
-pub use tessellate::{Tessellation, cylinder_triangle_count, sphere_triangle_count, tessellate_cylinders, tessellate_spheres};
+pub use tessellate::{
+    Tessellation, cylinder_triangle_count, sphere_triangle_count, tessellate_cylinders, tessellate_spheres,
+};
 pub use triangle::{TriangleTest, WatertightRay};
 
 use std::sync::Arc;

@@ -144,7 +144,13 @@ impl Builder {
     }
 
     fn finish(self, name: &str) -> Tessellation {
-        let mesh = TriMesh { name: name.into(), positions: self.positions, indices: self.indices, normals: self.normals, uvs: Vec::new() };
+        let mesh = TriMesh {
+            name: name.into(),
+            positions: self.positions,
+            indices: self.indices,
+            normals: self.normals,
+            uvs: Vec::new(),
+        };
         Tessellation { mesh, source: self.source }
     }
 }

@@ -34,7 +34,13 @@ impl WatertightRay {
     pub fn new(ray: &Ray) -> Self {
         let d = ray.d;
         let ad = d.abs();
-        let kz = if ad.x > ad.y { if ad.x > ad.z { 0 } else { 2 } } else if ad.y > ad.z { 1 } else { 2 };
+        let kz = if ad.x > ad.y {
+            if ad.x > ad.z { 0 } else { 2 }
+        } else if ad.y > ad.z {
+            1
+        } else {
+            2
+        };
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
         // Swap to preserve the winding (and so the sign of the edge functions).

@@ -111,7 +111,8 @@ impl fmt::Display for KernelChoice {
 
 /// Samples `samples` (at most [`LANES`], within one group of `LANES` aligned on sample
 /// index 0) of pixel (x, y), written to `out[..samples.len()]`; `rays` counts the rays traced.
-pub(crate) type SampleFn = fn(&PathContext, u32, u32, Range<u32>, &mut [Vec3; LANES], &mut u64) -> Result<(), AccelError>;
+pub(crate) type SampleFn =
+    fn(&PathContext, u32, u32, Range<u32>, &mut [Vec3; LANES], &mut u64) -> Result<(), AccelError>;
 
 /// The samples of a pixel go together: their camera rays are coherent (one origin, directions
 /// within the pixel), so they are traced as one packet; each path then continues alone. Every

@@ -13,8 +13,8 @@ pub use surface::{SurfacePoint, surface_point};
 
 use crate::accel::{Accel, AccelError};
 use crate::film::Film;
-use crate::scene::{Effects, Scene};
 pub use crate::scene::RrDepth;
+use crate::scene::{Effects, Scene};
 use std::time::Duration;
 
 /// Which estimator of the rendering equation to use.
@@ -34,7 +34,8 @@ pub enum Estimator {
 }
 
 impl Estimator {
-    pub const ALL: [Estimator; 4] = [Estimator::NeeMis, Estimator::NeeOnly, Estimator::BsdfOnly, Estimator::BsdfUniform];
+    pub const ALL: [Estimator; 4] =
+        [Estimator::NeeMis, Estimator::NeeOnly, Estimator::BsdfOnly, Estimator::BsdfUniform];
 
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {

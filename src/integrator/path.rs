@@ -3,9 +3,9 @@
 //! sampling, and Russian roulette.
 
 use super::surface::surface_point;
-use crate::camera::Camera;
 use super::{Estimator, RenderSettings};
 use crate::accel::Accel;
+use crate::camera::Camera;
 use crate::geometry::{Frame, Hit, Ray, offset_toward};
 use crate::light::LightSet;
 use crate::material::{Bsdf, BsdfSample};
@@ -97,7 +97,8 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         }
         // Only Lambertian surfaces: the BSDF's variant is known here, so its methods inline
         // without dispatch.
-        let bsdf = if GLOSSY || GLASS { sp.material.bsdf_at::<TEX>(sp.uv) } else { sp.material.lambert_at::<TEX>(sp.uv) };
+        let bsdf =
+            if GLOSSY || GLASS { sp.material.bsdf_at::<TEX>(sp.uv) } else { sp.material.lambert_at::<TEX>(sp.uv) };
         let transmissive = GLASS && bsdf.is_transmissive();
         let (mut ng, mut ns) = (sp.ng, sp.ns);
         if !transmissive && wo.dot(ng) < 0.0 {

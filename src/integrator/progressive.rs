@@ -11,9 +11,9 @@ use super::kernel::KernelChoice;
 use super::path::PathContext;
 use super::{RenderError, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
-use rayon::prelude::*;
 use crate::film::{Accumulator, Checkpoint, PixelState};
 use crate::scene::Scene;
+use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -111,8 +111,17 @@ pub(super) fn run(
         return Ok(finish(accum, stats, 0, true));
     }
     let sample = kernel.sample_fn();
-    let ctx = PathContext { scene, accel, lights: &lights, camera: &camera, settings, max_depth, rr_depth: rr_start.unwrap_or(u32::MAX) };
-    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
+    let ctx = PathContext {
+        scene,
+        accel,
+        lights: &lights,
+        camera: &camera,
+        settings,
+        max_depth,
+        rr_depth: rr_start.unwrap_or(u32::MAX),
+    };
+    let tiles: Vec<(u32, u32)> =
+        (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
     let n_rounds = rounds(settings);
     let bar = progress_bar(settings.progress, tiles.len() as u64 * n_rounds as u64);
     let rays_total = AtomicU64::new(0);

@@ -35,7 +35,8 @@ pub fn surface_point<'a, const TEX: bool>(scene: &'a Scene, ray: &Ray, hit: &Hit
                 let n = (w * m.normals[i0] + u * m.normals[i1] + v * m.normals[i2]).normalize_or(ng);
                 if n.dot(ng) < 0.0 { -n } else { n }
             };
-            let uv = if !TEX || m.uvs.is_empty() { Vec2::new(u, v) } else { w * m.uvs[i0] + u * m.uvs[i1] + v * m.uvs[i2] };
+            let uv =
+                if !TEX || m.uvs.is_empty() { Vec2::new(u, v) } else { w * m.uvs[i0] + u * m.uvs[i1] + v * m.uvs[i2] };
             SurfacePoint { p, ng, ns, uv, material }
         }
         Geometry::Spheres(s) => {

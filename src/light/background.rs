@@ -10,9 +10,16 @@ pub enum Background {
     /// The same radiance in every direction.
     Constant(Vec3),
     /// `zenith` straight up blending to `horizon`, then to `ground` straight down.
-    Gradient { zenith: Vec3, horizon: Vec3, ground: Vec3 },
+    Gradient {
+        zenith: Vec3,
+        horizon: Vec3,
+        ground: Vec3,
+    },
     /// An equirectangular (latitude-longitude) environment image, scaled.
-    Image { image: Arc<Image>, scale: f32 },
+    Image {
+        image: Arc<Image>,
+        scale: f32,
+    },
 }
 
 impl Background {

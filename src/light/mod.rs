@@ -22,8 +22,16 @@ pub struct PointLight {
 enum Light {
     Point(PointLight),
     /// `normal`: the unit normal of the winding order, computed once here, not per sample.
-    Triangle { p: [Vec3; 3], normal: Vec3, area: f32, emission: Vec3 },
-    Sphere { sphere: Sphere, emission: Vec3 },
+    Triangle {
+        p: [Vec3; 3],
+        normal: Vec3,
+        area: f32,
+        emission: Vec3,
+    },
+    Sphere {
+        sphere: Sphere,
+        emission: Vec3,
+    },
     Background,
 }
 
@@ -217,14 +225,27 @@ impl LightSet {
                     return None;
                 }
                 let pdf = sel * d2 / (cos * area);
-                pdf.is_finite().then_some(LightSample { wi, point: Some(q), normal: n, radiance: *emission, pdf, delta: false })
+                pdf.is_finite().then_some(LightSample {
+                    wi,
+                    point: Some(q),
+                    normal: n,
+                    radiance: *emission,
+                    pdf,
+                    delta: false,
+                })
             }
             Light::Sphere { sphere, emission } => {
                 let (q, n, pdf) = sample_sphere(sphere, p, u)?;
                 let wi = (q - p).normalize();
                 let pdf = pdf * sel;
-                (pdf.is_finite() && pdf > 0.0)
-                    .then_some(LightSample { wi, point: Some(q), normal: n, radiance: *emission, pdf, delta: false })
+                (pdf.is_finite() && pdf > 0.0).then_some(LightSample {
+                    wi,
+                    point: Some(q),
+                    normal: n,
+                    radiance: *emission,
+                    pdf,
+                    delta: false,
+                })
             }
             Light::Background => {
                 let wi = uniform_sphere(u);

@@ -140,8 +140,7 @@ mod tests {
             for theta in [0.0f32, 1.0, 1.4] {
                 let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
                 let g1 = ggx.g1(wo);
-                let total =
-                    hemisphere_integral(|wm| (g1 * wo.dot(wm).max(0.0) * ggx.d(wm) / wo.z) as f64);
+                let total = hemisphere_integral(|wm| (g1 * wo.dot(wm).max(0.0) * ggx.d(wm) / wo.z) as f64);
                 assert!((total - 1.0).abs() < 2e-3, "roughness {roughness}, θ {theta}: {total}");
             }
         }

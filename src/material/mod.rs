@@ -111,9 +111,7 @@ impl Bsdf {
         let s = match *self {
             Bsdf::Diffuse { albedo } => Diffuse::new(albedo).sample(wo, u),
             Bsdf::Conductor { color, roughness } => Conductor::new(color, roughness).sample(wo, u),
-            Bsdf::Plastic { diffuse, roughness } => {
-                Plastic::new(diffuse, roughness).sample(wo, u, uc)
-            }
+            Bsdf::Plastic { diffuse, roughness } => Plastic::new(diffuse, roughness).sample(wo, u, uc),
             Bsdf::Dielectric { ior, tint } => Dielectric::new(ior, tint).sample(wo, uc),
         }?;
         debug_assert!(s.f.is_finite() && s.pdf.is_finite() && s.wi.is_finite(), "{s:?}");

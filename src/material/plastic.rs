@@ -56,8 +56,7 @@ impl Plastic {
         if !same_hemisphere_above(wo, wi) {
             return Vec3::ZERO;
         }
-        let transmit = (1.0 - fresnel_dielectric(wo.z, COATING_IOR))
-            * (1.0 - fresnel_dielectric(wi.z, COATING_IOR));
+        let transmit = (1.0 - fresnel_dielectric(wo.z, COATING_IOR)) * (1.0 - fresnel_dielectric(wi.z, COATING_IOR));
         let base = self.diffuse * (transmit * FRAC_1_PI);
         if self.ggx.is_smooth() {
             return base;

@@ -186,7 +186,12 @@ impl Study {
     }
 
     /// Renders the reference at `spp`.
-    pub fn render_reference(&self, scene: &Scene, accel: &dyn Accel, spp: u32) -> Result<(Film, RenderStats), RenderError> {
+    pub fn render_reference(
+        &self,
+        scene: &Scene,
+        accel: &dyn Accel,
+        spp: u32,
+    ) -> Result<(Film, RenderStats), RenderError> {
         render(scene, accel, &self.reference_settings(spp))
     }
 
@@ -220,9 +225,11 @@ impl Study {
         let repeats = self.repeats.max(1);
         let mut out = Vec::with_capacity(self.ladder.len());
         for (rung, &spp) in self.ladder.iter().enumerate() {
-            let mut m = Measurement { variant, spp, seconds: 0.0, rays: 0.0, error: ImageError::default(), nonfinite: 0 };
+            let mut m =
+                Measurement { variant, spp, seconds: 0.0, rays: 0.0, error: ImageError::default(), nonfinite: 0 };
             for repeat in 0..repeats {
-                let (film, stats) = render(scene, accel, &self.settings(&variant, spp, self.render_seed(rung, repeat)))?;
+                let (film, stats) =
+                    render(scene, accel, &self.settings(&variant, spp, self.render_seed(rung, repeat)))?;
                 let e = image_error(&film, reference)?;
                 m.seconds += stats.elapsed.as_secs_f64();
                 m.rays += stats.rays as f64;
@@ -231,7 +238,8 @@ impl Study {
                 m.nonfinite += stats.nonfinite;
             }
             let r = repeats as f64;
-            (m.seconds, m.rays, m.error.rel_mse, m.error.mae) = (m.seconds / r, m.rays / r, m.error.rel_mse / r, m.error.mae / r);
+            (m.seconds, m.rays, m.error.rel_mse, m.error.mae) =
+                (m.seconds / r, m.rays / r, m.error.rel_mse / r, m.error.mae / r);
             on_point(&m);
             out.push(m);
         }
@@ -296,7 +304,8 @@ pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
 }
 
 /// The CSV header of [`to_csv`].
-pub const CSV_HEADER: &str = "variant,estimator,russian_roulette,max_depth,spp,repeats,seconds,rays,rel_mse,mae,nonfinite";
+pub const CSV_HEADER: &str =
+    "variant,estimator,russian_roulette,max_depth,spp,repeats,seconds,rays,rel_mse,mae,nonfinite";
 
 /// The measurements as CSV, one row per point; `full_depth` fills `max_depth` for variants
 /// without their own.
@@ -354,7 +363,14 @@ fn style(v: &Variant, among_depths: bool) -> LineStyle {
     LineStyle { color, dashed: !v.russian_roulette }
 }
 
-fn plot(path: &Path, title: &str, x_label: &str, lines: Vec<(Variant, Series)>, among_depths: bool, target: f64) -> Result<(), PlotError> {
+fn plot(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    lines: Vec<(Variant, Series)>,
+    among_depths: bool,
+    target: f64,
+) -> Result<(), PlotError> {
     let mut styles: Vec<LineStyle> = lines.iter().map(|(v, _)| style(v, among_depths)).collect();
     let mut series: Vec<Series> = lines.into_iter().map(|(_, s)| s).collect();
     // A flat grey dashed line at the target, across the x range.
@@ -372,8 +388,14 @@ fn plot(path: &Path, title: &str, x_label: &str, lines: Vec<(Variant, Series)>, 
 /// every variant when none is full-depth) and, when the study has both, the depth variants
 /// with the full-depth NEE+MIS line in `depth_error_vs_spp.png` and `depth_error_vs_time.png`.
 /// Returns the files written.
-pub fn write_plots(dir: &Path, points: &[Measurement], full_depth: u32, target: f64) -> Result<Vec<PathBuf>, PlotError> {
-    let (full, depth): (Vec<Measurement>, Vec<Measurement>) = points.iter().cloned().partition(|m| m.variant.max_depth.is_none());
+pub fn write_plots(
+    dir: &Path,
+    points: &[Measurement],
+    full_depth: u32,
+    target: f64,
+) -> Result<Vec<PathBuf>, PlotError> {
+    let (full, depth): (Vec<Measurement>, Vec<Measurement>) =
+        points.iter().cloned().partition(|m| m.variant.max_depth.is_none());
     let mut files = Vec::new();
     let (main, what) = if full.is_empty() {
         (&depth, "depth-limited variants".to_string())
@@ -382,15 +404,22 @@ pub fn write_plots(dir: &Path, points: &[Measurement], full_depth: u32, target: 
     };
     let spp = |m: &Measurement| m.spp as f64;
     let secs = |m: &Measurement| m.seconds;
-    for (file, x_label, x) in [("error_vs_spp.png", "samples per pixel", &spp as &dyn Fn(&Measurement) -> f64), ("error_vs_time.png", "seconds", &secs)] {
+    for (file, x_label, x) in [
+        ("error_vs_spp.png", "samples per pixel", &spp as &dyn Fn(&Measurement) -> f64),
+        ("error_vs_time.png", "seconds", &secs),
+    ] {
         let path = dir.join(file);
         plot(&path, &format!("relMSE vs {x_label} ({what})"), x_label, series(main, x), false, target)?;
         files.push(path);
     }
     if !full.is_empty() && !depth.is_empty() {
         let base = Variant::new(Estimator::NeeMis);
-        let with_base: Vec<Measurement> = depth.iter().cloned().chain(full.iter().filter(|m| m.variant == base).cloned()).collect();
-        for (file, x_label, x) in [("depth_error_vs_spp.png", "samples per pixel", &spp as &dyn Fn(&Measurement) -> f64), ("depth_error_vs_time.png", "seconds", &secs)] {
+        let with_base: Vec<Measurement> =
+            depth.iter().cloned().chain(full.iter().filter(|m| m.variant == base).cloned()).collect();
+        for (file, x_label, x) in [
+            ("depth_error_vs_spp.png", "samples per pixel", &spp as &dyn Fn(&Measurement) -> f64),
+            ("depth_error_vs_time.png", "seconds", &secs),
+        ] {
             let path = dir.join(file);
             let title = format!("relMSE vs {x_label}: max depth 1..10 against a depth-{full_depth} reference");
             let mut lines = series(&with_base, x);

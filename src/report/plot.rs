@@ -74,7 +74,13 @@ pub struct PlotOptions {
 }
 
 /// Writes a log-log plot of `series` to `path` (PNG, 900×600).
-pub fn log_log_plot(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<(), PlotError> {
+pub fn log_log_plot(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+) -> Result<(), PlotError> {
     log_log_plot_with(path, title, x_label, y_label, series, &PlotOptions::default())
 }
 
@@ -180,7 +186,11 @@ fn draw(
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font((FONT_FAMILY, 14))
-        .position(if options.legend_lower_left { SeriesLabelPosition::LowerLeft } else { SeriesLabelPosition::UpperRight })
+        .position(if options.legend_lower_left {
+            SeriesLabelPosition::LowerLeft
+        } else {
+            SeriesLabelPosition::UpperRight
+        })
         .draw()?;
     root.present()?;
     Ok(())
@@ -208,7 +218,15 @@ mod tests {
 
     #[test]
     fn plain_numbers_have_at_most_three_significant_digits() {
-        let cases = [(1.0, "1"), (16.0, "16"), (2000.0, "2000"), (0.01, "0.01"), (0.005, "0.005"), (0.123456, "0.123"), (2.5, "2.5")];
+        let cases = [
+            (1.0, "1"),
+            (16.0, "16"),
+            (2000.0, "2000"),
+            (0.01, "0.01"),
+            (0.005, "0.005"),
+            (0.123456, "0.123"),
+            (2.5, "2.5"),
+        ];
         for (v, s) in cases {
             assert_eq!(plain_number(v), s);
         }

@@ -24,7 +24,14 @@ impl Table {
     /// Columns padded to their widest cell; cells that look numeric are right-aligned.
     pub fn to_text(&self) -> String {
         let widths: Vec<usize> = (0..self.header.len())
-            .map(|c| self.rows.iter().map(|r| r[c].chars().count()).chain([self.header[c].chars().count()]).max().unwrap_or(0))
+            .map(|c| {
+                self.rows
+                    .iter()
+                    .map(|r| r[c].chars().count())
+                    .chain([self.header[c].chars().count()])
+                    .max()
+                    .unwrap_or(0)
+            })
             .collect();
         let mut out = String::new();
         let line = |cells: &[String], out: &mut String| {
@@ -67,7 +74,9 @@ impl Table {
 
 fn looks_numeric(s: &str) -> bool {
     let s = s.trim_start_matches(['-', '+']).trim_end_matches(['×', '%', 'x']);
-    !s.is_empty() && s.chars().all(|c| c.is_ascii_digit() || matches!(c, '.' | ',' | 'e' | 'E' | '-' | '+')) && s.chars().any(|c| c.is_ascii_digit())
+    !s.is_empty()
+        && s.chars().all(|c| c.is_ascii_digit() || matches!(c, '.' | ',' | 'e' | 'E' | '-' | '+'))
+        && s.chars().any(|c| c.is_ascii_digit())
 }
 
 fn csv_field(s: &str) -> String {

@@ -36,8 +36,7 @@ impl Ctx<'_> {
         if let Some(img) = self.images.get(&p) {
             return Ok(img.clone());
         }
-        let img = Image::load(&p)
-            .map_err(|e| self.err_at(span, format!("texture {}: {e}", p.display())))?;
+        let img = Image::load(&p).map_err(|e| self.err_at(span, format!("texture {}: {e}", p.display())))?;
         let img = Arc::new(img);
         self.images.insert(p, img.clone());
         Ok(img)
@@ -68,7 +67,8 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
         let line = e.span().map(|s| line_of(text, s.start));
         SceneError::new(path, line, e.message().trim().to_string())
     })?;
-    let mut ctx = Ctx { path, text, dir: path.parent().map(Path::to_path_buf).unwrap_or_default(), images: HashMap::new() };
+    let mut ctx =
+        Ctx { path, text, dir: path.parent().map(Path::to_path_buf).unwrap_or_default(), images: HashMap::new() };
     let mut scene = Scene::empty(path);
     scene.render = render_defaults(&file.render);
 
@@ -117,7 +117,8 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
             if m.smooth && mesh.normals.is_empty() {
                 mesh.compute_vertex_normals();
             }
-            let id = over.unwrap_or_else(|| om.material.map(|i| mtl_ids[i]).unwrap_or_else(|| default_material(&mut scene)));
+            let id =
+                over.unwrap_or_else(|| om.material.map(|i| mtl_ids[i]).unwrap_or_else(|| default_material(&mut scene)));
             scene.geometry.push(Geometry::Mesh(Arc::new(mesh)));
             scene.bindings.push(MaterialBinding::Uniform(id));
         }
@@ -128,12 +129,18 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
         if e1.cross(e2).length_squared() == 0.0 {
             return Err(ctx.err_at(q.material.span(), "quad edges are parallel or zero: the quad has no area"));
         }
-        let mesh = TriMesh::new("quad", vec![c, c + e1, c + e1 + e2, c + e2], vec![[0, 1, 2], [0, 2, 3]], vec![], vec![
-            glam::Vec2::new(0.0, 0.0),
-            glam::Vec2::new(1.0, 0.0),
-            glam::Vec2::new(1.0, 1.0),
-            glam::Vec2::new(0.0, 1.0),
-        ])
+        let mesh = TriMesh::new(
+            "quad",
+            vec![c, c + e1, c + e1 + e2, c + e2],
+            vec![[0, 1, 2], [0, 2, 3]],
+            vec![],
+            vec![
+                glam::Vec2::new(0.0, 0.0),
+                glam::Vec2::new(1.0, 0.0),
+                glam::Vec2::new(1.0, 1.0),
+                glam::Vec2::new(0.0, 1.0),
+            ],
+        )
         .expect("a quad's indices are in range");
         scene.geometry.push(Geometry::Mesh(Arc::new(mesh)));
         scene.bindings.push(MaterialBinding::Uniform(id));
@@ -157,7 +164,10 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
                 return Err(ctx.err_at(c.material.span(), "cylinder p0 and p1 are the same point"));
             }
             if scene.materials[*ids.last().unwrap() as usize].is_emissive() {
-                scene.warnings.push(format!("{}: emissive cylinders are not sampled as lights; they glow but light nothing directly", path.display()));
+                scene.warnings.push(format!(
+                    "{}: emissive cylinders are not sampled as lights; they glow but light nothing directly",
+                    path.display()
+                ));
             }
             shapes.push(Cylinder::new(c.p0.0, c.p1.0, c.radius.0));
         }
@@ -178,9 +188,10 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
         Some(BackgroundSection::Gradient { zenith, horizon, ground }) => {
             Background::Gradient { zenith: zenith.0, horizon: horizon.0, ground: ground.map_or(horizon.0, |g| g.0) }
         }
-        Some(BackgroundSection::Image { file, scale }) => {
-            Background::Image { image: ctx.image(&file, background_span.unwrap_or(0..0))?, scale: scale.map_or(1.0, |s| s.0) }
-        }
+        Some(BackgroundSection::Image { file, scale }) => Background::Image {
+            image: ctx.image(&file, background_span.unwrap_or(0..0))?,
+            scale: scale.map_or(1.0, |s| s.0),
+        },
     };
     if let Some(c) = file.camera {
         let fov = c.fov.as_ref().map_or(40.0, |f| f.get_ref().0);
@@ -209,7 +220,6 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
     Ok(scene)
 }
 
-
 fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
     RenderDefaults {
         width: r.width.map(|s| s.0),
@@ -221,10 +231,17 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
     }
 }
 
-fn material(ctx: &mut Ctx, name: String, m: MaterialSection, span: std::ops::Range<usize>) -> Result<Material, SceneError> {
+fn material(
+    ctx: &mut Ctx,
+    name: String,
+    m: MaterialSection,
+    span: std::ops::Range<usize>,
+) -> Result<Material, SceneError> {
     let e = |x: Option<format::Rgb>| x.map_or(Vec3::ZERO, |c| c.0);
     let (kind, emission) = match m {
-        MaterialSection::Diffuse { color, emission } => (MaterialKind::Diffuse { color: ctx.texture(color, span)? }, e(emission)),
+        MaterialSection::Diffuse { color, emission } => {
+            (MaterialKind::Diffuse { color: ctx.texture(color, span)? }, e(emission))
+        }
         MaterialSection::Metal { color, roughness, emission } => (
             MaterialKind::Metal { color: ctx.texture(color, span)?, roughness: roughness.map_or(0.0, |r| r.0) },
             e(emission),
@@ -277,7 +294,13 @@ fn mtl_materials(scene: &mut Scene, obj: &Path, mtls: &[tobj::Material]) -> Vec<
             let ks = m.specular.map_or(Vec3::ZERO, Vec3::from_array);
             let ka = m.ambient.map_or(Vec3::ZERO, Vec3::from_array);
             let ke = m.unknown_param.get("Ke").and_then(|s| parse3(s)).unwrap_or(Vec3::ZERO);
-            let emission = if ke.max_element() > 0.0 { ke } else if ka.max_element() > 1.0 { ka } else { Vec3::ZERO };
+            let emission = if ke.max_element() > 0.0 {
+                ke
+            } else if ka.max_element() > 1.0 {
+                ka
+            } else {
+                Vec3::ZERO
+            };
             let glass = m.dissolve.is_some_and(|d| d < 1.0) || matches!(m.illumination_model, Some(4 | 6 | 7));
             let kind = if glass {
                 MaterialKind::Glass { ior: m.optical_density.filter(|&n| n > 0.0).unwrap_or(1.5), tint: Vec3::ONE }
@@ -288,7 +311,11 @@ fn mtl_materials(scene: &mut Scene, obj: &Path, mtls: &[tobj::Material]) -> Vec<
                 MaterialKind::Diffuse { color: Texture::Constant(kd) }
             };
             scene.materials.push(Material {
-                name: format!("{}:{}", obj.file_name().map_or(String::new(), |f| f.to_string_lossy().into_owned()), m.name),
+                name: format!(
+                    "{}:{}",
+                    obj.file_name().map_or(String::new(), |f| f.to_string_lossy().into_owned()),
+                    m.name
+                ),
                 kind,
                 emission,
             });
@@ -325,7 +352,11 @@ pub(super) fn from_obj(path: &Path) -> Result<Scene, SceneError> {
     // Only materials in use count: Embree's cornell_box.obj defines an emissive "light"
     // material but its light face is commented out.
     if !scene.effects().emissive {
-        scene.background = Background::Gradient { zenith: Vec3::new(0.9, 0.95, 1.0), horizon: Vec3::splat(0.8), ground: Vec3::splat(0.25) };
+        scene.background = Background::Gradient {
+            zenith: Vec3::new(0.9, 0.95, 1.0),
+            horizon: Vec3::splat(0.8),
+            ground: Vec3::splat(0.25),
+        };
     }
     Ok(scene)
 }

@@ -210,7 +210,8 @@ fn scatters(kind: &MaterialKind) -> bool {
     match kind {
         MaterialKind::Diffuse { color } | MaterialKind::Metal { color, .. } | MaterialKind::Plastic { color, .. } => {
             // A plastic's coating reflects whatever its base colour.
-            !matches!(color, Texture::Constant(c) if c.max_element() <= 0.0) || matches!(kind, MaterialKind::Plastic { .. })
+            !matches!(color, Texture::Constant(c) if c.max_element() <= 0.0)
+                || matches!(kind, MaterialKind::Plastic { .. })
         }
         MaterialKind::Glass { .. } => true,
         MaterialKind::Emissive => false,

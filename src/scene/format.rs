@@ -1,8 +1,8 @@
 //! The TOML scene format (documented in `docs/scene-format.md`). Values are checked while they
 //! are read, so a bad value is reported at its own line.
 
-use serde::de::{self, Deserializer};
 use serde::Deserialize;
+use serde::de::{self, Deserializer};
 use std::collections::BTreeMap;
 use toml::Spanned;
 
@@ -183,10 +183,19 @@ pub struct CameraSection {
 #[derive(Debug, Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum BackgroundSection {
-    Constant { color: Rgb },
-    Gradient { zenith: Rgb, horizon: Rgb, ground: Option<Rgb> },
+    Constant {
+        color: Rgb,
+    },
+    Gradient {
+        zenith: Rgb,
+        horizon: Rgb,
+        ground: Option<Rgb>,
+    },
     /// Not `Spanned`: serde buffers tagged enums, losing spans; errors point at the section.
-    Image { file: String, scale: Option<Positive> },
+    Image {
+        file: String,
+        scale: Option<Positive>,
+    },
 }
 
 /// Where a material's colour comes from.

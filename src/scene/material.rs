@@ -30,7 +30,11 @@ pub struct Material {
 
 impl Material {
     pub fn diffuse(name: &str, color: Vec3) -> Material {
-        Material { name: name.into(), kind: MaterialKind::Diffuse { color: Texture::Constant(color) }, emission: Vec3::ZERO }
+        Material {
+            name: name.into(),
+            kind: MaterialKind::Diffuse { color: Texture::Constant(color) },
+            emission: Vec3::ZERO,
+        }
     }
 
     /// The BSDF at `uv`. With `TEX == false` the caller knows no texture is in use, so colours
@@ -52,7 +56,9 @@ impl Material {
     #[inline]
     pub fn lambert_at<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
         match &self.kind {
-            MaterialKind::Diffuse { color } => Bsdf::Diffuse { albedo: if TEX { color.eval(uv) } else { color.average() } },
+            MaterialKind::Diffuse { color } => {
+                Bsdf::Diffuse { albedo: if TEX { color.eval(uv) } else { color.average() } }
+            }
             _ => Bsdf::Diffuse { albedo: Vec3::ZERO },
         }
     }
@@ -64,9 +70,9 @@ impl Material {
     /// The texture, if the colour varies over the surface.
     pub fn texture(&self) -> Option<&Texture> {
         match &self.kind {
-            MaterialKind::Diffuse { color } | MaterialKind::Metal { color, .. } | MaterialKind::Plastic { color, .. } => {
-                (!color.is_constant()).then_some(color)
-            }
+            MaterialKind::Diffuse { color }
+            | MaterialKind::Metal { color, .. }
+            | MaterialKind::Plastic { color, .. } => (!color.is_constant()).then_some(color),
             _ => None,
         }
     }

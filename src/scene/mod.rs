@@ -135,10 +135,14 @@ impl Scene {
                 Geometry::Cylinders(c) => std::mem::size_of_val(&c[..]) as u64,
             })
             .sum();
-        let mut images: Vec<&Arc<Image>> = self.materials.iter().filter_map(|m| match m.texture() {
-            Some(Texture::Image(i)) => Some(i),
-            _ => None,
-        }).collect();
+        let mut images: Vec<&Arc<Image>> = self
+            .materials
+            .iter()
+            .filter_map(|m| match m.texture() {
+                Some(Texture::Image(i)) => Some(i),
+                _ => None,
+            })
+            .collect();
         if let Background::Image { image, .. } = &self.background {
             images.push(image);
         }

@@ -185,7 +185,9 @@ fn scan(text: &str) -> Result<Counts, (usize, String)> {
         let r = match kw {
             // x y z, x y z w (w not 0), or x y z r g b (vertex colours)
             "v" => floats(&[3, 4, 6], "vertex position", false).and_then(|_| match args.get(3) {
-                Some(w) if args.len() == 4 && w.parse::<f32>() == Ok(0.0) => Err("vertex position: w must not be 0".into()),
+                Some(w) if args.len() == 4 && w.parse::<f32>() == Ok(0.0) => {
+                    Err("vertex position: w must not be 0".into())
+                }
                 _ => {
                     nv += 1;
                     Ok(())
@@ -231,9 +233,7 @@ fn check_face(args: &[&str], nv: i64, nt: i64, nn: i64) -> Result<(), String> {
 /// `text` with comments cut from the end of `v`, `vt`, `vn` and `f` lines (copied only when
 /// there are such comments).
 fn strip_value_comments(text: Cow<'_, str>) -> Cow<'_, str> {
-    let has_comment = |l: &str| {
-        l.contains('#') && matches!(l.split_whitespace().next(), Some("v" | "vt" | "vn" | "f"))
-    };
+    let has_comment = |l: &str| l.contains('#') && matches!(l.split_whitespace().next(), Some("v" | "vt" | "vn" | "f"));
     if !text.lines().any(has_comment) {
         return text;
     }
@@ -311,13 +311,19 @@ mod tests {
         assert_eq!(first_bad_line("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"), None);
         // Counts tobj accepts: 3, 4 (w) or 6 (colours) for v, 2 or 3 for vt.
         assert_eq!(first_bad_line("v 0 0 0 1\nv 1 0 0 1 1 1\nvt 0 0\nvt 0 0 0\n"), None);
-        assert_eq!(first_bad_line("v 0 0 0 1 1\n"), Some((1, "vertex position needs 3, 4 or 6 numbers, found 5".into())));
+        assert_eq!(
+            first_bad_line("v 0 0 0 1 1\n"),
+            Some((1, "vertex position needs 3, 4 or 6 numbers, found 5".into()))
+        );
         assert_eq!(first_bad_line("v 0 0 0 0\n").map(|x| x.0), Some(1));
         assert_eq!(first_bad_line("v 0 0 0\nvt 0.5\n").map(|x| x.0), Some(2));
         // Every number must be finite (1e39 overflows f32).
         // ... except positions: their triangles are dropped as degenerate, with a warning.
         assert_eq!(first_bad_line("v 0 0 0\nv nan 0 0\n"), None);
-        assert_eq!(first_bad_line("v 0 0 0\nvn 0 nan 1\n"), Some((2, "vertex normal: \"nan\" is not a finite number".into())));
+        assert_eq!(
+            first_bad_line("v 0 0 0\nvn 0 nan 1\n"),
+            Some((2, "vertex normal: \"nan\" is not a finite number".into()))
+        );
         assert_eq!(first_bad_line("vn 0 inf 0\n").map(|x| x.0), Some(1));
         assert_eq!(first_bad_line("v 0 0 0\nvt 0 0\nvt -1e39 0\n").map(|x| x.0), Some(3));
     }
@@ -325,7 +331,8 @@ mod tests {
     #[test]
     fn comments_after_values_are_ignored() {
         let text = "v 0 0 0 # origin\nv 1 0 0\nv 0 1 0#\nvt 0 0 # uv\nf 1 2 3 # the triangle\n";
-        let obj = parse_obj(text.as_bytes(), Path::new("c.obj"), &|_| Err(std::io::ErrorKind::NotFound.into())).unwrap();
+        let obj =
+            parse_obj(text.as_bytes(), Path::new("c.obj"), &|_| Err(std::io::ErrorKind::NotFound.into())).unwrap();
         assert_eq!(obj.triangle_count(), 1);
         assert_eq!(obj.meshes[0].mesh.positions[2], Vec3::new(0.0, 1.0, 0.0));
         assert!(matches!(strip_value_comments(Cow::Borrowed("v 0 0 0\n# c\no a#b\n")), Cow::Borrowed(_)));

@@ -59,7 +59,10 @@ impl FromStr for RrDepth {
         match s {
             "auto" => Ok(RrDepth::Auto),
             "off" => Ok(RrDepth::Off),
-            _ => s.parse().map(RrDepth::After).map_err(|_| format!("expected a number, \"off\" or \"auto\", found {s:?}")),
+            _ => s
+                .parse()
+                .map(RrDepth::After)
+                .map_err(|_| format!("expected a number, \"off\" or \"auto\", found {s:?}")),
         }
     }
 }
@@ -183,7 +186,9 @@ mod tests {
 
     #[test]
     fn rr_depth_parses_and_prints_as_on_the_command_line() {
-        for (s, v) in [("auto", RrDepth::Auto), ("off", RrDepth::Off), ("0", RrDepth::After(0)), ("7", RrDepth::After(7))] {
+        for (s, v) in
+            [("auto", RrDepth::Auto), ("off", RrDepth::Off), ("0", RrDepth::After(0)), ("7", RrDepth::After(7))]
+        {
             assert_eq!(s.parse::<RrDepth>(), Ok(v));
             assert_eq!(v.to_string(), s);
         }

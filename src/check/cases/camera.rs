@@ -37,7 +37,11 @@ pub fn up_parallel(lab: &Lab) -> Result<Verdict, CheckError> {
     };
     let (w, h, spp) = lab.pick((24, 16, 8), (48, 32, 16));
     let s = RenderSettings { max_depth: 1, ..lab.settings(w, h, spp) };
-    let plane = Solid::Quad { corner: DVec3::new(-5.0, 0.0, -5.0), e1: DVec3::new(0.0, 0.0, 10.0), e2: DVec3::new(10.0, 0.0, 0.0) };
+    let plane = Solid::Quad {
+        corner: DVec3::new(-5.0, 0.0, -5.0),
+        e1: DVec3::new(0.0, 0.0, 10.0),
+        e2: DVec3::new(10.0, 0.0, 0.0),
+    };
     let (eye, look) = (Vec3::new(0.2, 4.0, 0.1), Vec3::new(0.2, 0.0, 0.1));
     let mut v: Option<Verdict> = None;
     for up in [Vec3::Y, -Vec3::Y] {

@@ -72,15 +72,37 @@ pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
 
     // The same data without the loader's filtering, and the six good triangles alone.
     let positions: Vec<Vec3> = [
-        [-4.0, 0.0, -4.0], [4.0, 0.0, -4.0], [4.0, 0.0, 4.0], [-4.0, 0.0, 4.0],
-        [0.0, 0.5, 0.0], [1.0, 0.5, 0.0], [0.0, 1.5, 0.0], [0.0, 0.5, 1.0],
-        [0.5, 0.5, 0.5], [0.75, 0.75, 0.75], [1.0, 1.0, 1.0], [f32::NAN, 0.0, 0.0],
+        [-4.0, 0.0, -4.0],
+        [4.0, 0.0, -4.0],
+        [4.0, 0.0, 4.0],
+        [-4.0, 0.0, 4.0],
+        [0.0, 0.5, 0.0],
+        [1.0, 0.5, 0.0],
+        [0.0, 1.5, 0.0],
+        [0.0, 0.5, 1.0],
+        [0.5, 0.5, 0.5],
+        [0.75, 0.75, 0.75],
+        [1.0, 1.0, 1.0],
+        [f32::NAN, 0.0, 0.0],
     ]
     .map(Vec3::from_array)
     .to_vec();
-    let all: Vec<[u32; 3]> = vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7], [4, 7, 5], [5, 7, 6], [8, 8, 8], [8, 9, 10], [4, 4, 5], [11, 0, 1]];
-    let raw = TriMesh::new("raw", positions.clone(), all.clone(), vec![], vec![]).map_err(|e| CheckError::Other(e.to_string()))?;
-    let good = TriMesh::new("good", positions, all[..6].to_vec(), vec![], vec![]).map_err(|e| CheckError::Other(e.to_string()))?;
+    let all: Vec<[u32; 3]> = vec![
+        [0, 1, 2],
+        [0, 2, 3],
+        [4, 5, 6],
+        [4, 6, 7],
+        [4, 7, 5],
+        [5, 7, 6],
+        [8, 8, 8],
+        [8, 9, 10],
+        [4, 4, 5],
+        [11, 0, 1],
+    ];
+    let raw = TriMesh::new("raw", positions.clone(), all.clone(), vec![], vec![])
+        .map_err(|e| CheckError::Other(e.to_string()))?;
+    let good = TriMesh::new("good", positions, all[..6].to_vec(), vec![], vec![])
+        .map_err(|e| CheckError::Other(e.to_string()))?;
     let flagged = (0..raw.triangle_count()).filter(|&i| raw.is_degenerate(i)).collect::<Vec<_>>();
 
     let (w, h, spp) = lab.pick((24, 24, 4), (48, 48, 8));
@@ -90,9 +112,16 @@ pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
     let as_loaded = lab.render(&scene(loaded.clone()), &s)?;
     let raw_embree = lab.render(&scene(raw.clone()), &s)?;
     let raw_naive = lab.render_naive(&scene(raw), &s)?;
-    let worst = max_rel(&as_loaded, &reference).max(max_rel(&raw_embree, &reference)).max(max_rel(&raw_naive, &reference_naive));
-    Ok(Verdict::new(worst, 1e-6, "max rel diff", format!("loaded {} of 10 triangles; warnings: {:?}", loaded.triangle_count(), obj.warnings))
-        .require(warned, "no warning names the 4 skipped triangles")
-        .require(loaded.triangle_count() == 6, format!("{} triangles kept, want 6", loaded.triangle_count()))
-        .require(flagged == vec![6, 7, 8, 9], format!("degenerate triangles found: {flagged:?}, want [6, 7, 8, 9]")))
+    let worst = max_rel(&as_loaded, &reference)
+        .max(max_rel(&raw_embree, &reference))
+        .max(max_rel(&raw_naive, &reference_naive));
+    Ok(Verdict::new(
+        worst,
+        1e-6,
+        "max rel diff",
+        format!("loaded {} of 10 triangles; warnings: {:?}", loaded.triangle_count(), obj.warnings),
+    )
+    .require(warned, "no warning names the 4 skipped triangles")
+    .require(loaded.triangle_count() == 6, format!("{} triangles kept, want 6", loaded.triangle_count()))
+    .require(flagged == vec![6, 7, 8, 9], format!("degenerate triangles found: {flagged:?}, want [6, 7, 8, 9]")))
 }

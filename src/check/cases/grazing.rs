@@ -62,7 +62,11 @@ impl Setup {
     /// The shape in double precision, a point on it and its size (for the rounding scale).
     fn solid(&self) -> (Solid, Vec3, f32) {
         match self.shape {
-            Shape::Quad(c, e1, e2) => (Solid::Quad { corner: c.as_dvec3(), e1: e1.as_dvec3(), e2: e2.as_dvec3() }, c, e1.length() + e2.length()),
+            Shape::Quad(c, e1, e2) => (
+                Solid::Quad { corner: c.as_dvec3(), e1: e1.as_dvec3(), e2: e2.as_dvec3() },
+                c,
+                e1.length() + e2.length(),
+            ),
             Shape::Sphere(c, r) => (Solid::Sphere { center: c.as_dvec3(), radius: r as f64 }, c, r),
             Shape::Cylinder(p0, p1, r) => {
                 (Solid::Cylinder { p0: p0.as_dvec3(), p1: p1.as_dvec3(), radius: r as f64 }, p0, (p1 - p0).length() + r)
@@ -79,15 +83,23 @@ impl Setup {
         let scene = self.scene(1.0);
         let cam = camera_of(&scene, w, h);
         let n = lab.pick(48, 96);
-        let rays: Vec<_> = (0..n * n).map(|i| cam.ray(Vec2::new((i % n) as f32 + 0.5, (i / n) as f32 + 0.5) / n as f32, Vec2::ZERO)).collect();
+        let rays: Vec<_> = (0..n * n)
+            .map(|i| cam.ray(Vec2::new((i % n) as f32 + 0.5, (i / n) as f32 + 0.5) / n as f32, Vec2::ZERO))
+            .collect();
         let (solid, at, size) = self.solid();
         let embree = lab.embree(&scene)?;
         let naive = NaiveAccel::new(&scene.geometry);
-        let a = agree(&[&embree as &dyn Accel, &naive], &[solid], &rays, |r| float_steps(((r.o - at).length() + size) as f64))?;
+        let a = agree(&[&embree as &dyn Accel, &naive], &[solid], &rays, |r| {
+            float_steps(((r.o - at).length() + size) as f64)
+        })?;
         lab.add_nonfinite(a.nonfinite);
         let angles: Vec<f64> = rays
             .iter()
-            .filter_map(|r| solid.hit(r.o.as_dvec3(), r.d.as_dvec3(), 0.0).map(|h| h.n.dot(r.d.as_dvec3().normalize()).abs().asin().to_degrees()))
+            .filter_map(|r| {
+                solid
+                    .hit(r.o.as_dvec3(), r.d.as_dvec3(), 0.0)
+                    .map(|h| h.n.dot(r.d.as_dvec3().normalize()).abs().asin().to_degrees())
+            })
             .collect();
         let lo = angles.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = angles.iter().copied().fold(0.0, f64::max);
@@ -95,10 +107,18 @@ impl Setup {
             furnace,
             1e-4,
             "max |px − 1|",
-            format!("one-bounce furnace; {} of {} rays hit at {lo:.1e}..{hi:.1e}°; {}", angles.len(), rays.len(), a.summary()),
+            format!(
+                "one-bounce furnace; {} of {} rays hit at {lo:.1e}..{hi:.1e}°; {}",
+                angles.len(),
+                rays.len(),
+                a.summary()
+            ),
         )
         .require(a.wrong == 0, format!("{} grazing answers differ from double precision", a.wrong))
-        .require(!angles.is_empty() && hi <= max_angle_deg, format!("the rays are not grazing: angles up to {hi:.2e}° (want ≤ {max_angle_deg}°)")))
+        .require(
+            !angles.is_empty() && hi <= max_angle_deg,
+            format!("the rays are not grazing: angles up to {hi:.2e}° (want ≤ {max_angle_deg}°)"),
+        ))
     }
 }
 
@@ -107,7 +127,11 @@ pub fn plane(lab: &Lab) -> Result<Verdict, CheckError> {
     let a = 0.005f32.to_radians();
     let c = Vec3::new(-1e5, 0.0, -1e3);
     let setup = Setup {
-        shape: Shape::Quad(moved(c), moved(Vec3::new(1e5, 0.0, -1e3)) - moved(c), moved(Vec3::new(-1e5, 0.0, 1e5)) - moved(c)),
+        shape: Shape::Quad(
+            moved(c),
+            moved(Vec3::new(1e5, 0.0, -1e3)) - moved(c),
+            moved(Vec3::new(-1e5, 0.0, 1e5)) - moved(c),
+        ),
         eye: moved(Vec3::new(0.0, 1.0, 0.0)),
         look: moved(Vec3::new(0.0, 1.0 - 1e4 * a.tan(), 1e4)),
         up: motion().0 * Vec3::Y,

@@ -26,8 +26,13 @@ pub(super) fn enclosure(lab: &Lab, scene: &Scene) -> Result<Verdict, CheckError>
     let n = vals.len() as f64;
     let mean = vals.iter().sum::<f64>() / n;
     let se = (vals.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1.0) / n).sqrt();
-    Ok(Verdict::new(worst, 1e-5, "max |px − 1|", format!("BSDF sampling: every pixel 1; NEE+MIS: mean {mean:.4} ± {se:.4}"))
-        .require((mean - 1.0).abs() <= 4.0 * se + 1e-4, format!("NEE+MIS mean {mean:.4} is not 1 within 4 × {se:.4}")))
+    Ok(Verdict::new(
+        worst,
+        1e-5,
+        "max |px − 1|",
+        format!("BSDF sampling: every pixel 1; NEE+MIS: mean {mean:.4} ± {se:.4}"),
+    )
+    .require((mean - 1.0).abs() <= 4.0 * se + 1e-4, format!("NEE+MIS mean {mean:.4} is not 1 within 4 × {se:.4}")))
 }
 
 fn glowing(st: &mut Stage) -> u32 {

@@ -51,8 +51,16 @@ pub fn dynamic_range(lab: &Lab) -> Result<Verdict, CheckError> {
     let film = lab.render(&below, &s)?;
     let cam = camera_of(&below, w, h);
     let solids = [
-        Solid::Quad { corner: DVec3::new(-1.0, 1.0, -1.0), e1: DVec3::new(2.0, 0.0, 0.0), e2: DVec3::new(0.0, 0.0, 2.0) },
-        Solid::Quad { corner: DVec3::new(2.0, 1.0, -1.0), e1: DVec3::new(2.0, 0.0, 0.0), e2: DVec3::new(0.0, 0.0, 2.0) },
+        Solid::Quad {
+            corner: DVec3::new(-1.0, 1.0, -1.0),
+            e1: DVec3::new(2.0, 0.0, 0.0),
+            e2: DVec3::new(0.0, 0.0, 2.0),
+        },
+        Solid::Quad {
+            corner: DVec3::new(2.0, 1.0, -1.0),
+            e1: DVec3::new(2.0, 0.0, 0.0),
+            e2: DVec3::new(0.0, 0.0, 2.0),
+        },
     ];
     let seen = Reference::new(w, h, 16, |film| {
         let (o, d) = primary(&cam, film);
@@ -72,7 +80,8 @@ pub fn dynamic_range(lab: &Lab) -> Result<Verdict, CheckError> {
     let lit = Reference::new(w, h, 8, |film| {
         let (o, d) = primary(&cam, film);
         let q = o + d * (-o.y / d.y);
-        let e = rect_irradiance(q, (-1.0, 1.0), (-1.0, 1.0), 1.0, bright as f64) + rect_irradiance(q, (2.0, 4.0), (-1.0, 1.0), 1.0, dim as f64);
+        let e = rect_irradiance(q, (-1.0, 1.0), (-1.0, 1.0), 1.0, bright as f64)
+            + rect_irradiance(q, (2.0, 4.0), (-1.0, 1.0), 1.0, dim as f64);
         0.5 / PI * e
     });
     let mut rel_se: Vec<f64> = mean.pixels.iter().zip(&se).map(|(p, s)| s / grey(*p).max(1e-30)).collect();
@@ -109,7 +118,12 @@ pub fn zero_area(lab: &Lab) -> Result<Verdict, CheckError> {
         if zero {
             let mesh = TriMesh::new(
                 "zero",
-                vec![Vec3::new(-1.0, 3.0, 0.0), Vec3::new(0.0, 3.0, 0.5), Vec3::new(1.0, 3.0, 1.0), Vec3::new(1.5, 2.5, -1.0)],
+                vec![
+                    Vec3::new(-1.0, 3.0, 0.0),
+                    Vec3::new(0.0, 3.0, 0.5),
+                    Vec3::new(1.0, 3.0, 1.0),
+                    Vec3::new(1.5, 2.5, -1.0),
+                ],
                 vec![[0, 1, 2], [3, 3, 0]],
                 vec![],
                 vec![],
@@ -137,5 +151,9 @@ pub fn zero_area(lab: &Lab) -> Result<Verdict, CheckError> {
 }
 
 fn diff(a: &Film, b: &Film) -> f64 {
-    a.pixels.iter().zip(&b.pixels).map(|(p, q)| (*p - *q).abs().max_element() as f64).fold(0.0, |m, x| if x.is_nan() { f64::INFINITY } else { m.max(x) })
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(p, q)| (*p - *q).abs().max_element() as f64)
+        .fold(0.0, |m, x| if x.is_nan() { f64::INFINITY } else { m.max(x) })
 }

@@ -31,25 +31,77 @@ pub fn all() -> Vec<Case> {
         case!("far-1e7", "the teapot scene 1e7 units from the origin renders as at the origin", placement::far_1e7),
         case!("scaled-1e-4", "the teapot scene scaled by 1e-4 renders as at scale 1", placement::scaled_small),
         case!("scaled-1e4", "the teapot scene scaled by 1e4 renders as at scale 1", placement::scaled_large),
-        case!("grazing-plane", "rays within 0.01 degrees of a plane (two triangles) neither leak nor self-intersect", grazing::plane),
+        case!(
+            "grazing-plane",
+            "rays within 0.01 degrees of a plane (two triangles) neither leak nor self-intersect",
+            grazing::plane
+        ),
         case!("tangent-sphere", "rays tangent to a sphere neither leak nor self-intersect", grazing::sphere),
         case!("tangent-cylinder", "rays tangent to a cylinder neither leak nor self-intersect", grazing::cylinder),
-        case!("self-intersection", "a plane and a sphere under a point light match the analytic irradiance", self_intersection::run),
-        case!("thin-cylinder", "a cylinder of radius 1e-4 of the scene size is hit where it should be", cylinders::thin),
+        case!(
+            "self-intersection",
+            "a plane and a sphere under a point light match the analytic irradiance",
+            self_intersection::run
+        ),
+        case!(
+            "thin-cylinder",
+            "a cylinder of radius 1e-4 of the scene size is hit where it should be",
+            cylinders::thin
+        ),
         case!("long-cylinder", "a cylinder 1e4 radii long is hit where it should be", cylinders::long),
-        case!("cylinder-seen-from-afar", "rays leaving a cylinder seen from 1000 units away do not hit it again", cylinders::seen_from_afar),
-        case!("degenerate-triangles", "zero-area, collinear, repeated-vertex and NaN triangles are skipped with a warning", degenerate::run),
-        case!("axis-parallel-rays", "rays with zero direction components hit what they should, at the right distance", rays::axis_parallel),
-        case!("inside-sphere", "a camera inside a sphere sees the closed-form radiance of the enclosure", inside::sphere),
+        case!(
+            "cylinder-seen-from-afar",
+            "rays leaving a cylinder seen from 1000 units away do not hit it again",
+            cylinders::seen_from_afar
+        ),
+        case!(
+            "degenerate-triangles",
+            "zero-area, collinear, repeated-vertex and NaN triangles are skipped with a warning",
+            degenerate::run
+        ),
+        case!(
+            "axis-parallel-rays",
+            "rays with zero direction components hit what they should, at the right distance",
+            rays::axis_parallel
+        ),
+        case!(
+            "inside-sphere",
+            "a camera inside a sphere sees the closed-form radiance of the enclosure",
+            inside::sphere
+        ),
         case!("inside-cylinder", "a camera inside a capped cylinder sees the closed-form radiance", inside::cylinder),
-        case!("inside-glass-tir", "a camera inside a glass cube sees total internal reflection where Snell says", glass::inside_tir),
+        case!(
+            "inside-glass-tir",
+            "a camera inside a glass cube sees total internal reflection where Snell says",
+            glass::inside_tir
+        ),
         case!("glass-ior-1", "glass of IOR 1.0 is invisible", glass::ior_one),
-        case!("glass-furnace", "glass of IOR 1.5 and 3.0 in a white furnace neither gains nor loses energy", glass::furnace),
-        case!("roughness-0-1", "metal and plastic at roughness exactly 0 and 1 stay finite and within energy bounds", roughness::run),
-        case!("emitters-1e6-1e-6", "an emitter of radiance 1e6 next to one of 1e-6: exact where seen, analytic where lit", lights::dynamic_range),
+        case!(
+            "glass-furnace",
+            "glass of IOR 1.5 and 3.0 in a white furnace neither gains nor loses energy",
+            glass::furnace
+        ),
+        case!(
+            "roughness-0-1",
+            "metal and plastic at roughness exactly 0 and 1 stay finite and within energy bounds",
+            roughness::run
+        ),
+        case!(
+            "emitters-1e6-1e-6",
+            "an emitter of radiance 1e6 next to one of 1e-6: exact where seen, analytic where lit",
+            lights::dynamic_range
+        ),
         case!("zero-area-lights", "lights of zero area contribute nothing and break nothing", lights::zero_area),
-        case!("inside-closed-mesh", "a camera inside a closed mesh sees the closed-form radiance (no leaks)", camera::inside_mesh),
-        case!("up-parallel-to-view", "a camera whose up vector is parallel to its view renders the analytic image", camera::up_parallel),
+        case!(
+            "inside-closed-mesh",
+            "a camera inside a closed mesh sees the closed-form radiance (no leaks)",
+            camera::inside_mesh
+        ),
+        case!(
+            "up-parallel-to-view",
+            "a camera whose up vector is parallel to its view renders the analytic image",
+            camera::up_parallel
+        ),
     ]
 }
 

@@ -6,8 +6,8 @@
 //! paths, and any difference comes from the arithmetic done far from the origin. Scaled
 //! scenes are compared with the scene at scale 1 in the same way.
 
-use super::super::stage::{Stage, map_scene, teapot};
 use super::super::pixel::grey;
+use super::super::stage::{Stage, map_scene, teapot};
 use super::{CheckError, Lab, Verdict, same_image};
 use crate::film::Film;
 use crate::integrator::RenderSettings;
@@ -20,7 +20,10 @@ use glam::Vec3;
 /// light, a point light and a dim sky: every primitive kind and every light kind.
 pub(super) fn teapot_stage(size: f32) -> Scene {
     let mut st = Stage::new("teapot");
-    let red = st.material(MaterialKind::Plastic { color: Texture::Constant(Vec3::new(0.62, 0.08, 0.05)), roughness: 0.25 }, Vec3::ZERO);
+    let red = st.material(
+        MaterialKind::Plastic { color: Texture::Constant(Vec3::new(0.62, 0.08, 0.05)), roughness: 0.25 },
+        Vec3::ZERO,
+    );
     let ground = st.material(
         MaterialKind::Diffuse { color: Texture::Checker { a: Vec3::splat(0.75), b: Vec3::splat(0.45), scale: 8.0 } },
         Vec3::ZERO,
@@ -33,7 +36,11 @@ pub(super) fn teapot_stage(size: f32) -> Scene {
     st.cylinder(Vec3::new(3.6, 0.0, 2.4), Vec3::new(4.4, 2.4, 1.2), 0.35, grey);
     st.quad(Vec3::new(-4.0, 9.0, -2.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 4.0), light);
     st.point_light(Vec3::new(5.0, 7.0, 6.0), 30.0);
-    st.background(Background::Gradient { zenith: Vec3::new(0.10, 0.12, 0.16), horizon: Vec3::new(0.05, 0.05, 0.06), ground: Vec3::splat(0.05) });
+    st.background(Background::Gradient {
+        zenith: Vec3::new(0.10, 0.12, 0.16),
+        horizon: Vec3::new(0.05, 0.05, 0.06),
+        ground: Vec3::splat(0.05),
+    });
     st.camera(Vec3::new(7.5, 6.0, 11.0), Vec3::new(0.0, 1.2, 0.0), Vec3::Y, 44.0);
     let scene = st.build();
     if size == 1.0 { scene } else { map_scene(&scene, |p| p * size, size) }
@@ -131,7 +138,12 @@ fn scaled(lab: &Lab, size: f32) -> Result<Verdict, CheckError> {
         100.0 * over,
         1.0,
         "% px off > 5%",
-        format!("scaled by {size:e}: worst pixel {:.1}%, image means differ by {:.3}% ± {:.3}%", 100.0 * worst, 100.0 * mean, 100.0 * se),
+        format!(
+            "scaled by {size:e}: worst pixel {:.1}%, image means differ by {:.3}% ± {:.3}%",
+            100.0 * worst,
+            100.0 * mean,
+            100.0 * se
+        ),
     )
     .require(ok, format!("image means differ by {:.3}%, beyond 4 × {:.3}% + 0.2%", 100.0 * mean, 100.0 * se)))
 }

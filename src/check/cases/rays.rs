@@ -24,7 +24,10 @@ pub fn axis_parallel(lab: &Lab) -> Result<Verdict, CheckError> {
         Cylinder::new(Vec3::new(-3.5, -3.0, -1.0), Vec3::new(-2.0, -3.5, 1.0), 0.4),
     ];
     let mut geometry = vec![Geometry::Mesh(Arc::new(box_mesh(bmin, bmax))), Geometry::Spheres(vec![sphere].into())];
-    let mut solids = vec![Solid::Box { min: bmin.as_dvec3(), max: bmax.as_dvec3() }, Solid::Sphere { center: sphere.center.as_dvec3(), radius: 1.5 }];
+    let mut solids = vec![
+        Solid::Box { min: bmin.as_dvec3(), max: bmax.as_dvec3() },
+        Solid::Sphere { center: sphere.center.as_dvec3(), radius: 1.5 },
+    ];
     for c in cylinders {
         geometry.push(Geometry::Cylinders(vec![c].into()));
         solids.push(Solid::Cylinder { p0: c.p0.as_dvec3(), p1: c.p1.as_dvec3(), radius: c.radius as f64 });
@@ -55,5 +58,6 @@ pub fn axis_parallel(lab: &Lab) -> Result<Verdict, CheckError> {
     }
     let a = agree(&[&embree as &dyn Accel, &naive], &solids, &rays, |r| float_steps(r.o.length() as f64 + 5.0))?;
     lab.add_nonfinite(a.nonfinite);
-    Ok(Verdict::new(a.worst_t, 1e-5, "max rel |Δt|", a.summary()).require(a.wrong == 0, format!("{} wrong hits or misses", a.wrong)))
+    Ok(Verdict::new(a.worst_t, 1e-5, "max rel |Δt|", a.summary())
+        .require(a.wrong == 0, format!("{} wrong hits or misses", a.wrong)))
 }

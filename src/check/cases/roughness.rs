@@ -47,12 +47,18 @@ pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
             }
         }
         v.detail.push_str(&format!("; {name}: max (px − 1)/(4SE + 1%) = {worst:.2}"));
-        v = v.require(worst <= 1.0, format!("{name} gains energy: pixel {at} = {:.4}", super::super::pixel::grey(mean.pixels[at])));
+        v = v.require(
+            worst <= 1.0,
+            format!("{name} gains energy: pixel {at} = {:.4}", super::super::pixel::grey(mean.pixels[at])),
+        );
         if i == 0 {
             let c = (h / 2 * w + w / 2) as usize;
             let (got, want) = (super::super::pixel::grey(mean.pixels[c]), 1.0 - std::f64::consts::LN_2);
             v.detail.push_str(&format!(", centre {got:.4} (1 − ln 2 = {want:.4})"));
-            v = v.require((got - want).abs() <= 4.0 * se[c] + 0.01 * want, format!("metal r=1 head-on reflects {got:.4}, want 1 − ln 2 = {want:.4}"));
+            v = v.require(
+                (got - want).abs() <= 4.0 * se[c] + 0.01 * want,
+                format!("metal r=1 head-on reflects {got:.4}, want 1 − ln 2 = {want:.4}"),
+            );
         }
     }
     Ok(v)

@@ -17,7 +17,8 @@ fn at(lab: &Lab, shift: Vec3) -> Result<Verdict, CheckError> {
     let rot = Quat::from_axis_angle(Vec3::new(-2.0, 1.0, 0.5).normalize(), 0.45);
     let mv = |p: Vec3| rot * p + shift;
     let (albedo, intensity) = (0.5f32, 60.0f32);
-    let (corner, e1, e2) = (mv(Vec3::new(-6.0, 0.0, -6.0)), rot * Vec3::new(0.0, 0.0, 12.0), rot * Vec3::new(12.0, 0.0, 0.0));
+    let (corner, e1, e2) =
+        (mv(Vec3::new(-6.0, 0.0, -6.0)), rot * Vec3::new(0.0, 0.0, 12.0), rot * Vec3::new(12.0, 0.0, 0.0));
     let (center, radius) = (mv(Vec3::new(0.8, 1.0, -0.3)), 1.0f32);
     let light = mv(Vec3::new(-2.0, 5.0, 3.0));
     let mut st = Stage::new("self-intersection");
@@ -40,7 +41,9 @@ fn at(lab: &Lab, shift: Vec3) -> Result<Verdict, CheckError> {
     let reference = Reference::new(w, h, 16, |film| {
         let (o, d) = primary(&cam, film);
         match first_hit(&solids, o, d) {
-            Some((i, hit)) if !blocked(&solids, i, hit.p, l) => diffuse_point_light(albedo as f64, hit.p, hit.n, o, l, intensity as f64),
+            Some((i, hit)) if !blocked(&solids, i, hit.p, l) => {
+                diffuse_point_light(albedo as f64, hit.p, hit.n, o, l, intensity as f64)
+            }
             _ => 0.0,
         }
     });
@@ -51,5 +54,8 @@ pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
     let origin = at(lab, Vec3::ZERO)?;
     let away = at(lab, Vec3::new(431.7, -287.3, 702.9))?;
     let worst = if origin.error >= away.error { &origin } else { &away };
-    Ok(Verdict { detail: format!("at the origin: {}; 873 units away: {}", origin.detail, away.detail), ..worst.clone() })
+    Ok(Verdict {
+        detail: format!("at the origin: {}; 873 units away: {}", origin.detail, away.detail),
+        ..worst.clone()
+    })
 }
