@@ -24,7 +24,7 @@ fn bounds(g: &[Geometry]) -> Aabb {
 }
 
 fn medium() -> Strategy {
-    Strategy::Embree { quality: BuildQuality::Medium, robust: false, tessellated: false }
+    Strategy::Embree { quality: BuildQuality::Medium, robust: false, tessellated: false, packets: false }
 }
 
 /// 128² camera rays, 16,384 random rays, and the shadow rays of the camera hits.
@@ -43,7 +43,7 @@ fn workloads(device: &Device, g: &[Geometry]) -> Vec<(RayKind, Vec<Query>)> {
 fn trace(c: &mut Criterion, group: &str, id: &str, accel: &dyn Accel, kind: RayKind, q: &[Query]) {
     let mut g = c.benchmark_group(group);
     g.throughput(Throughput::Elements(q.len() as u64));
-    g.bench_function(BenchmarkId::new(id, kind.name()), |b| b.iter(|| pass(accel, q, kind.closest()).unwrap()));
+    g.bench_function(BenchmarkId::new(id, kind.name()), |b| b.iter(|| pass(accel, q, kind.closest(), false).unwrap()));
     g.finish();
 }
 
@@ -63,7 +63,7 @@ fn robust_flag(c: &mut Criterion) {
     let s = load("teapot");
     let q = rays::incoherent(&bounds(&s.geometry), 16_384, 7);
     for robust in [false, true] {
-        let st = Strategy::Embree { quality: BuildQuality::Medium, robust, tessellated: false };
+        let st = Strategy::Embree { quality: BuildQuality::Medium, robust, tessellated: false, packets: false };
         let (accel, _) = st.build(&device, &s.geometry).unwrap();
         trace(c, "teapot_robust", st.name(), accel.as_ref(), RayKind::Incoherent, &q);
     }
@@ -76,7 +76,7 @@ fn user_geometry_vs_tessellated(c: &mut Criterion) {
     let work = workloads(&device, &s.geometry);
     for (st, g) in [
         (medium(), &s.geometry),
-        (Strategy::Embree { quality: BuildQuality::Medium, robust: false, tessellated: true }, &tess),
+        (Strategy::Embree { quality: BuildQuality::Medium, robust: false, tessellated: true, packets: false }, &tess),
     ] {
         let (accel, _) = st.build(&device, g).unwrap();
         for (kind, q) in &work {
@@ -100,7 +100,7 @@ fn builds(c: &mut Criterion) {
     let s = load("blob-100k");
     let mut g = c.benchmark_group("blob-100k_build");
     for quality in [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High] {
-        let st = Strategy::Embree { quality, robust: false, tessellated: false };
+        let st = Strategy::Embree { quality, robust: false, tessellated: false, packets: false };
         g.bench_function(st.name(), |b| b.iter(|| black_box(st.build(&device, &s.geometry).unwrap())));
     }
     g.finish();

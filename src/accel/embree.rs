@@ -79,6 +79,11 @@ impl Accel for EmbreeAccel {
     }
 
     #[inline(always)]
+    fn occluded_packet_deferred(&self, rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
+        self.scene.occluded8_deferred(rays, active, tmin, tmax)
+    }
+
+    #[inline(always)]
     fn deferred_error(&self) -> Result<(), AccelError> {
         Ok(self.scene.callback_failure()?)
     }

@@ -227,7 +227,7 @@ pub fn run_scene(
             if strategy.tessellated() { tessellated.as_deref().unwrap_or(&scene.geometry) } else { &scene.geometry };
         let (accel, build_time) = build(strategy, device, geometry)?;
         for (kind, queries) in &work.sets {
-            let (time, hits) = time_queries(accel.as_ref(), queries, kind.closest(), cfg.timing)?;
+            let (time, hits) = time_queries(accel.as_ref(), queries, kind.closest(), strategy.packets(), cfg.timing)?;
             let NaiveReference {
                 queries: sub,
                 answers: ref_answers,
@@ -239,15 +239,15 @@ pub fn run_scene(
                     if !tess_reference.contains_key(kind) {
                         let n = cfg.naive_rays(traced_tess.unwrap_or(1), sub.len());
                         let s: Vec<Query> = sub[..n].to_vec();
-                        let a = answers(tn, &s, kind.closest())?;
+                        let a = answers(tn, &s, kind.closest(), false)?;
                         tess_reference.insert(*kind, (s, a));
                     }
                     let (tsub, tref) = &tess_reference[kind];
-                    let cand = answers(accel.as_ref(), tsub, kind.closest())?;
+                    let cand = answers(accel.as_ref(), tsub, kind.closest(), strategy.packets())?;
                     compare(geometry, tsub, tref, tn, &cand, accel.as_ref())?
                 }
                 _ => {
-                    let cand = answers(accel.as_ref(), sub, kind.closest())?;
+                    let cand = answers(accel.as_ref(), sub, kind.closest(), strategy.packets())?;
                     compare(geometry, sub, ref_answers, &naive, &cand, accel.as_ref())?
                 }
             };

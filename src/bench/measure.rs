@@ -3,8 +3,9 @@
 
 use super::cputime::cpu_of;
 use super::rays::Query;
-use crate::accel::{Accel, AccelError};
-use crate::geometry::Hit;
+use crate::accel::{Accel, AccelError, LANES};
+use crate::geometry::{Hit, Ray};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -35,13 +36,21 @@ impl Answer {
     }
 }
 
-/// One pass over `queries` (closest hit or any hit); returns the number of hits.
-pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool) -> Result<usize, AccelError> {
+/// One pass over `queries` (closest hit or any hit), one by one or (`packets`) 8 at a time;
+/// returns the number of hits.
+pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) -> Result<usize, AccelError> {
     queries
         .par_chunks(CHUNK)
         .try_fold(
             || 0usize,
             |mut hits, chunk| {
+                if packets {
+                    for group in chunk.chunks(LANES) {
+                        hits += packet_answers(accel, group, closest).iter().filter(|a| a.is_hit()).count();
+                    }
+                    accel.deferred_error()?;
+                    return Ok(hits);
+                }
                 for q in chunk {
                     let hit = if closest {
                         accel.intersect(&q.ray, 0.0, q.tmax)?.is_some()
@@ -54,6 +63,32 @@ pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool) -> Result<usize
             },
         )
         .try_reduce(|| 0, |a, b| Ok(a + b))
+}
+
+/// The answers to up to [`LANES`] queries as one packet query (errors deferred). Queries of a
+/// packet share `tmax` in every workload (∞ for closest hits, 1 for shadow segments); a group
+/// whose `tmax` differ is answered lane by lane.
+fn packet_answers(accel: &dyn Accel, group: &[Query], closest: bool) -> Vec<Answer> {
+    let tmax = group[0].tmax;
+    if group.iter().any(|q| q.tmax != tmax) {
+        return group
+            .iter()
+            .map(|q| {
+                if closest {
+                    Answer::Closest(accel.intersect_deferred(&q.ray, 0.0, q.tmax))
+                } else {
+                    Answer::Occluded(accel.occluded_deferred(&q.ray, 0.0, q.tmax))
+                }
+            })
+            .collect();
+    }
+    let rays: [Ray; LANES] = std::array::from_fn(|i| group.get(i).map_or(Ray::new(Vec3::ZERO, Vec3::Z), |q| q.ray));
+    let active: [bool; LANES] = std::array::from_fn(|i| i < group.len());
+    if closest {
+        accel.intersect_packet_deferred(&rays, active, 0.0, tmax)[..group.len()].iter().map(|h| Answer::Closest(*h)).collect()
+    } else {
+        accel.occluded_packet_deferred(&rays, active, 0.0, tmax)[..group.len()].iter().map(|o| Answer::Occluded(*o)).collect()
+    }
 }
 
 /// Wall and CPU time of a measurement.
@@ -70,6 +105,7 @@ pub fn time_queries(
     accel: &dyn Accel,
     queries: &[Query],
     closest: bool,
+    packets: bool,
     timing: Timing,
 ) -> Result<(Times, usize), AccelError> {
     let (mut best, mut total, mut passes, mut hits) =
@@ -80,7 +116,7 @@ pub fn time_queries(
     while passes < timing.min_passes || total < timing.min_total {
         let ((h, t), cpu) = cpu_of(|| {
             let start = Instant::now();
-            (pass(accel, queries, closest), start.elapsed())
+            (pass(accel, queries, closest, packets), start.elapsed())
         });
         hits = h?;
         best.wall = best.wall.min(t);
@@ -102,8 +138,14 @@ fn answer(accel: &dyn Accel, q: &Query, closest: bool) -> Result<Answer, AccelEr
     })
 }
 
-/// Every query's answer (in parallel, not timed).
-pub fn answers(accel: &dyn Accel, queries: &[Query], closest: bool) -> Result<Vec<Answer>, AccelError> {
+/// Every query's answer (in parallel, not timed), one by one or (`packets`) 8 at a time.
+pub fn answers(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) -> Result<Vec<Answer>, AccelError> {
+    if packets {
+        let a: Vec<Answer> =
+            queries.par_chunks(LANES).flat_map_iter(|group| packet_answers(accel, group, closest)).collect();
+        accel.deferred_error()?;
+        return Ok(a);
+    }
     queries.par_iter().map(|q| answer(accel, q, closest)).collect()
 }
 

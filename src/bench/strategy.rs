@@ -10,33 +10,42 @@ use std::time::Duration;
 pub enum Strategy {
     /// Every primitive for every ray ([`NaiveAccel`]).
     Naive,
-    /// Embree; `tessellated`: spheres and cylinders as triangles instead of user geometry.
-    Embree { quality: BuildQuality, robust: bool, tessellated: bool },
+    /// Embree; `tessellated`: spheres and cylinders as triangles instead of user geometry;
+    /// `packets`: queries 8 at a time (`rtcIntersect8`/`rtcOccluded8`, consecutive queries of
+    /// the workload: neighbouring pixels for camera rays) instead of one by one.
+    Embree { quality: BuildQuality, robust: bool, tessellated: bool, packets: bool },
 }
 
 impl Strategy {
     /// The strategies for a scene: the naive loop, Embree at low, medium and high build
-    /// quality, medium with the robust flag, and, when the scene has spheres or cylinders,
-    /// medium with them tessellated.
+    /// quality, medium with the robust flag, medium in packets of 8, and, when the scene has
+    /// spheres or cylinders, medium with them tessellated.
     pub fn for_scene(has_shapes: bool) -> Vec<Strategy> {
-        let e = |quality, robust, tessellated| Strategy::Embree { quality, robust, tessellated };
+        let e = |quality, robust, tessellated, packets| Strategy::Embree { quality, robust, tessellated, packets };
         let mut v = vec![
             Strategy::Naive,
-            e(BuildQuality::Low, false, false),
-            e(BuildQuality::Medium, false, false),
-            e(BuildQuality::High, false, false),
-            e(BuildQuality::Medium, true, false),
+            e(BuildQuality::Low, false, false, false),
+            e(BuildQuality::Medium, false, false, false),
+            e(BuildQuality::High, false, false, false),
+            e(BuildQuality::Medium, true, false, false),
+            e(BuildQuality::Medium, false, false, true),
         ];
         if has_shapes {
-            v.push(e(BuildQuality::Medium, false, true));
+            v.push(e(BuildQuality::Medium, false, true, false));
         }
         v
+    }
+
+    /// Whether queries go 8 at a time.
+    pub fn packets(self) -> bool {
+        matches!(self, Strategy::Embree { packets: true, .. })
     }
 
     pub fn name(self) -> &'static str {
         match self {
             Strategy::Naive => "naive",
             Strategy::Embree { tessellated: true, .. } => "embree-tess",
+            Strategy::Embree { packets: true, .. } => "embree-packet8",
             Strategy::Embree { robust: true, .. } => "embree-robust",
             Strategy::Embree { quality: BuildQuality::Low, .. } => "embree-low",
             Strategy::Embree { quality: BuildQuality::Medium, .. } => "embree-medium",

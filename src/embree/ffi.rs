@@ -149,6 +149,18 @@ mod backend {
         unsafe { raw::rtcIntersect8(valid.0.as_ptr(), scene, &mut ctx, mem.cast::<raw::RTCRayHit8>()) }
     }
 
+    /// `rtcOccluded8` on the lanes of `ray` that `valid` marks.
+    ///
+    /// # Safety
+    /// `scene` is a committed scene; `ray` points to an initialised, 32-byte aligned `RTCRay8`.
+    #[inline]
+    pub(in super::super) unsafe fn occluded8(valid: &Valid8, scene: RTCScene, ray: *mut RTCRay8) {
+        let mut ctx = context();
+        // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type) and
+        // `ctx` lives across the call.
+        unsafe { raw::rtcOccluded8(valid.0.as_ptr(), scene, &mut ctx, ray) }
+    }
+
     /// The instance id (and instance primitive id) a user-geometry hit must record, taken
     /// from the query context of the callback.
     ///
@@ -252,6 +264,17 @@ mod backend {
         // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type); NULL
         // arguments are documented as allowed.
         unsafe { raw::rtcIntersect8(valid.0.as_ptr(), scene, mem.cast::<raw::RTCRayHit8>(), std::ptr::null_mut()) }
+    }
+
+    /// `rtcOccluded8` on the lanes of `ray` that `valid` marks.
+    ///
+    /// # Safety
+    /// `scene` is a committed scene; `ray` points to an initialised, 32-byte aligned `RTCRay8`.
+    #[inline]
+    pub(in super::super) unsafe fn occluded8(valid: &Valid8, scene: RTCScene, ray: *mut RTCRay8) {
+        // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type); NULL
+        // arguments are documented as allowed.
+        unsafe { raw::rtcOccluded8(valid.0.as_ptr(), scene, ray, std::ptr::null_mut()) }
     }
 
     /// The instance id and instance primitive id a user-geometry hit must record, taken from

@@ -315,6 +315,17 @@ impl Scene {
         std::array::from_fn(|i| if active[i] { mem.hit(i) } else { None })
     }
 
+    /// Whether each `active` lane of 8 rays is blocked on `[tmin, tmax]`, with one
+    /// `rtcOccluded8` (inactive lanes give `false`); errors deferred.
+    #[inline]
+    pub fn occluded8_deferred(&self, rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
+        let (mut mem, valid) = RayHit8Mem::new(rays, active, tmin, tmax);
+        // SAFETY: committed scene; `mem.ray` is an initialised, 32-byte aligned RTCRay8 (the
+        // same 384 bytes in every Embree version); `valid` is a 32-byte aligned mask.
+        unsafe { ffi::occluded8(&valid, self.scene.raw, &mut mem.ray) };
+        std::array::from_fn(|i| active[i] && mem.ray.tfar[i] == f32::NEG_INFINITY)
+    }
+
     /// The error of the first user-geometry callback that panicked on this scene, if any.
     #[inline(always)]
     pub fn callback_failure(&self) -> Result<(), EmbreeError> {
