@@ -145,7 +145,7 @@ fn specialize_table_has_every_scene_file() {
     let mut want: Vec<String> = std::fs::read_dir(scenes_dir())
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".toml"))
+        .filter(|n| n.ends_with(".toml") || n.ends_with(".obj"))
         .collect();
     want.sort();
     assert_eq!(rows.iter().map(|r| r["scene"].clone()).collect::<Vec<_>>(), want);

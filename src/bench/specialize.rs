@@ -38,16 +38,17 @@ impl SpecializeMeasurement {
     }
 }
 
-/// The `.toml` scene files in `dir`, sorted by name.
+/// The scene files in `dir` (`.toml`, and `.obj` meshes, which render with a default camera,
+/// sky and diffuse material: `teapot.obj` is the plain diffuse teapot), sorted by name.
 pub fn scene_files(dir: &Path) -> Result<Vec<PathBuf>, BenchError> {
     let entries = std::fs::read_dir(dir).map_err(|e| BenchError::Invalid(format!("{}: {e}", dir.display())))?;
     let mut files: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml" || x == "obj"))
         .collect();
     files.sort();
     if files.is_empty() {
-        return Err(BenchError::Invalid(format!("{}: no .toml scene files", dir.display())));
+        return Err(BenchError::Invalid(format!("{}: no .toml or .obj scene files", dir.display())));
     }
     Ok(files)
 }

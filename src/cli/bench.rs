@@ -18,7 +18,7 @@ pub struct BenchArgs {
     /// Run only the render section: path tracer vs Embree alone, 1 vs 2 threads.
     #[arg(long, conflicts_with_all = ["specialize", "scene"])]
     pub render: bool,
-    /// Run only the specialised-vs-general kernel table, on each .toml in the scenes folder.
+    /// Run only the specialised-vs-general kernel table, on each .toml and .obj in the scenes folder.
     #[arg(long, conflicts_with = "scene")]
     pub specialize: bool,
     /// Threads for the intersection matrix [all cores].
