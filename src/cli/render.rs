@@ -245,7 +245,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         format!("{min_spp}..{max_spp} spp (mean {mean_spp:.1})")
     };
     eprintln!(
-        "rendered {}x{} at {spp} in {:.2} s{}: {:.2} Mrays/s ({} rays, {} accel), {} non-finite samples dropped -> {}",
+        "rendered {}x{} at {spp} in {:.2} s{}: {:.2} Mrays/s ({} rays, {}), {} non-finite samples dropped -> {}",
         settings.width,
         settings.height,
         stats.elapsed.as_secs_f64(),
@@ -256,7 +256,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         },
         stats.mrays_per_s(),
         stats.rays,
-        accel.name(),
+        match args.accel {
+            AccelKind::Embree => format!("embree accel, {} BVH{}", bvh.quality, if bvh.robust { ", robust" } else { "" }),
+            AccelKind::Naive => "naive accel".to_string(),
+        },
         stats.nonfinite,
         args.output.display()
     );
