@@ -67,7 +67,8 @@ fn quick_run_writes_the_matrix_plot_and_render_table() {
     let triangles = [("teapot", 6320), ("blob-1k", 972), ("blob-10k", 10_092), ("shapes-100", 0)];
     let mut expected = HashSet::new();
     for (scene, _) in triangles {
-        let mut strategies = vec!["naive", "embree-low", "embree-medium", "embree-high", "embree-robust", "embree-packet8"];
+        let mut strategies =
+            vec!["naive", "embree-low", "embree-medium", "embree-high", "embree-robust", "embree-packet8"];
         if scene == "shapes-100" {
             strategies.push("embree-tess");
         }

@@ -113,6 +113,32 @@ fn panic_in_intersect_callback_is_an_error_after_the_query() {
 }
 
 #[test]
+fn deferred_and_packet_queries_report_a_callback_panic_afterwards() {
+    // The path tracer's queries (one by one, and camera rays 8 at a time) do not check after
+    // each ray; it asks `callback_failure` once per packet of paths. The panic must show there.
+    let device = Device::new().unwrap();
+    for packet in [false, true] {
+        let mut b = SceneBuilder::new(&device, BuildOptions::default()).unwrap();
+        b.add_shapes(Arc::from(vec![Grenade { in_bounds: false }])).unwrap();
+        let scene = b.commit().unwrap();
+        assert!(scene.callback_failure().is_ok(), "no query yet");
+        let ray = Ray::new(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
+        if packet {
+            let rays = [ray; ember::embree::LANES];
+            let active = std::array::from_fn(|i| i % 2 == 0);
+            let _ = scene.intersect8_deferred(&rays, active, 0.0, f32::INFINITY);
+        } else {
+            let _ = scene.intersect_deferred(&ray, 0.0, f32::INFINITY);
+        }
+        let e = scene.callback_failure().unwrap_err();
+        assert!(
+            matches!(&e, EmbreeError::CallbackPanic(m) if m.contains("intersect exploded")),
+            "packet {packet}: {e:?}"
+        );
+    }
+}
+
+#[test]
 fn panic_in_bounds_callback_fails_the_commit() {
     let device = Device::new().unwrap();
     let mut b = SceneBuilder::new(&device, BuildOptions::default()).unwrap();

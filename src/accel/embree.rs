@@ -79,7 +79,13 @@ impl Accel for EmbreeAccel {
     }
 
     #[inline(always)]
-    fn occluded_packet_deferred(&self, rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
+    fn occluded_packet_deferred(
+        &self,
+        rays: &[Ray; LANES],
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: f32,
+    ) -> [bool; LANES] {
         self.scene.occluded8_deferred(rays, active, tmin, tmax)
     }
 

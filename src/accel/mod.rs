@@ -52,7 +52,13 @@ pub trait Accel: Send + Sync {
         std::array::from_fn(|i| if active[i] { self.intersect_deferred(&rays[i], tmin, tmax) } else { None })
     }
     /// [`Accel::occluded_deferred`] for a packet (inactive lanes give `false`).
-    fn occluded_packet_deferred(&self, rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
+    fn occluded_packet_deferred(
+        &self,
+        rays: &[Ray; LANES],
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: f32,
+    ) -> [bool; LANES] {
         std::array::from_fn(|i| active[i] && self.occluded_deferred(&rays[i], tmin, tmax))
     }
     /// The error of any deferred query so far (errors are sticky).

@@ -85,9 +85,15 @@ fn packet_answers(accel: &dyn Accel, group: &[Query], closest: bool) -> Vec<Answ
     let rays: [Ray; LANES] = std::array::from_fn(|i| group.get(i).map_or(Ray::new(Vec3::ZERO, Vec3::Z), |q| q.ray));
     let active: [bool; LANES] = std::array::from_fn(|i| i < group.len());
     if closest {
-        accel.intersect_packet_deferred(&rays, active, 0.0, tmax)[..group.len()].iter().map(|h| Answer::Closest(*h)).collect()
+        accel.intersect_packet_deferred(&rays, active, 0.0, tmax)[..group.len()]
+            .iter()
+            .map(|h| Answer::Closest(*h))
+            .collect()
     } else {
-        accel.occluded_packet_deferred(&rays, active, 0.0, tmax)[..group.len()].iter().map(|o| Answer::Occluded(*o)).collect()
+        accel.occluded_packet_deferred(&rays, active, 0.0, tmax)[..group.len()]
+            .iter()
+            .map(|o| Answer::Occluded(*o))
+            .collect()
     }
 }
 

@@ -257,7 +257,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         stats.mrays_per_s(),
         stats.rays,
         match args.accel {
-            AccelKind::Embree => format!("embree accel, {} BVH{}", bvh.quality, if bvh.robust { ", robust" } else { "" }),
+            AccelKind::Embree =>
+                format!("embree accel, {} BVH{}", bvh.quality, if bvh.robust { ", robust" } else { "" }),
             AccelKind::Naive => "naive accel".to_string(),
         },
         stats.nonfinite,

@@ -318,7 +318,13 @@ impl Scene {
     /// Whether each `active` lane of 8 rays is blocked on `[tmin, tmax]`, with one
     /// `rtcOccluded8` (inactive lanes give `false`); errors deferred.
     #[inline]
-    pub fn occluded8_deferred(&self, rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
+    pub fn occluded8_deferred(
+        &self,
+        rays: &[Ray; LANES],
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: f32,
+    ) -> [bool; LANES] {
         let (mut mem, valid) = RayHit8Mem::new(rays, active, tmin, tmax);
         // SAFETY: committed scene; `mem.ray` is an initialised, 32-byte aligned RTCRay8 (the
         // same 384 bytes in every Embree version); `valid` is a 32-byte aligned mask.
