@@ -47,16 +47,6 @@ impl Accel for EmbreeAccel {
         "embree"
     }
 
-    #[inline]
-    fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError> {
-        Ok(self.scene.intersect(ray, tmin, tmax)?)
-    }
-
-    #[inline]
-    fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
-        Ok(self.scene.occluded(ray, tmin, tmax)?)
-    }
-
     #[inline(always)]
     fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
         self.scene.intersect_deferred(ray, tmin, tmax)

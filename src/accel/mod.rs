@@ -29,9 +29,17 @@ pub trait Accel: Send + Sync {
     /// A short name for reports ("embree", "naive").
     fn name(&self) -> &'static str;
     /// The closest hit with `tmin < t < tmax` (Embree: `<=` at both ends), or `None`.
-    fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError>;
+    fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError> {
+        let hit = self.intersect_deferred(ray, tmin, tmax);
+        self.deferred_error()?;
+        Ok(hit)
+    }
     /// Whether anything lies between `tmin` and `tmax` along the ray.
-    fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError>;
+    fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
+        let blocked = self.occluded_deferred(ray, tmin, tmax);
+        self.deferred_error()?;
+        Ok(blocked)
+    }
     /// [`Accel::intersect`] for tight loops: an error is not returned here but by the next
     /// [`Accel::deferred_error`] (a loop checks once per path, not once per ray). After an
     /// error the answers are meaningless; they are discarded with the path.

@@ -35,14 +35,6 @@ impl Accel for NaiveAccel {
         "naive"
     }
 
-    fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError> {
-        Ok(self.intersect_deferred(ray, tmin, tmax))
-    }
-
-    fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
-        Ok(self.occluded_deferred(ray, tmin, tmax))
-    }
-
     /// The naive loop cannot fail: there is never a deferred error.
     fn deferred_error(&self) -> Result<(), AccelError> {
         Ok(())

@@ -46,7 +46,7 @@ pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) 
             |mut hits, chunk| {
                 if packets {
                     for group in chunk.chunks(LANES) {
-                        hits += packet_answers(accel, group, closest).iter().filter(|a| a.is_hit()).count();
+                        hits += packet_answers(accel, group, closest)?.iter().filter(|a| a.is_hit()).count();
                     }
                     accel.deferred_error()?;
                     return Ok(hits);
@@ -68,23 +68,14 @@ pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) 
 /// The answers to up to [`LANES`] queries as one packet query (errors deferred). Queries of a
 /// packet share `tmax` in every workload (∞ for closest hits, 1 for shadow segments); a group
 /// whose `tmax` differ is answered lane by lane.
-fn packet_answers(accel: &dyn Accel, group: &[Query], closest: bool) -> Vec<Answer> {
+fn packet_answers(accel: &dyn Accel, group: &[Query], closest: bool) -> Result<Vec<Answer>, AccelError> {
     let tmax = group[0].tmax;
     if group.iter().any(|q| q.tmax != tmax) {
-        return group
-            .iter()
-            .map(|q| {
-                if closest {
-                    Answer::Closest(accel.intersect_deferred(&q.ray, 0.0, q.tmax))
-                } else {
-                    Answer::Occluded(accel.occluded_deferred(&q.ray, 0.0, q.tmax))
-                }
-            })
-            .collect();
+        return group.iter().map(|q| answer(accel, q, closest)).collect();
     }
     let rays: [Ray; LANES] = std::array::from_fn(|i| group.get(i).map_or(Ray::new(Vec3::ZERO, Vec3::Z), |q| q.ray));
     let active: [bool; LANES] = std::array::from_fn(|i| i < group.len());
-    if closest {
+    Ok(if closest {
         accel.intersect_packet_deferred(&rays, active, 0.0, tmax)[..group.len()]
             .iter()
             .map(|h| Answer::Closest(*h))
@@ -94,7 +85,7 @@ fn packet_answers(accel: &dyn Accel, group: &[Query], closest: bool) -> Vec<Answ
             .iter()
             .map(|o| Answer::Occluded(*o))
             .collect()
-    }
+    })
 }
 
 /// Wall and CPU time of a measurement.
@@ -147,10 +138,10 @@ fn answer(accel: &dyn Accel, q: &Query, closest: bool) -> Result<Answer, AccelEr
 /// Every query's answer (in parallel, not timed), one by one or (`packets`) 8 at a time.
 pub fn answers(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) -> Result<Vec<Answer>, AccelError> {
     if packets {
-        let a: Vec<Answer> =
-            queries.par_chunks(LANES).flat_map_iter(|group| packet_answers(accel, group, closest)).collect();
+        let groups: Vec<Vec<Answer>> =
+            queries.par_chunks(LANES).map(|group| packet_answers(accel, group, closest)).collect::<Result<_, _>>()?;
         accel.deferred_error()?;
-        return Ok(a);
+        return Ok(groups.into_iter().flatten().collect());
     }
     queries.par_iter().map(|q| answer(accel, q, closest)).collect()
 }

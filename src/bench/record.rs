@@ -45,16 +45,6 @@ impl Accel for RecordingAccel<'_> {
         "recording"
     }
 
-    fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError> {
-        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: false });
-        self.inner.intersect(ray, tmin, tmax)
-    }
-
-    fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
-        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: true });
-        self.inner.occluded(ray, tmin, tmax)
-    }
-
     fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
         self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: false });
         self.inner.intersect_deferred(ray, tmin, tmax)

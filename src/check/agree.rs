@@ -138,12 +138,6 @@ mod tests {
         fn name(&self) -> &'static str {
             "long"
         }
-        fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError> {
-            Ok(self.0.intersect(ray, tmin, tmax)?.map(|h| Hit { t: h.t * 1.01, ..h }))
-        }
-        fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, AccelError> {
-            self.0.occluded(ray, tmin, tmax)
-        }
         fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
             self.0.intersect_deferred(ray, tmin, tmax).map(|h| Hit { t: h.t * 1.01, ..h })
         }

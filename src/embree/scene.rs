@@ -341,23 +341,17 @@ impl Scene {
     /// Closest hit with `tmin <= t <= tmax`.
     #[inline]
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, EmbreeError> {
-        let mut mem = RayHitMem::new(ray, tmin, tmax);
-        // SAFETY: committed scene (Scene is only made by commit); `mem` is initialised,
-        // 16-byte aligned and as large as the running library's RTCRayHit (layout.rs).
-        unsafe { ffi::intersect1(self.scene.raw, &mut mem) };
-        self.scene.failure.check()?;
-        Ok(mem.hit())
+        let hit = self.intersect_deferred(ray, tmin, tmax);
+        self.callback_failure()?;
+        Ok(hit)
     }
 
     /// Whether anything is hit with `tmin <= t <= tmax`.
     #[inline]
     pub fn occluded(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<bool, EmbreeError> {
-        let mut r = rtc_ray(ray, tmin, tmax);
-        // SAFETY: committed scene; `r` is an initialised RTCRay (the same 48 bytes in every
-        // Embree version).
-        unsafe { ffi::occluded1(self.scene.raw, &mut r) };
-        self.scene.failure.check()?;
-        Ok(r.tfar == f32::NEG_INFINITY)
+        let blocked = self.occluded_deferred(ray, tmin, tmax);
+        self.callback_failure()?;
+        Ok(blocked)
     }
 
     /// The ray-hit layout of the library this scene runs on.
