@@ -129,10 +129,21 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     let n = samples.len();
     debug_assert!(n <= LANES && (n == 0 || samples.start / LANES as u32 == (samples.end - 1) / LANES as u32));
     let pixel = y as u64 * w as u64 + x as u64;
-    let mut rngs: [Rng; LANES] =
-        std::array::from_fn(|i| Rng::for_sample(ctx.settings.seed, pixel, samples.start as u64 + i as u64));
+    // Idle lanes (a group cut short by the sample count) get placeholders, not streams and
+    // camera rays of their own: at 1 spp, seven of every eight lanes are idle.
+    let first = Rng::for_sample(ctx.settings.seed, pixel, samples.start as u64);
+    let mut rngs: [Rng; LANES] = std::array::from_fn(|i| {
+        if i == 0 || i >= n {
+            first.clone()
+        } else {
+            Rng::for_sample(ctx.settings.seed, pixel, samples.start as u64 + i as u64)
+        }
+    });
     let cam = ctx.camera;
     let camera_rays: [Ray; LANES] = std::array::from_fn(|i| {
+        if i >= n {
+            return Ray::new(cam.position, Vec3::Z);
+        }
         let rng = &mut rngs[i];
         let film = Vec2::new((x as f32 + rng.next_f32()) / w as f32, (y as f32 + rng.next_f32()) / h as f32);
         // Drawn in every kernel, so all kernels consume the same random numbers.
