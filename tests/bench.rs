@@ -4,13 +4,9 @@
 
 mod common;
 
+use common::ember;
 use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn ember(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ember")).args(args).output().expect("ember runs")
-}
 
 fn scenes_dir() -> String {
     format!("{}/scenes", env!("CARGO_MANIFEST_DIR"))

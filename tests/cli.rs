@@ -3,12 +3,9 @@
 
 mod common;
 
+use common::ember;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn ember(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ember")).args(args).output().expect("ember runs")
-}
+use std::process::Output;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

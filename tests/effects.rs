@@ -4,10 +4,7 @@
 
 mod common;
 
-use ember::accel::EmbreeAccel;
-use ember::embree::{BuildOptions, Device};
-use ember::film::Film;
-use ember::integrator::{KernelChoice, RenderSettings, RenderStats, render};
+use ember::integrator::{KernelChoice, RenderSettings};
 use ember::scene::{DepthLimit, Effects, Scene};
 
 fn scene_from(name: &str, text: &str) -> Scene {
@@ -16,12 +13,6 @@ fn scene_from(name: &str, text: &str) -> Scene {
 
 fn on(e: &Effects) -> Vec<&'static str> {
     e.list().iter().filter(|(_, p)| *p).map(|(n, _)| *n).collect()
-}
-
-fn render_with(scene: &Scene, settings: &RenderSettings) -> (Film, RenderStats) {
-    let device = Device::new().unwrap();
-    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
-    render(scene, &accel, settings).unwrap()
 }
 
 fn small(spp: u32) -> RenderSettings {
@@ -109,11 +100,11 @@ fn one_convex_object_needs_direct_light_only() {
     let e = scene.effects();
     assert!(!e.indirect);
     assert_eq!(e.depth_limit(), DepthLimit::DirectOnly);
-    let (spec, stats) = render_with(&scene, &small(8));
+    let (spec, stats) = common::render_embree(&scene, &small(8));
     assert_eq!(stats.max_depth, 1);
     // The general kernel at depth 8 traces the same paths: a ray leaving a convex object never
     // meets it again, so depth 1 loses nothing.
-    let (general, gstats) = render_with(&scene, &RenderSettings { specialize: false, ..small(8) });
+    let (general, gstats) = common::render_embree(&scene, &RenderSettings { specialize: false, ..small(8) });
     assert_eq!(gstats.max_depth, 8);
     assert_eq!(spec, general);
     assert_eq!(stats.rays, gstats.rays);
@@ -145,7 +136,7 @@ fn only_emitters_need_no_bounce_and_no_light_needs_no_ray() {
         .replace("color = [1, 1, 1]", "color = [0, 0, 0]");
     let scene = scene_from("emitter.toml", &emitter);
     assert_eq!(scene.effects().depth_limit(), DepthLimit::EmittersOnly);
-    let (film, stats) = render_with(&scene, &small(4));
+    let (film, stats) = common::render_embree(&scene, &small(4));
     assert_eq!(stats.max_depth, 0);
     let centre = film.get(20, 15);
     assert_eq!(centre, glam::Vec3::splat(2.0), "an emitter seen directly has exactly its radiance");
@@ -155,10 +146,10 @@ fn only_emitters_need_no_bounce_and_no_light_needs_no_ray() {
     let e = scene.effects();
     assert!(!e.lit);
     assert!(e.to_string().ends_with("(no light: the image is black)"));
-    let (film, stats) = render_with(&scene, &small(4));
+    let (film, stats) = common::render_embree(&scene, &small(4));
     assert_eq!(stats.rays, 0, "nothing emits: no ray needs tracing");
     assert!(film.pixels.iter().all(|p| *p == glam::Vec3::ZERO));
-    let (general, gstats) = render_with(&scene, &RenderSettings { specialize: false, ..small(4) });
+    let (general, gstats) = common::render_embree(&scene, &RenderSettings { specialize: false, ..small(4) });
     assert!(gstats.rays > 0);
     assert_eq!(film, general);
 }
@@ -185,8 +176,8 @@ fn specialised_and_general_kernels_give_bit_identical_images() {
             .collect();
     scenes.push(("one-sphere".into(), scene_from("one-sphere-2.toml", ONE_SPHERE)));
     for (name, scene) in &scenes {
-        let (a, sa) = render_with(scene, &small(2));
-        let (b, sb) = render_with(scene, &RenderSettings { specialize: false, ..small(2) });
+        let (a, sa) = common::render_embree(scene, &small(2));
+        let (b, sb) = common::render_embree(scene, &RenderSettings { specialize: false, ..small(2) });
         assert_eq!(sb.kernel, KernelChoice::GENERAL);
         let same = a
             .pixels

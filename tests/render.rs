@@ -11,9 +11,7 @@ use ember::scene::Scene;
 use glam::Vec3;
 
 fn embree_render(scene: &Scene, settings: &RenderSettings) -> Film {
-    let device = Device::new().unwrap();
-    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
-    let (film, stats) = render(scene, &accel, settings).unwrap();
+    let (film, stats) = common::render_embree(scene, settings);
     assert_eq!(stats.nonfinite, 0, "non-finite samples");
     film
 }

@@ -4,12 +4,10 @@
 
 mod common;
 
-use ember::accel::EmbreeAccel;
-use ember::embree::{BuildOptions, Device};
+use common::ember;
 use ember::film::Film;
-use ember::integrator::{KernelChoice, RenderSettings, RenderStats, RrDepth, render};
+use ember::integrator::{KernelChoice, RenderSettings, RrDepth};
 use ember::scene::Scene;
-use std::process::{Command, Output};
 
 /// Two diffuse spheres of albedo 0.7 on a floor of albedo 0.6 under a sky: light bounces
 /// between them, and 0.7² = 0.49 ≤ ½, so roulette starts at depth 2.
@@ -44,12 +42,6 @@ material = "floor"
 
 fn scene(name: &str, text: &str) -> Scene {
     Scene::load(&common::write_scene("rr-auto", name, text)).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn render_with(scene: &Scene, settings: &RenderSettings) -> (Film, RenderStats) {
-    let device = Device::new().unwrap();
-    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
-    render(scene, &accel, settings).unwrap()
 }
 
 fn small(rr_depth: RrDepth) -> RenderSettings {
@@ -91,8 +83,8 @@ fn sample_scenes_start_roulette_where_their_albedo_says() {
 fn the_automatic_start_is_the_same_for_the_specialised_and_the_general_kernel() {
     let dim = scene("dim.toml", DIM);
     assert_eq!(dim.effects().rr_start(8), Some(2));
-    let (spec, s) = render_with(&dim, &small(RrDepth::Auto));
-    let (general, g) = render_with(&dim, &RenderSettings { specialize: false, ..small(RrDepth::Auto) });
+    let (spec, s) = common::render_embree(&dim, &small(RrDepth::Auto));
+    let (general, g) = common::render_embree(&dim, &RenderSettings { specialize: false, ..small(RrDepth::Auto) });
     assert_eq!(g.kernel, KernelChoice::GENERAL);
     assert_ne!(s.kernel, KernelChoice::GENERAL);
     assert_eq!((s.rr_start, g.rr_start), (Some(2), Some(2)));
@@ -101,9 +93,9 @@ fn the_automatic_start_is_the_same_for_the_specialised_and_the_general_kernel() 
     assert!(spec.mean().max_element() > 0.05);
 
     // It is the explicit start 2, and roulette does run: without it the image differs.
-    let (explicit, _) = render_with(&dim, &small(RrDepth::After(2)));
+    let (explicit, _) = common::render_embree(&dim, &small(RrDepth::After(2)));
     assert!(bits(&explicit) == bits(&spec));
-    let (off, o) = render_with(&dim, &small(RrDepth::Off));
+    let (off, o) = common::render_embree(&dim, &small(RrDepth::Off));
     assert_eq!(o.rr_start, None);
     assert!(bits(&off) != bits(&spec));
     assert!(o.rays > s.rays, "roulette ends paths early: {} rays without, {} with", o.rays, s.rays);
@@ -133,8 +125,8 @@ material = "dark"
     let e = scene.effects();
     assert!(!e.indirect, "{e}");
     assert_eq!(e.rr_start(8), None);
-    let (spec, s) = render_with(&scene, &small(RrDepth::Auto));
-    let (general, g) = render_with(&scene, &RenderSettings { specialize: false, ..small(RrDepth::Auto) });
+    let (spec, s) = common::render_embree(&scene, &small(RrDepth::Auto));
+    let (general, g) = common::render_embree(&scene, &RenderSettings { specialize: false, ..small(RrDepth::Auto) });
     assert_eq!((s.max_depth, g.max_depth), (1, 8));
     // (Roulette from depth 1 in the general kernel alone would change the weight of the sky
     // found after the first bounce: the images would differ.)
@@ -145,9 +137,9 @@ material = "dark"
 #[test]
 fn an_explicit_choice_wins_over_the_scene() {
     let dim = scene("dim-explicit.toml", DIM);
-    let (_, s) = render_with(&dim, &small(RrDepth::After(5)));
+    let (_, s) = common::render_embree(&dim, &small(RrDepth::After(5)));
     assert_eq!(s.rr_start, Some(5));
-    let (_, s) = render_with(&dim, &small(RrDepth::Off));
+    let (_, s) = common::render_embree(&dim, &small(RrDepth::Off));
     assert_eq!(s.rr_start, None);
     // The scene file's own value wins over auto, and the command line over the scene file.
     let with_file_value = scene("dim-file.toml", &format!("[render]\nrr_depth = 6\n{DIM}"));
@@ -160,10 +152,6 @@ fn an_explicit_choice_wins_over_the_scene() {
         Scene::load(&common::write_scene("rr-auto", "dim-bad.toml", &format!("[render]\nrr_depth = \"never\"\n{DIM}")));
     let msg = bad.unwrap_err().to_string();
     assert!(msg.contains("expected a number of bounces, \"off\" or \"auto\", found \"never\""), "{msg}");
-}
-
-fn ember(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ember")).args(args).output().expect("ember runs")
 }
 
 /// The `kernel:` line a render of `scene` prints with `extra` arguments.

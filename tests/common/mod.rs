@@ -1,11 +1,29 @@
 //! Shared helpers for the integration tests.
 #![allow(dead_code)]
 
+use ember::accel::EmbreeAccel;
+use ember::embree::{BuildOptions, Device};
+use ember::film::Film;
 use ember::geometry::{Cylinder, Geometry, Sphere};
+use ember::integrator::{RenderSettings, RenderStats, render};
 use ember::sampler::Rng;
+use ember::scene::Scene;
 use glam::Vec3;
 use std::path::PathBuf;
+use std::process::{Command, Output};
 use std::sync::Arc;
+
+/// Runs the `ember` binary with `args` and waits for it.
+pub fn ember(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ember")).args(args).output().expect("ember runs")
+}
+
+/// Renders `scene` through Embree (default build) on a new device.
+pub fn render_embree(scene: &Scene, settings: &RenderSettings) -> (Film, RenderStats) {
+    let device = Device::new().unwrap();
+    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+    render(scene, &accel, settings).unwrap()
+}
 
 /// A folder path for one test, `ember-<group>-<name>-<pid>` in the temp dir, with whatever an
 /// earlier run left there removed: it does not exist yet.
