@@ -60,16 +60,10 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
     let mut prev_pdf = 0.0f32;
     let mut prev_p = ray.o;
     let mut depth = 0u32;
-    let mut first = Some(first);
+    // The closest hit of `ray`: the caller's for the camera ray, then traced at each bounce.
+    let mut next_hit = first;
     loop {
-        let found_hit = match first.take() {
-            Some(camera_hit) => camera_hit,
-            None => {
-                *rays += 1;
-                accel.intersect_deferred(&ray, 0.0, f32::INFINITY)
-            }
-        };
-        let Some(hit) = found_hit else {
+        let Some(hit) = next_hit else {
             // Without non-delta lights the background is black.
             if MIS {
                 let le = ctx.scene.background.radiance(ray.d);
@@ -168,6 +162,8 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
             break;
         }
         ray = Ray::new(offset_toward(sp.p, ng, wi), wi);
+        *rays += 1;
+        next_hit = accel.intersect_deferred(&ray, 0.0, f32::INFINITY);
     }
     l
 }
