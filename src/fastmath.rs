@@ -18,12 +18,15 @@ pub fn sin_cos_turns(t: f32) -> (f32, f32) {
     let x2 = x * x;
     let s = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0))));
     let c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0))));
-    match q & 3 {
-        0 => (s, c),
-        1 => (c, -s),
-        2 => (-s, -c),
-        _ => (-c, s),
-    }
+    // Quarter turn q: (s, c), (c, −s), (−s, −c), (−c, s). Selected without a branch: the
+    // quadrant of a random angle is unpredictable, and a jump table mispredicts 3 times in 4.
+    // Bit masks, not `if`: the compiler turns a two-way select into a branch too.
+    let (sb, cb) = (s.to_bits(), c.to_bits());
+    let odd = 0u32.wrapping_sub(q as u32 & 1); // all ones for odd quarter turns
+    let flip = ((q as u32) & 2) << 30; // the sign bit for the second half turn
+    let a = (sb & !odd) | (cb & odd);
+    let b = (cb & !odd) | ((sb ^ 0x8000_0000) & odd);
+    (f32::from_bits(a ^ flip), f32::from_bits(b ^ flip))
 }
 
 #[cfg(test)]

@@ -23,18 +23,43 @@ impl Rng {
 
     /// A stream identified by `key` and `stream`; distinct keys give independent-looking streams.
     pub fn new(key: u64, stream: u64) -> Self {
+        Rng::from_hashed_key(mix64(key), stream)
+    }
+
+    /// [`Rng::new`] given `mix64(key)`, for many streams of one key.
+    #[inline]
+    fn from_hashed_key(hashed_key: u64, stream: u64) -> Self {
         let mut r = Rng { state: 0, inc: (mix64(stream ^ 0x9e37_79b9_7f4a_7c15) << 1) | 1 };
         r.next_u32();
-        r.state = r.state.wrapping_add(mix64(key));
+        r.state = r.state.wrapping_add(hashed_key);
         r.next_u32();
         r
     }
 
     /// A stream for one (seed, pixel, sample) triple.
     pub fn for_sample(seed: u64, pixel: u64, sample: u64) -> Self {
-        Rng::new(mix64(seed.wrapping_mul(0x2545_f491_4f6c_dd1d) ^ pixel), sample)
+        PixelStreams::new(seed, pixel).sample(sample)
+    }
+}
+
+/// The streams of one pixel: [`Rng::for_sample`] with the pixel's part of the key hashed once.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelStreams(u64);
+
+impl PixelStreams {
+    #[inline]
+    pub fn new(seed: u64, pixel: u64) -> Self {
+        PixelStreams(mix64(mix64(seed.wrapping_mul(0x2545_f491_4f6c_dd1d) ^ pixel)))
     }
 
+    /// The stream of sample `sample` of the pixel: `Rng::for_sample(seed, pixel, sample)`.
+    #[inline]
+    pub fn sample(self, sample: u64) -> Rng {
+        Rng::from_hashed_key(self.0, sample)
+    }
+}
+
+impl Rng {
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;

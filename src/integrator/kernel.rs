@@ -30,7 +30,7 @@
 use super::path::{PathContext, radiance};
 use crate::accel::{Accel, AccelError, LANES};
 use crate::geometry::Ray;
-use crate::sampler::Rng;
+use crate::sampler::{PixelStreams, Rng};
 use crate::scene::Effects;
 use glam::{Vec2, Vec3};
 use std::fmt;
@@ -131,13 +131,10 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     let pixel = y as u64 * w as u64 + x as u64;
     // Idle lanes (a group cut short by the sample count) get placeholders, not streams and
     // camera rays of their own: at 1 spp, seven of every eight lanes are idle.
-    let first = Rng::for_sample(ctx.settings.seed, pixel, samples.start as u64);
+    let streams = PixelStreams::new(ctx.settings.seed, pixel);
+    let first = streams.sample(samples.start as u64);
     let mut rngs: [Rng; LANES] = std::array::from_fn(|i| {
-        if i == 0 || i >= n {
-            first.clone()
-        } else {
-            Rng::for_sample(ctx.settings.seed, pixel, samples.start as u64 + i as u64)
-        }
+        if i == 0 || i >= n { first.clone() } else { streams.sample(samples.start as u64 + i as u64) }
     });
     let cam = ctx.camera;
     let camera_rays: [Ray; LANES] = std::array::from_fn(|i| {

@@ -6,7 +6,7 @@ use super::surface::surface_point;
 use super::{Estimator, RenderSettings};
 use crate::accel::Accel;
 use crate::camera::Camera;
-use crate::geometry::{Frame, Hit, Ray, offset_toward};
+use crate::geometry::{Frame, Hit, Ray, offset_ray_origin, offset_toward};
 use crate::light::LightSet;
 use crate::material::{Bsdf, BsdfSample};
 use crate::sampler::Rng;
@@ -102,6 +102,13 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         }
         let frame = Frame::from_normal(ns);
         let wo_l = frame.to_local(wo);
+        // Both rays leave an opaque surface on the side of `ng` facing `wo` (checked below for
+        // each), so they share one origin.
+        let leave = if transmissive { sp.p } else { offset_ray_origin(sp.p, ng) };
+        let origin = |toward: Vec3| if transmissive { offset_toward(sp.p, ng, toward) } else { leave };
+        // Without glossy or glass materials every BSDF is Lambertian: evaluated and sampled
+        // inline (the same arithmetic as through `Bsdf`'s dispatch).
+        let lambert = !(GLOSSY || GLASS);
 
         // Next-event estimation.
         if use_nee
@@ -110,9 +117,9 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         {
             let wi_l = frame.to_local(ls.wi);
             let side = ls.wi.dot(ng);
-            let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
+            let f = if lambert { bsdf.eval_lambert(wo_l, wi_l) } else { bsdf.eval(wo_l, wi_l) } * wi_l.z.abs();
             if f != Vec3::ZERO && ls.radiance != Vec3::ZERO && (transmissive || side > 0.0) {
-                let o = offset_toward(sp.p, ng, ls.wi);
+                let o = origin(ls.wi);
                 let (d, tmax) = match ls.point {
                     // Toward a point on a light: stop just short of it (the light's own
                     // surface is not an occluder), measured in units of the full segment.
@@ -133,6 +140,8 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         // Continue the path by sampling the BSDF.
         let bs = if uniform_diffuse && matches!(bsdf, Bsdf::Diffuse { .. }) {
             sample_uniform_hemisphere(&bsdf, wo_l, rng.next_2d())
+        } else if lambert {
+            bsdf.sample_lambert(wo_l, rng.next_2d(), rng.next_f32())
         } else {
             bsdf.sample(wo_l, rng.next_2d(), rng.next_f32())
         };
@@ -161,7 +170,7 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
             // The next hit could only add emission, and nothing BSDF sampling can find emits.
             break;
         }
-        ray = Ray::new(offset_toward(sp.p, ng, wi), wi);
+        ray = Ray::new(origin(wi), wi);
         *rays += 1;
         next_hit = accel.intersect_deferred(&ray, 0.0, f32::INFINITY);
     }

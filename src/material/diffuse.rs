@@ -16,22 +16,22 @@ pub(super) struct Diffuse {
 }
 
 impl Diffuse {
-    #[inline]
+    #[inline(always)]
     pub(super) fn new(albedo: Vec3) -> Self {
         Diffuse { albedo }
     }
 
-    #[inline]
+    #[inline(always)]
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if same_hemisphere_above(wo, wi) { self.albedo * FRAC_1_PI } else { Vec3::ZERO }
     }
 
-    #[inline]
+    #[inline(always)]
     pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if same_hemisphere_above(wo, wi) { cosine_hemisphere_pdf(wi) } else { 0.0 }
     }
 
-    #[inline]
+    #[inline(always)]
     pub(super) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= MIN_COS {
             return None;
@@ -43,7 +43,7 @@ impl Diffuse {
 
 /// A direction in the upper hemisphere with density cos θ / π, for `u` in [0, 1)².
 /// cos θ = √(1 − u.x) ≥ 2⁻¹² for f32 inputs below 1, so the result is never in the plane.
-#[inline]
+#[inline(always)]
 pub(super) fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
     let r = u.x.sqrt();
     let (sin_phi, cos_phi) = sin_cos_turns(u.y);
@@ -52,7 +52,7 @@ pub(super) fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
 }
 
 /// The density of [`sample_cosine_hemisphere`]: cos θ / π (0 below the horizon).
-#[inline]
+#[inline(always)]
 pub(super) fn cosine_hemisphere_pdf(wi: Vec3) -> f32 {
     wi.z.max(0.0) * FRAC_1_PI
 }

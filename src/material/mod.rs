@@ -118,6 +118,25 @@ impl Bsdf {
         (s.pdf > 0.0).then_some(s)
     }
 
+    /// [`Bsdf::eval`] where the caller knows every BSDF is `Diffuse` (kernels without glossy
+    /// or glass materials): the same arithmetic, inlined into the caller without dispatch.
+    #[inline(always)]
+    pub fn eval_lambert(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        match *self {
+            Bsdf::Diffuse { albedo } => Diffuse::new(albedo).eval(wo, wi),
+            _ => self.eval(wo, wi),
+        }
+    }
+
+    /// [`Bsdf::sample`] where the caller knows every BSDF is `Diffuse`, inlined likewise.
+    #[inline(always)]
+    pub fn sample_lambert(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        match *self {
+            Bsdf::Diffuse { albedo } => Diffuse::new(albedo).sample(wo, u).filter(|s| s.pdf > 0.0),
+            _ => self.sample(wo, u, uc),
+        }
+    }
+
     /// True if every lobe is delta (mirror conductor, glass): next-event estimation is useless.
     #[inline]
     pub fn is_delta(&self) -> bool {
