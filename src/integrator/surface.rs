@@ -18,7 +18,7 @@ pub struct SurfacePoint<'a> {
 
 /// The shading point of `hit`. With `TEX == false` texture coordinates are not interpolated
 /// (`uv` is then the raw hit parametrisation), for scenes without textures.
-#[inline]
+#[inline(always)]
 pub fn surface_point<'a, const TEX: bool>(scene: &'a Scene, ray: &Ray, hit: &Hit) -> SurfacePoint<'a> {
     let material = scene.material(hit.geom, hit.prim);
     let ng = hit.ng.normalize_or(-ray.d);

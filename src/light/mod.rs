@@ -182,8 +182,9 @@ impl LightSet {
         i.min(self.lights.len() - 1)
     }
 
-    /// Samples a light and a direction toward it from `p`.
-    #[inline]
+    /// Samples a light and a direction toward it from `p`. Inlined into the render kernels,
+    /// with the rarer sphere and background cases behind calls.
+    #[inline(always)]
     pub fn sample(&self, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
         if self.lights.is_empty() {
             return None;
@@ -234,31 +235,22 @@ impl LightSet {
                     delta: false,
                 })
             }
-            Light::Sphere { sphere, emission } => {
-                let (q, n, pdf) = sample_sphere(sphere, p, u)?;
-                let wi = (q - p).normalize();
-                let pdf = pdf * sel;
-                (pdf.is_finite() && pdf > 0.0).then_some(LightSample {
-                    wi,
-                    point: Some(q),
-                    normal: n,
-                    radiance: *emission,
-                    pdf,
-                    delta: false,
-                })
-            }
-            Light::Background => {
-                let wi = uniform_sphere(u);
-                Some(LightSample {
-                    wi,
-                    point: None,
-                    normal: Vec3::ZERO,
-                    radiance: self.background.radiance(wi),
-                    pdf: sel / (4.0 * PI),
-                    delta: false,
-                })
-            }
+            Light::Sphere { sphere, emission } => sample_sphere_light(sphere, *emission, sel, p, u),
+            Light::Background => self.sample_background(sel, u),
         }
+    }
+
+    #[inline(never)]
+    fn sample_background(&self, sel: f32, u: Vec2) -> Option<LightSample> {
+        let wi = uniform_sphere(u);
+        Some(LightSample {
+            wi,
+            point: None,
+            normal: Vec3::ZERO,
+            radiance: self.background.radiance(wi),
+            pdf: sel / (4.0 * PI),
+            delta: false,
+        })
     }
 
     /// Density with which `sample` from `p` picks the point `q` (normal `n`) on primitive
@@ -289,6 +281,22 @@ impl LightSet {
     pub fn pdf_background(&self) -> f32 {
         self.background_index.map_or(0.0, |i| self.prob[i] / (4.0 * PI))
     }
+}
+
+/// A point seen from `p` on a sphere light chosen with probability `sel`.
+#[inline(never)]
+fn sample_sphere_light(sphere: &Sphere, emission: Vec3, sel: f32, p: Vec3, u: Vec2) -> Option<LightSample> {
+    let (q, n, pdf) = sample_sphere(sphere, p, u)?;
+    let wi = (q - p).normalize();
+    let pdf = pdf * sel;
+    (pdf.is_finite() && pdf > 0.0).then_some(LightSample {
+        wi,
+        point: Some(q),
+        normal: n,
+        radiance: emission,
+        pdf,
+        delta: false,
+    })
 }
 
 /// Uniform direction on the unit sphere.
