@@ -301,3 +301,24 @@ fn every_sample_scene_renders_finite() {
         assert!(image_mean(&film) > 0.005, "{name} is black");
     }
 }
+
+#[test]
+fn the_same_image_gives_the_same_exr_bytes() {
+    // Many compressed blocks, so that blocks finished out of order would show.
+    let (w, h) = (256u32, 256u32);
+    let mut film = ember::film::Film::new(w, h);
+    for (i, p) in film.pixels.iter_mut().enumerate() {
+        let (x, y) = ((i as u32 % w) as f32, (i as u32 / w) as f32);
+        *p = glam::Vec3::new((x * 0.37).sin().abs(), y / h as f32, (x * y * 1e-3).cos().abs());
+    }
+    let d = common::fresh_dir("render", "exr-bytes");
+    let bytes: Vec<Vec<u8>> = (0..4)
+        .map(|k| {
+            let path = d.join(format!("{k}.exr"));
+            film.save(&path).unwrap();
+            std::fs::read(&path).unwrap()
+        })
+        .collect();
+    assert!(bytes.iter().all(|b| *b == bytes[0]), "EXR files of one image differ");
+    assert_eq!(ember::film::Film::load_exr(&d.join("0.exr")).unwrap(), film);
+}

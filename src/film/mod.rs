@@ -97,11 +97,21 @@ impl Film {
                 image::ImageFormat::Png,
             )
             .map_err(|e| e.to_string()),
-            ImageFormat::Exr => exr::prelude::write_rgb_file(tmp, self.width as usize, self.height as usize, |x, y| {
-                let p = self.pixels[y * self.width as usize + x];
-                (p.x, p.y, p.z)
-            })
-            .map_err(|e| e.to_string()),
+            ImageFormat::Exr => {
+                use exr::prelude::*;
+                let w = self.width as usize;
+                let channels = SpecificChannels::rgb(|Vec2(x, y)| {
+                    let p: Vec3 = self.pixels[y * w + x];
+                    (p.x, p.y, p.z)
+                });
+                // Compressed on this thread: in parallel, blocks are written in the order
+                // their compression finishes, so the same image would give different bytes.
+                Image::from_channels((w, self.height as usize), channels)
+                    .write()
+                    .non_parallel()
+                    .to_file(tmp)
+                    .map_err(|e| e.to_string())
+            }
         })
         .map_err(|e| FilmError::Write { path: e.path, reason: e.reason })
     }
