@@ -40,26 +40,7 @@ impl Rng {
     pub fn for_sample(seed: u64, pixel: u64, sample: u64) -> Self {
         PixelStreams::new(seed, pixel).sample(sample)
     }
-}
 
-/// The streams of one pixel: [`Rng::for_sample`] with the pixel's part of the key hashed once.
-#[derive(Clone, Copy, Debug)]
-pub struct PixelStreams(u64);
-
-impl PixelStreams {
-    #[inline]
-    pub fn new(seed: u64, pixel: u64) -> Self {
-        PixelStreams(mix64(mix64(seed.wrapping_mul(0x2545_f491_4f6c_dd1d) ^ pixel)))
-    }
-
-    /// The stream of sample `sample` of the pixel: `Rng::for_sample(seed, pixel, sample)`.
-    #[inline]
-    pub fn sample(self, sample: u64) -> Rng {
-        Rng::from_hashed_key(self.0, sample)
-    }
-}
-
-impl Rng {
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
@@ -82,6 +63,23 @@ impl Rng {
     }
 }
 
+/// The streams of one pixel: [`Rng::for_sample`] with the pixel's part of the key hashed once.
+#[derive(Clone, Copy, Debug)]
+pub struct PixelStreams(u64);
+
+impl PixelStreams {
+    #[inline]
+    pub fn new(seed: u64, pixel: u64) -> Self {
+        PixelStreams(mix64(mix64(seed.wrapping_mul(0x2545_f491_4f6c_dd1d) ^ pixel)))
+    }
+
+    /// The stream of sample `sample` of the pixel: `Rng::for_sample(seed, pixel, sample)`.
+    #[inline]
+    pub fn sample(self, sample: u64) -> Rng {
+        Rng::from_hashed_key(self.0, sample)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -98,6 +96,16 @@ mod tests {
         }
         // Mean of U(0,1) has standard error 1/sqrt(12 n) ≈ 0.0009; allow 5 sigma.
         assert!((sum / n as f64 - 0.5).abs() < 0.0046, "mean {}", sum / n as f64);
+    }
+
+    #[test]
+    fn pixel_streams_are_the_per_sample_streams() {
+        // The key of (seed, pixel), hashed once per pixel, gives the streams it always gave.
+        for (seed, pixel, sample) in [(0u64, 0u64, 0u64), (7, 12_345, 3), (u64::MAX, 1 << 40, 1 << 33)] {
+            let mut a = PixelStreams::new(seed, pixel).sample(sample);
+            let mut b = Rng::new(mix64(seed.wrapping_mul(0x2545_f491_4f6c_dd1d) ^ pixel), sample);
+            assert!((0..8).all(|_| a.next_u32() == b.next_u32()));
+        }
     }
 
     #[test]
