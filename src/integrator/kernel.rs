@@ -132,21 +132,20 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     // Idle lanes (a group cut short by the sample count) get placeholders, not streams and
     // camera rays of their own: at 1 spp, seven of every eight lanes are idle.
     let streams = PixelStreams::new(ctx.settings.seed, pixel);
+    // Plain loops, not `array::from_fn`, whose per-element closure calls did not inline.
     let first = streams.sample(samples.start as u64);
-    let mut rngs: [Rng; LANES] = std::array::from_fn(|i| {
-        if i == 0 || i >= n { first.clone() } else { streams.sample(samples.start as u64 + i as u64) }
-    });
+    let mut rngs: [Rng; LANES] = std::array::from_fn(|_| first.clone());
+    for (i, rng) in rngs.iter_mut().enumerate().take(n).skip(1) {
+        *rng = streams.sample(samples.start as u64 + i as u64);
+    }
     let cam = ctx.camera;
-    let camera_rays: [Ray; LANES] = std::array::from_fn(|i| {
-        if i >= n {
-            return Ray::new(cam.position, Vec3::Z);
-        }
-        let rng = &mut rngs[i];
+    let mut camera_rays = [Ray::new(cam.position, Vec3::Z); LANES];
+    for (ray, rng) in camera_rays.iter_mut().zip(rngs.iter_mut()).take(n) {
         let film = Vec2::new((x as f32 + rng.next_f32()) / w as f32, (y as f32 + rng.next_f32()) / h as f32);
         // Drawn in every kernel, so all kernels consume the same random numbers.
         let lens = rng.next_2d();
-        if LENS { cam.ray(film, lens) } else { Ray::new(cam.position, cam.pinhole_dir(film)) }
-    });
+        *ray = if LENS { cam.ray(film, lens) } else { Ray::new(cam.position, cam.pinhole_dir(film)) };
+    }
     let active: [bool; LANES] = std::array::from_fn(|i| i < n);
     match ctx.accel.as_embree() {
         Some(embree) => trace::<_, TEX, GLOSSY, GLASS, MIS>(ctx, embree, &camera_rays, active, &mut rngs, out, rays),
