@@ -9,7 +9,7 @@ mod surface;
 
 pub use kernel::KernelChoice;
 pub use progressive::{RenderControl, RenderResult};
-pub use surface::{SurfacePoint, surface_point};
+pub use surface::{FaceNormals, SurfacePoint, surface_point};
 
 use crate::accel::{Accel, AccelError};
 use crate::film::Film;

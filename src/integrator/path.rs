@@ -2,7 +2,7 @@
 //! estimation and multiple importance sampling (power heuristic, Veach 1997) against BSDF
 //! sampling, and Russian roulette.
 
-use super::surface::surface_point;
+use super::surface::{FaceNormals, surface_point};
 use super::{Estimator, RenderSettings};
 use crate::accel::Accel;
 use crate::camera::Camera;
@@ -25,6 +25,7 @@ pub struct PathContext<'a> {
     pub scene: &'a Scene,
     pub accel: &'a dyn Accel,
     pub lights: &'a LightSet,
+    pub normals: &'a FaceNormals,
     pub camera: &'a Camera,
     pub settings: &'a RenderSettings,
     /// Bounce limit in force (the user's, or less where the scene cannot use more).
@@ -75,7 +76,7 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
             }
             break;
         };
-        let sp = surface_point::<TEX>(ctx.scene, &ray, &hit);
+        let sp = surface_point::<TEX>(ctx.scene, ctx.normals, &ray, &hit);
         let wo = -ray.d;
         let emission = sp.material.emission;
         // Without non-delta lights nothing emits.

@@ -9,6 +9,7 @@
 
 use super::kernel::KernelChoice;
 use super::path::PathContext;
+use super::surface::FaceNormals;
 use super::{RenderError, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
 use crate::film::{Accumulator, Checkpoint, PixelState};
@@ -111,10 +112,12 @@ pub(super) fn run(
         return Ok(finish(accum, stats, 0, true));
     }
     let sample = kernel.sample_fn();
+    let normals = FaceNormals::of(scene);
     let ctx = PathContext {
         scene,
         accel,
         lights: &lights,
+        normals: &normals,
         camera: &camera,
         settings,
         max_depth,

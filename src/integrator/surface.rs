@@ -16,14 +16,48 @@ pub struct SurfacePoint<'a> {
     pub material: &'a Material,
 }
 
-/// The shading point of `hit`. With `TEX == false` texture coordinates are not interpolated
-/// (`uv` is then the raw hit parametrisation), for scenes without textures.
+/// The unit geometric normal of every mesh triangle, (p1 − p0) × (p2 − p0) normalised (the
+/// orientation of both accelerators' `Hit::ng`), computed once per render: a hit on a triangle
+/// reads it instead of normalising the hit's, which put a square root and a division at the
+/// head of every bounce. Zero for a triangle that has none (zero area).
+pub struct FaceNormals(Vec<Vec<Vec3>>);
+
+impl FaceNormals {
+    pub fn of(scene: &Scene) -> FaceNormals {
+        FaceNormals(
+            scene
+                .geometry
+                .iter()
+                .map(|g| match g {
+                    Geometry::Mesh(m) => (0..m.triangle_count())
+                        .map(|i| {
+                            let [a, b, c] = m.triangle(i);
+                            let n = (b - a).cross(c - a).normalize_or_zero();
+                            if n.is_finite() { n } else { Vec3::ZERO }
+                        })
+                        .collect(),
+                    _ => Vec::new(),
+                })
+                .collect(),
+        )
+    }
+}
+
+/// The shading point of `hit`; `normals` are the scene's [`FaceNormals`]. With `TEX == false`
+/// texture coordinates are not interpolated (`uv` is then the raw hit parametrisation), for
+/// scenes without textures.
 #[inline(always)]
-pub fn surface_point<'a, const TEX: bool>(scene: &'a Scene, ray: &Ray, hit: &Hit) -> SurfacePoint<'a> {
+pub fn surface_point<'a, const TEX: bool>(
+    scene: &'a Scene,
+    normals: &FaceNormals,
+    ray: &Ray,
+    hit: &Hit,
+) -> SurfacePoint<'a> {
     let material = scene.material(hit.geom, hit.prim);
-    let ng = hit.ng.normalize_or(-ray.d);
     match &scene.geometry[hit.geom as usize] {
         Geometry::Mesh(m) => {
+            let n = normals.0[hit.geom as usize][hit.prim as usize];
+            let ng = if n != Vec3::ZERO { n } else { -ray.d };
             let [i0, i1, i2] = m.indices[hit.prim as usize].map(|i| i as usize);
             let (u, v) = (hit.u, hit.v);
             let w = 1.0 - u - v;
@@ -40,6 +74,7 @@ pub fn surface_point<'a, const TEX: bool>(scene: &'a Scene, ray: &Ray, hit: &Hit
             SurfacePoint { p, ng, ns, uv, material }
         }
         Geometry::Spheres(s) => {
+            let ng = hit.ng.normalize_or(-ray.d);
             let s = &s[hit.prim as usize];
             // Re-projected onto the sphere along the hit's normal (which the sphere has already
             // turned to face the ray at near-tangent hits, where o + t·d rounds to the far side).
@@ -47,6 +82,7 @@ pub fn surface_point<'a, const TEX: bool>(scene: &'a Scene, ray: &Ray, hit: &Hit
             SurfacePoint { p: s.center + s.radius * n, ng: n, ns: n, uv: Vec2::new(hit.u, hit.v), material }
         }
         Geometry::Cylinders(c) => {
+            let ng = hit.ng.normalize_or(-ray.d);
             // o + t·d carries the rounding error of a distant origin: project onto the surface.
             let (p, _) = c[hit.prim as usize].project(ray.at(hit.t), ng);
             SurfacePoint { p, ng, ns: ng, uv: Vec2::new(hit.u, hit.v), material }
