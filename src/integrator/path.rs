@@ -102,21 +102,23 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
             ns = -ns;
         }
         let frame = Frame::from_normal(ns);
-        let wo_l = frame.to_local(wo);
+        // Without glossy or glass materials every BSDF is Lambertian: evaluated and sampled
+        // inline (the same arithmetic as through `Bsdf`'s dispatch), and only the cosines of
+        // local directions matter to it.
+        let lambert = !(GLOSSY || GLASS);
+        let local = |v: Vec3| if lambert { Vec3::new(0.0, 0.0, v.dot(frame.n)) } else { frame.to_local(v) };
+        let wo_l = local(wo);
         // Both rays leave an opaque surface on the side of `ng` facing `wo` (checked below for
         // each), so they share one origin.
         let leave = if transmissive { sp.p } else { offset_ray_origin(sp.p, ng) };
         let origin = |toward: Vec3| if transmissive { offset_toward(sp.p, ng, toward) } else { leave };
-        // Without glossy or glass materials every BSDF is Lambertian: evaluated and sampled
-        // inline (the same arithmetic as through `Bsdf`'s dispatch).
-        let lambert = !(GLOSSY || GLASS);
 
         // Next-event estimation.
         if use_nee
             && !((GLOSSY || GLASS) && bsdf.is_delta())
             && let Some(ls) = ctx.lights.sample(sp.p, rng.next_f32(), rng.next_2d())
         {
-            let wi_l = frame.to_local(ls.wi);
+            let wi_l = local(ls.wi);
             let side = ls.wi.dot(ng);
             let f = if lambert { bsdf.eval_lambert(wo_l, wi_l) } else { bsdf.eval(wo_l, wi_l) } * wi_l.z.abs();
             if f != Vec3::ZERO && ls.radiance != Vec3::ZERO && (transmissive || side > 0.0) {

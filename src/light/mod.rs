@@ -178,6 +178,9 @@ impl LightSet {
 
     #[inline]
     fn choose(&self, u: f32) -> usize {
+        if self.lights.len() == 1 {
+            return 0; // what the search below finds
+        }
         let i = self.cdf.partition_point(|&c| c <= u);
         i.min(self.lights.len() - 1)
     }
