@@ -118,8 +118,8 @@ impl Texture {
             Texture::Image(img) => img.bilinear(uv),
             Texture::Checker { a, b, scale } => {
                 // The parity of the square's integer coordinates (no float remainder, a call).
-                let s = (uv * *scale).floor();
-                if (s.x as i64 + s.y as i64) & 1 == 0 { *a } else { *b }
+                let s = uv * *scale;
+                if floor_to_int(s.x).wrapping_add(floor_to_int(s.y)) & 1 == 0 { *a } else { *b }
             }
         }
     }
@@ -144,6 +144,32 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Image(img) => img.mean(),
             Texture::Checker { a, b, .. } => 0.5 * (*a + *b),
+        }
+    }
+}
+
+/// `x.floor() as i64` (saturating, NaN to 0) without the `floorf` call that baseline x86-64
+/// makes for `floor`: truncate, then step down where truncation rounded a negative value up.
+/// Exact: below 2²⁴ the truncated integer converts back to `f32` exactly, and above it every
+/// `f32` is already an integer.
+#[inline]
+fn floor_to_int(x: f32) -> i64 {
+    let t = x as i64;
+    t.saturating_sub((t as f32 > x) as i64)
+}
+
+#[cfg(test)]
+mod floor_tests {
+    use super::floor_to_int;
+
+    #[test]
+    fn floor_to_int_is_floor_then_cast() {
+        let mut xs = vec![0.0f32, -0.0, 0.5, -0.5, 1.0, -1.0, 2.999_999_8, -2.999_999_8, 16_777_215.5, -16_777_215.5];
+        xs.extend([16_777_216.0, -16_777_217.0, 1e10, -1e10, 9.3e18, -9.3e18, 1e30, -1e30, f32::MAX, f32::MIN]);
+        xs.extend([f32::INFINITY, f32::NEG_INFINITY, f32::NAN, f32::MIN_POSITIVE, -f32::MIN_POSITIVE, -1e-40]);
+        xs.extend((-4000..4000).map(|i| i as f32 * 0.013_7));
+        for x in xs {
+            assert_eq!(floor_to_int(x), x.floor() as i64, "{x}");
         }
     }
 }
