@@ -46,7 +46,8 @@ pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) 
             |mut hits, chunk| {
                 if packets {
                     for group in chunk.chunks(LANES) {
-                        hits += packet_answers(accel, group, closest)?.iter().filter(|a| a.is_hit()).count();
+                        let a = packet_answers(accel, group, closest)?;
+                        hits += a[..group.len()].iter().filter(|a| a.is_hit()).count();
                     }
                     accel.deferred_error()?;
                     return Ok(hits);
@@ -65,26 +66,25 @@ pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) 
         .try_reduce(|| 0, |a, b| Ok(a + b))
 }
 
-/// The answers to up to [`LANES`] queries as one packet query (errors deferred). Queries of a
-/// packet share `tmax` in every workload (∞ for closest hits, 1 for shadow segments); a group
-/// whose `tmax` differ is answered lane by lane.
-fn packet_answers(accel: &dyn Accel, group: &[Query], closest: bool) -> Result<Vec<Answer>, AccelError> {
+/// The answers to up to [`LANES`] queries as one packet query (errors deferred), in the first
+/// `group.len()` lanes (no allocation: the timed pass calls this for every packet). Queries of
+/// a packet share `tmax` in every workload (∞ for closest hits, 1 for shadow segments); a
+/// group whose `tmax` differ is answered lane by lane.
+fn packet_answers(accel: &dyn Accel, group: &[Query], closest: bool) -> Result<[Answer; LANES], AccelError> {
     let tmax = group[0].tmax;
     if group.iter().any(|q| q.tmax != tmax) {
-        return group.iter().map(|q| answer(accel, q, closest)).collect();
+        let mut out = [Answer::Occluded(false); LANES];
+        for (o, q) in out.iter_mut().zip(group) {
+            *o = answer(accel, q, closest)?;
+        }
+        return Ok(out);
     }
     let rays: [Ray; LANES] = std::array::from_fn(|i| group.get(i).map_or(Ray::new(Vec3::ZERO, Vec3::Z), |q| q.ray));
     let active: [bool; LANES] = std::array::from_fn(|i| i < group.len());
     Ok(if closest {
-        accel.intersect_packet_deferred(&rays, active, 0.0, tmax)[..group.len()]
-            .iter()
-            .map(|h| Answer::Closest(*h))
-            .collect()
+        accel.intersect_packet_deferred(&rays, active, 0.0, tmax).map(Answer::Closest)
     } else {
-        accel.occluded_packet_deferred(&rays, active, 0.0, tmax)[..group.len()]
-            .iter()
-            .map(|o| Answer::Occluded(*o))
-            .collect()
+        accel.occluded_packet_deferred(&rays, active, 0.0, tmax).map(Answer::Occluded)
     })
 }
 
@@ -138,10 +138,12 @@ fn answer(accel: &dyn Accel, q: &Query, closest: bool) -> Result<Answer, AccelEr
 /// Every query's answer (in parallel, not timed), one by one or (`packets`) 8 at a time.
 pub fn answers(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) -> Result<Vec<Answer>, AccelError> {
     if packets {
-        let groups: Vec<Vec<Answer>> =
-            queries.par_chunks(LANES).map(|group| packet_answers(accel, group, closest)).collect::<Result<_, _>>()?;
+        let groups: Vec<(usize, [Answer; LANES])> = queries
+            .par_chunks(LANES)
+            .map(|group| Ok((group.len(), packet_answers(accel, group, closest)?)))
+            .collect::<Result<_, AccelError>>()?;
         accel.deferred_error()?;
-        return Ok(groups.into_iter().flatten().collect());
+        return Ok(groups.into_iter().flat_map(|(n, a)| a.into_iter().take(n)).collect());
     }
     queries.par_iter().map(|q| answer(accel, q, closest)).collect()
 }
