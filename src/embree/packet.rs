@@ -28,30 +28,38 @@ pub(super) struct RayHit8Mem {
 #[repr(C, align(32))]
 pub(super) struct Valid8(pub(super) [i32; LANES]);
 
+/// The ray block of a query for the `active` lanes of `rays` on `[tmin, tmax]`, and its valid
+/// mask. Inactive lanes hold a harmless ray (Embree does not read them).
+#[inline]
+pub(super) fn ray8(rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> (ffi::RTCRay8, Valid8) {
+    let lane = |f: &dyn Fn(&Ray) -> f32, idle: f32| -> [f32; LANES] {
+        std::array::from_fn(|i| if active[i] { f(&rays[i]) } else { idle })
+    };
+    let ray = ffi::RTCRay8 {
+        org_x: lane(&|r| r.o.x, 0.0),
+        org_y: lane(&|r| r.o.y, 0.0),
+        org_z: lane(&|r| r.o.z, 0.0),
+        tnear: [tmin; LANES],
+        dir_x: lane(&|r| r.d.x, 0.0),
+        dir_y: lane(&|r| r.d.y, 0.0),
+        dir_z: lane(&|r| r.d.z, 1.0),
+        time: [0.0; LANES],
+        tfar: [tmax; LANES],
+        // A mask of 0 would hit nothing; every geometry keeps Embree's default mask.
+        mask: [u32::MAX; LANES],
+        id: [0; LANES],
+        flags: [0; LANES],
+    };
+    (ray, Valid8(std::array::from_fn(|i| if active[i] { -1 } else { 0 })))
+}
+
 impl RayHit8Mem {
-    /// A query for the `active` lanes of `rays` on `[tmin, tmax]`, with no hit yet. Inactive
-    /// lanes hold a harmless ray (Embree does not read them).
+    /// A closest-hit query for the `active` lanes of `rays` on `[tmin, tmax]` ([`ray8`]),
+    /// with no hit yet.
     #[inline]
     pub(super) fn new(rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> (RayHit8Mem, Valid8) {
         let none = ffi::INVALID_GEOMETRY_ID;
-        let lane = |f: &dyn Fn(&Ray) -> f32, idle: f32| -> [f32; LANES] {
-            std::array::from_fn(|i| if active[i] { f(&rays[i]) } else { idle })
-        };
-        let ray = ffi::RTCRay8 {
-            org_x: lane(&|r| r.o.x, 0.0),
-            org_y: lane(&|r| r.o.y, 0.0),
-            org_z: lane(&|r| r.o.z, 0.0),
-            tnear: [tmin; LANES],
-            dir_x: lane(&|r| r.d.x, 0.0),
-            dir_y: lane(&|r| r.d.y, 0.0),
-            dir_z: lane(&|r| r.d.z, 1.0),
-            time: [0.0; LANES],
-            tfar: [tmax; LANES],
-            // A mask of 0 would hit nothing; every geometry keeps Embree's default mask.
-            mask: [u32::MAX; LANES],
-            id: [0; LANES],
-            flags: [0; LANES],
-        };
+        let (ray, valid) = ray8(rays, active, tmin, tmax);
         let mem = RayHit8Mem {
             ray,
             ng: [[0.0; LANES]; 3],
@@ -62,7 +70,7 @@ impl RayHit8Mem {
             inst_id: [none; LANES],
             inst_prim_id: [none; LANES],
         };
-        (mem, Valid8(std::array::from_fn(|i| if active[i] { -1 } else { 0 })))
+        (mem, valid)
     }
 
     /// Lane `i`'s hit after the query, if any.

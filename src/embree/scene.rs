@@ -2,7 +2,7 @@ use super::device::Device;
 use super::error::EmbreeError;
 use super::ffi;
 use super::layout::{RayHitLayout, RayHitMem, rtc_ray};
-use super::packet::{LANES, RayHit8Mem};
+use super::packet::{LANES, RayHit8Mem, ray8};
 use super::user::{self, CallbackFailure, UserData};
 use crate::geometry::{Aabb, Hit, Ray, Shape};
 use glam::Vec3;
@@ -325,11 +325,11 @@ impl Scene {
         tmin: f32,
         tmax: f32,
     ) -> [bool; LANES] {
-        let (mut mem, valid) = RayHit8Mem::new(rays, active, tmin, tmax);
-        // SAFETY: committed scene; `mem.ray` is an initialised, 32-byte aligned RTCRay8 (the
-        // same 384 bytes in every Embree version); `valid` is a 32-byte aligned mask.
-        unsafe { ffi::occluded8(&valid, self.scene.raw, &mut mem.ray) };
-        std::array::from_fn(|i| active[i] && mem.ray.tfar[i] == f32::NEG_INFINITY)
+        let (mut ray, valid) = ray8(rays, active, tmin, tmax);
+        // SAFETY: committed scene; `ray` is an initialised, 32-byte aligned RTCRay8 (the same
+        // 384 bytes in every Embree version); `valid` is a 32-byte aligned mask.
+        unsafe { ffi::occluded8(&valid, self.scene.raw, &mut ray) };
+        std::array::from_fn(|i| active[i] && ray.tfar[i] == f32::NEG_INFINITY)
     }
 
     /// The error of the first user-geometry callback that panicked on this scene, if any.
