@@ -40,21 +40,9 @@ impl RenderConfig {
 
     /// Settings for `scene`: its own depth, Russian roulette and seed, the configured size.
     pub fn settings(&self, scene: &Scene, threads: Option<usize>) -> RenderSettings {
-        let d = RenderSettings::default();
-        let r = &scene.render;
-        let (w, h) = (r.width.unwrap_or(d.width), r.height.unwrap_or(d.height));
-        let height = ((self.width as u64 * h as u64) / w.max(1) as u64).max(1) as u32;
-        RenderSettings {
-            width: self.width,
-            height,
-            spp: self.spp,
-            max_depth: r.max_depth.unwrap_or(d.max_depth),
-            rr_depth: r.rr_depth.unwrap_or_default(),
-            seed: r.seed.unwrap_or(d.seed),
-            threads,
-            progress: false,
-            ..d
-        }
+        let s = RenderSettings::from_scene(&scene.render);
+        let height = ((self.width as u64 * s.height as u64) / s.width.max(1) as u64).max(1) as u32;
+        RenderSettings { width: self.width, height, spp: self.spp, threads, progress: false, ..s }
     }
 }
 

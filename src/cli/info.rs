@@ -42,13 +42,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     );
     println!("embree:     {} ({} bindings, {})", device.version(), device.backend(), device.ray_hit_layout());
     let effects = scene.effects();
-    let d = crate::integrator::RenderSettings::default();
-    let r = &scene.render;
-    let settings = crate::integrator::RenderSettings {
-        max_depth: r.max_depth.unwrap_or(d.max_depth),
-        rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
-        ..d
-    };
+    let settings = crate::integrator::RenderSettings::from_scene(&scene.render);
     println!("{effects}");
     println!("{}", super::render::describe_plan(&effects, &settings));
     println!("bvh build:  {:.2} ms (medium quality)", accel.build_time().as_secs_f64() * 1e3);

@@ -118,19 +118,18 @@ impl RenderArgs {
 
 /// Settings from the command line, then the scene file, then built-in defaults.
 fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> {
-    let d = RenderSettings::default();
-    let r = &scene.render;
+    let s = RenderSettings::from_scene(&scene.render);
     let rr_depth = match args.rr_depth.as_deref() {
-        Some(s) => s.parse::<RrDepth>().map_err(|e| anyhow::anyhow!("--rr-depth: {e}"))?,
-        None => r.rr_depth.unwrap_or(d.rr_depth),
+        Some(v) => v.parse::<RrDepth>().map_err(|e| anyhow::anyhow!("--rr-depth: {e}"))?,
+        None => s.rr_depth,
     };
     Ok(RenderSettings {
-        width: args.width.or(r.width).unwrap_or(d.width),
-        height: args.height.or(r.height).unwrap_or(d.height),
-        spp: args.spp.or(r.spp).unwrap_or(if args.target_error.is_some() { 1024 } else { d.spp }),
-        max_depth: args.max_depth.or(r.max_depth).unwrap_or(d.max_depth),
+        width: args.width.unwrap_or(s.width),
+        height: args.height.unwrap_or(s.height),
+        spp: args.spp.or(scene.render.spp).unwrap_or(if args.target_error.is_some() { 1024 } else { s.spp }),
+        max_depth: args.max_depth.unwrap_or(s.max_depth),
         rr_depth,
-        seed: args.seed.or(r.seed).unwrap_or(d.seed),
+        seed: args.seed.unwrap_or(s.seed),
         threads: args.threads.map(|t| t as usize),
         estimator: args.estimator,
         progress: true,

@@ -14,7 +14,7 @@ pub use surface::{FaceNormals, SurfacePoint, surface_point};
 use crate::accel::{Accel, AccelError};
 use crate::film::Film;
 pub use crate::scene::RrDepth;
-use crate::scene::{Effects, Scene};
+use crate::scene::{Effects, RenderDefaults, Scene};
 use std::time::Duration;
 
 /// Which estimator of the rendering equation to use.
@@ -100,6 +100,20 @@ impl RenderSettings {
             "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} target-error={te}",
             self.width, self.height, self.spp, self.max_depth, self.seed, self.estimator
         )
+    }
+
+    /// The defaults with a scene file's `[render]` values over them.
+    pub fn from_scene(r: &RenderDefaults) -> RenderSettings {
+        let d = RenderSettings::default();
+        RenderSettings {
+            width: r.width.unwrap_or(d.width),
+            height: r.height.unwrap_or(d.height),
+            spp: r.spp.unwrap_or(d.spp),
+            max_depth: r.max_depth.unwrap_or(d.max_depth),
+            rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
+            seed: r.seed.unwrap_or(d.seed),
+            ..d
+        }
     }
 
     /// The depth from which Russian roulette runs in a render of a scene with `effects`
