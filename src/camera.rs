@@ -47,13 +47,44 @@ impl Camera {
     }
 
     /// A camera that frames `bounds` from the front-right-above, the way a user would first
-    /// look at a model (Y up).
+    /// look at a model (Y up), far enough that its bounding sphere fits the image. The
+    /// benchmark's camera rays use it; scenes without a camera use [`Camera::fitting`].
     pub fn framing(bounds: &Aabb, vfov_deg: f32, aspect: f32) -> Camera {
         let center = bounds.center();
         let radius = (0.5 * bounds.diagonal().length()).max(1e-6);
         let dir = Vec3::new(0.55, 0.45, 1.0).normalize();
         let fov = vfov_deg.min(vfov_deg * aspect).to_radians();
         let dist = radius / (0.5 * fov).sin() * 1.05;
+        Camera::look_at(center + dir * dist, center, Vec3::Y, vfov_deg, aspect, 0.0, dist)
+    }
+
+    /// A camera that frames a model whose surface lies within the convex hull of `points`
+    /// (its vertices) and inside `bounds`, from the same front-right-above direction as
+    /// [`Camera::framing`], but as close as keeps every point in the image with a 5% margin
+    /// on each side. It looks at the centre of `bounds`. A bounding sphere is loose for flat or
+    /// elongated models (the teapot filled under half the width of the frame); this fit is
+    /// tight on the side that limits it.
+    pub fn fitting(points: impl Iterator<Item = Vec3>, bounds: &Aabb, vfov_deg: f32, aspect: f32) -> Camera {
+        let center = bounds.center();
+        let radius = (0.5 * bounds.diagonal().length()).max(1e-6);
+        let dir = Vec3::new(0.55, 0.45, 1.0).normalize();
+        let view = Camera::look_at(center + dir, center, Vec3::Y, vfov_deg, aspect, 0.0, 1.0);
+        let (tan_w, tan_h) = (0.9 * view.half_w, 0.9 * view.half_h);
+        // A point at offset r from the centre is (dist + r·forward) in front of a camera
+        // `dist` away, and inside the frame if its sideways offsets are within that depth
+        // times the half-extents.
+        let mut dist = 0.0f32;
+        for p in points {
+            let r = p - center;
+            let depth = r.dot(view.forward);
+            let need = (r.dot(view.right).abs() / tan_w).max(r.dot(view.up).abs() / tan_h) - depth;
+            // Every point stays in front of the camera, not merely inside the frustum.
+            dist = dist.max(need).max(0.05 * radius - depth);
+        }
+        if !(dist.is_finite() && dist > 0.05 * radius) {
+            // A point-like model (or NaN): the bounding sphere's framing.
+            return Camera::framing(bounds, vfov_deg, aspect);
+        }
         Camera::look_at(center + dir * dist, center, Vec3::Y, vfov_deg, aspect, 0.0, dist)
     }
 
@@ -105,4 +136,70 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
         (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
     };
     r * Vec2::new(theta.cos(), theta.sin())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Where `p` lands on the image plane, as fractions of the half-width and half-height
+    /// (±1 at the edges), and its depth along the view.
+    fn project(c: &Camera, p: Vec3) -> (f32, f32, f32) {
+        let r = p - c.position;
+        let depth = r.dot(c.forward);
+        (r.dot(c.right) / (depth * c.half_w), r.dot(c.up) / (depth * c.half_h), depth)
+    }
+
+    #[test]
+    fn a_fitted_camera_keeps_every_point_in_frame_and_touches_the_margin() {
+        // A flat, wide model (like the teapot), a tall one and a single-axis stick, in wide
+        // and tall images.
+        let models: [&[Vec3]; 3] = [
+            &[
+                Vec3::new(-3.0, 0.0, -2.0),
+                Vec3::new(3.5, 0.2, 2.0),
+                Vec3::new(0.0, 1.6, 0.3),
+                Vec3::new(-1.0, 0.4, 1.9),
+            ],
+            &[Vec3::new(0.0, -5.0, 0.0), Vec3::new(0.5, 5.0, 0.2), Vec3::new(-0.4, 0.0, -0.3)],
+            &[Vec3::new(10.0, 1.0, 1.0), Vec3::new(20.0, 1.0, 1.0)],
+        ];
+        for points in models {
+            let bounds = points.iter().fold(Aabb::EMPTY, |b, &p| b.grow(p));
+            for aspect in [0.5, 1.0, 16.0 / 9.0] {
+                let c = Camera::fitting(points.iter().copied(), &bounds, 40.0, aspect);
+                let mut widest = 0.0f32;
+                for &p in points {
+                    let (x, y, depth) = project(&c, p);
+                    assert!(depth > 0.0, "{p} is behind the camera");
+                    assert!(x.abs() <= 0.9 + 1e-4 && y.abs() <= 0.9 + 1e-4, "{p} outside the frame: {x} {y}");
+                    widest = widest.max(x.abs()).max(y.abs());
+                }
+                // Tight: the limiting point sits on the 5% margin, not well inside it.
+                assert!((widest - 0.9).abs() < 1e-3, "aspect {aspect}: the widest point is at {widest}, not 0.9");
+                // It looks at the centre of the bounds.
+                let (x, y, _) = project(&c, bounds.center());
+                assert!(x.abs() < 1e-4 && y.abs() < 1e-4);
+            }
+        }
+    }
+
+    #[test]
+    fn a_fitted_camera_is_closer_than_the_bounding_sphere_one_for_a_flat_model() {
+        let points = [Vec3::new(-3.0, 0.0, -2.0), Vec3::new(3.0, 1.5, 2.0)];
+        let bounds = Aabb::new(points[0], points[1]);
+        let fitted = Camera::fitting(points.iter().copied(), &bounds, 40.0, 4.0 / 3.0);
+        let sphere = Camera::framing(&bounds, 40.0, 4.0 / 3.0);
+        let d = |c: &Camera| (c.position - bounds.center()).length();
+        assert!(d(&fitted) < 0.8 * d(&sphere), "fitted {} vs bounding sphere {}", d(&fitted), d(&sphere));
+    }
+
+    #[test]
+    fn a_single_point_gives_a_finite_camera_in_front_of_it() {
+        let p = Vec3::new(1.0, 2.0, 3.0);
+        let c = Camera::fitting(std::iter::once(p), &Aabb::from_point(p), 40.0, 1.0);
+        assert!(c.position.is_finite() && c.forward.is_finite());
+        let (x, y, depth) = project(&c, p);
+        assert!(depth > 0.0 && x.abs() <= 1.0 && y.abs() <= 1.0, "{x} {y} {depth}");
+    }
 }

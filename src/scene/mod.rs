@@ -17,7 +17,7 @@ pub use obj::{ObjFile, ObjMesh, load_obj, parse_obj};
 pub use roulette::{RR_THROUGHPUT, RrDepth, throughput_depth};
 
 use crate::camera::Camera;
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::{Aabb, Geometry, Shape};
 use crate::light::{Background, LightSet, PointLight};
 use crate::texture::{Image, Texture};
 use glam::Vec3;
@@ -124,6 +124,21 @@ impl Scene {
         self.geometry.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()))
     }
 
+    /// Points whose convex hull holds every surface: mesh vertices, and the corners of each
+    /// sphere's and cylinder's box.
+    fn outline_points(&self) -> impl Iterator<Item = Vec3> + '_ {
+        let corners = |b: Aabb| {
+            (0..8).map(move |i| Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), b.max, b.min))
+        };
+        self.geometry.iter().flat_map(move |g| -> Box<dyn Iterator<Item = Vec3> + '_> {
+            match g {
+                Geometry::Mesh(m) => Box::new(m.positions.iter().copied()),
+                Geometry::Spheres(s) => Box::new(s.iter().flat_map(move |p| corners(p.bounds()))),
+                Geometry::Cylinders(c) => Box::new(c.iter().flat_map(move |p| corners(p.bounds()))),
+            }
+        })
+    }
+
     /// Bytes held by the geometry arrays and the texture images (each image once).
     pub fn data_bytes(&self) -> u64 {
         let geometry: u64 = self
@@ -171,7 +186,7 @@ impl Scene {
                 let focus = c.focus_distance.unwrap_or_else(|| (c.look_at - c.position).length());
                 Camera::look_at(c.position, c.look_at, c.up, c.fov, aspect, c.aperture, focus)
             }
-            None => Camera::framing(&self.bounds(), 40.0, aspect),
+            None => Camera::fitting(self.outline_points(), &self.bounds(), 40.0, aspect),
         }
     }
 
