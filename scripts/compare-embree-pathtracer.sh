@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Renders Embree's Cornell box with Intel's Embree `pathtracer` tutorial (Debian package
-# embree-tools) and with ember (scenes/cornell.toml, the same scene), one run each on this
-# machine, and prints both wall times and their ratio.
+# embree-tools) and with ember (scenes/cornell.toml, the same scene) on this machine, in
+# rounds, and prints both wall times and their ratio.
 #
 # Equal path semantics: 512x512, 64 spp, path length 8 (the tutorial's --max-path-length counts
 # bounces, each with one shadow ray per light; ember's --max-depth 8 is the same), 2 threads,
 # and no Russian roulette in ember (the tutorial has none).
 #
 # Usage: scripts/compare-embree-pathtracer.sh [OUT_DIR]   (default: target/compare-embree)
-# Environment: SIZE (512), SPP (64), DEPTH (8), THREADS (2).
+# Environment: SIZE (512), SPP (64), DEPTH (8), THREADS (2), ROUNDS (3: each round times the
+# tutorial and ember's three runs; medians and ranges of the ratios are printed at the end).
 #
 # ember runs three times: with its defaults, with the tutorial's Embree settings
 # (--no-robust), and with those and the low-quality BVH (--no-robust --bvh-quality low).
@@ -24,6 +25,7 @@ size=${SIZE:-512}
 spp=${SPP:-64}
 depth=${DEPTH:-8}
 threads=${THREADS:-2}
+rounds=${ROUNDS:-3}
 
 if ! command -v pathtracer >/dev/null; then
     echo "error: pathtracer not found (apt-get install embree-tools)" >&2
@@ -55,29 +57,50 @@ timed() {
 echo "scene: $ecs = $root/scenes/cornell.toml; ${size}x${size}, $spp spp, path length $depth, $threads threads"
 echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 
-pt_times=$(timed "$out/pathtracer.log" \
-    pathtracer -c "$ecs" --size "$size" "$size" --spp "$spp" --max-path-length "$depth" \
-    --threads "$threads" -o "$out/pathtracer.ppm")
-read -r pt_wall pt_user pt_sys <<<"$pt_times"
-pt_cpu=$(echo "$pt_user $pt_sys" | awk '{print $1 + $2}')
-printf '%-52s %7.2f s wall, %7.2f s CPU\n' "pathtracer (Embree tutorial: scene flags 0, medium)" "$pt_wall" "$pt_cpu"
-
 # ember three ways: its defaults (robust BVH), the tutorial's Embree settings (no robust
 # flag, medium quality), and those with the low-quality build, the fastest on this 34-triangle
 # box (ember bench --scene scenes/cornell_box.obj).
 variants=("default (robust, medium)|" "--no-robust (as the tutorial)|--no-robust" "--no-robust --bvh-quality low|--no-robust --bvh-quality low")
-for v in "${variants[@]}"; do
-    label=${v%%|*}
-    flags=${v#*|}
-    tag=$(echo "$flags" | tr -d ' -')
-    # shellcheck disable=SC2086
-    em_times=$(timed "$out/ember$tag.log" \
-        "$ember" render "$root/scenes/cornell.toml" -o "$out/ember$tag.png" --width "$size" --height "$size" \
-        --spp "$spp" --max-depth "$depth" --rr-depth off --threads "$threads" $flags)
-    read -r em_wall em_user em_sys <<<"$em_times"
-    em_cpu=$(echo "$em_user $em_sys" | awk '{print $1 + $2}')
-    printf '%-52s %7.2f s wall, %7.2f s CPU; pathtracer/ember %.2f (wall), %.2f (CPU)\n' "ember $label" "$em_wall" "$em_cpu" \
-        "$(echo "$pt_wall $em_wall" | awk '{print $1 / $2}')" "$(echo "$pt_cpu $em_cpu" | awk '{print $1 / $2}')"
+# Each round runs the tutorial and then the three ember variants, so a change in the
+# machine's load between rounds affects both sides of a round's ratios alike; the medians over
+# the rounds are printed at the end.
+ratios=$(mktemp)
+trap 'rm -f "$ratios"' EXIT
+for round in $(seq "$rounds"); do
+    echo "round $round of $rounds"
+    pt_times=$(timed "$out/pathtracer.log" \
+        pathtracer -c "$ecs" --size "$size" "$size" --spp "$spp" --max-path-length "$depth" \
+        --threads "$threads" -o "$out/pathtracer.ppm")
+    read -r pt_wall pt_user pt_sys <<<"$pt_times"
+    pt_cpu=$(echo "$pt_user $pt_sys" | awk '{print $1 + $2}')
+    printf '  %-52s %7.2f s wall, %7.2f s CPU\n' "pathtracer (Embree tutorial: scene flags 0, medium)" "$pt_wall" "$pt_cpu"
+    for i in "${!variants[@]}"; do
+        v=${variants[$i]}
+        label=${v%%|*}
+        flags=${v#*|}
+        tag=$(echo "$flags" | tr -d ' -')
+        # shellcheck disable=SC2086
+        em_times=$(timed "$out/ember$tag.log" \
+            "$ember" render "$root/scenes/cornell.toml" -o "$out/ember$tag.png" --width "$size" --height "$size" \
+            --spp "$spp" --max-depth "$depth" --rr-depth off --threads "$threads" $flags)
+        read -r em_wall em_user em_sys <<<"$em_times"
+        em_cpu=$(echo "$em_user $em_sys" | awk '{print $1 + $2}')
+        wall_ratio=$(echo "$pt_wall $em_wall" | awk '{print $1 / $2}')
+        cpu_ratio=$(echo "$pt_cpu $em_cpu" | awk '{print $1 / $2}')
+        printf '  %-52s %7.2f s wall, %7.2f s CPU; pathtracer/ember %.2f (wall), %.2f (CPU)\n' "ember $label" \
+            "$em_wall" "$em_cpu" "$wall_ratio" "$cpu_ratio"
+        echo "$i $wall_ratio $cpu_ratio" >>"$ratios"
+    done
+done
+median() { sort -n | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2}'; }
+echo "pathtracer/ember, median of $rounds rounds (range):"
+for i in "${!variants[@]}"; do
+    label=${variants[$i]%%|*}
+    wall=$(awk -v i="$i" '$1 == i {print $2}' "$ratios")
+    cpu=$(awk -v i="$i" '$1 == i {print $3}' "$ratios")
+    printf '  %-52s %.2f wall (%.2f-%.2f), %.2f CPU (%.2f-%.2f)\n' "ember $label" \
+        "$(echo "$wall" | median)" "$(echo "$wall" | sort -n | head -n 1)" "$(echo "$wall" | sort -n | tail -n 1)" \
+        "$(echo "$cpu" | median)" "$(echo "$cpu" | sort -n | head -n 1)" "$(echo "$cpu" | sort -n | tail -n 1)"
 done
 echo "load average after:  $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "(a ratio above 1 means ember is faster)"
