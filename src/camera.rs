@@ -3,6 +3,12 @@
 use crate::geometry::{Aabb, Ray};
 use glam::{Vec2, Vec3};
 
+/// The direction from a model's centre to a camera that shows it front-right-above, the way a
+/// user would first look at it (Y up).
+fn model_view_dir() -> Vec3 {
+    Vec3::new(0.55, 0.45, 1.0).normalize()
+}
+
 /// A perspective camera. With `aperture_radius > 0` it is a thin lens focused at
 /// `focus_distance` (depth of field); otherwise a pinhole.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,7 +58,7 @@ impl Camera {
     pub fn framing(bounds: &Aabb, vfov_deg: f32, aspect: f32) -> Camera {
         let center = bounds.center();
         let radius = (0.5 * bounds.diagonal().length()).max(1e-6);
-        let dir = Vec3::new(0.55, 0.45, 1.0).normalize();
+        let dir = model_view_dir();
         let fov = vfov_deg.min(vfov_deg * aspect).to_radians();
         let dist = radius / (0.5 * fov).sin() * 1.05;
         Camera::look_at(center + dir * dist, center, Vec3::Y, vfov_deg, aspect, 0.0, dist)
@@ -67,7 +73,7 @@ impl Camera {
     pub fn fitting(points: impl Iterator<Item = Vec3>, bounds: &Aabb, vfov_deg: f32, aspect: f32) -> Camera {
         let center = bounds.center();
         let radius = (0.5 * bounds.diagonal().length()).max(1e-6);
-        let dir = Vec3::new(0.55, 0.45, 1.0).normalize();
+        let dir = model_view_dir();
         let view = Camera::look_at(center + dir, center, Vec3::Y, vfov_deg, aspect, 0.0, 1.0);
         let (tan_w, tan_h) = (0.9 * view.half_w, 0.9 * view.half_h);
         // A point at offset r from the centre is (dist + r·forward) in front of a camera
