@@ -31,6 +31,11 @@ fn every_case_has_a_test() {
 }
 
 #[test]
+fn sky_and_area_light() {
+    check("sky-and-area-light");
+}
+
+#[test]
 fn far_1e5() {
     check("far-1e5");
 }

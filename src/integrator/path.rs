@@ -7,7 +7,7 @@ use super::{Estimator, RenderSettings};
 use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::geometry::{Frame, Hit, Ray, offset_ray_origin, offset_toward};
-use crate::light::LightSet;
+use crate::light::{LightChoice, LightSet};
 use crate::material::{Bsdf, BsdfSample};
 use crate::sampler::Rng;
 use crate::scene::Scene;
@@ -60,6 +60,10 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
     let mut specular = true; // camera rays count as specular: emission seen directly is kept
     let mut prev_pdf = 0.0f32;
     let mut prev_p = ray.o;
+    // How next-event estimation chose its light at the last vertex where it ran: the
+    // densities MIS weighs emission found by the next ray against (only needed after a
+    // non-specular bounce, which always follows next-event estimation).
+    let mut choice = LightChoice::BY_POWER;
     let mut depth = 0u32;
     // The closest hit of `ray`: the caller's for the camera ray, then traced at each bounce.
     let mut next_hit = first;
@@ -69,7 +73,7 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
             if MIS {
                 let le = ctx.scene.background.radiance(ray.d);
                 if le != Vec3::ZERO
-                    && let Some(w) = found.weight(specular, prev_pdf, || ctx.lights.pdf_background())
+                    && let Some(w) = found.weight(specular, prev_pdf, || ctx.lights.pdf_background(&choice))
                 {
                     l += beta * le * w;
                 }
@@ -82,8 +86,8 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         // Without non-delta lights nothing emits.
         if MIS
             && emission != Vec3::ZERO
-            && let Some(w) =
-                found.weight(specular, prev_pdf, || ctx.lights.pdf_emitter(hit.geom, hit.prim, prev_p, sp.p, sp.ng))
+            && let Some(w) = found
+                .weight(specular, prev_pdf, || ctx.lights.pdf_emitter(&choice, hit.geom, hit.prim, prev_p, sp.p, sp.ng))
         {
             l += beta * emission * w;
         }
@@ -114,10 +118,11 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         let origin = |toward: Vec3| if transmissive { offset_toward(sp.p, ng, toward) } else { leave };
 
         // Next-event estimation.
-        if use_nee
-            && !((GLOSSY || GLASS) && bsdf.is_delta())
-            && let Some(ls) = ctx.lights.sample(sp.p, rng.next_f32(), rng.next_2d())
-        {
+        let nee_here = use_nee && !((GLOSSY || GLASS) && bsdf.is_delta());
+        if nee_here {
+            choice = ctx.lights.choice_at(sp.p);
+        }
+        if nee_here && let Some(ls) = ctx.lights.sample(&choice, sp.p, rng.next_f32(), rng.next_2d()) {
             let wi_l = local(ls.wi);
             let side = ls.wi.dot(ng);
             let f = if lambert { bsdf.eval_lambert(wo_l, wi_l) } else { bsdf.eval(wo_l, wi_l) } * wi_l.z.abs();

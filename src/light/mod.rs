@@ -1,11 +1,14 @@
 //! Lights: point lights, emissive triangles and spheres (area lights), and the background
-//! (sky or environment image). [`LightSet`] chooses one in proportion to its estimated power
-//! and samples a direction toward it, for next-event estimation; its `pdf_*` methods give the
-//! matching densities for multiple importance sampling.
+//! (sky or environment image). [`LightSet`] chooses one (by its importance at the shading
+//! point for a few lights, by power for many: `choice`) and samples a direction toward it,
+//! for next-event estimation; its `pdf_*` methods give the matching densities for multiple
+//! importance sampling.
 
 mod background;
+mod choice;
 
 pub use background::Background;
+use choice::{LOCAL_CHOICE_MAX, LocalChoice, Reach};
 
 use crate::geometry::{Aabb, Frame, Geometry, Sphere};
 use glam::{Vec2, Vec3};
@@ -62,10 +65,42 @@ enum Lookup {
     PerPrim(Vec<u32>),
 }
 
-/// All lights of a scene with a power-proportional choice distribution.
+/// Lights that the choice by importance takes as one: the emissive triangles of one mesh
+/// (a quad light is two triangles; an emissive model may be thousands), or a single sphere,
+/// point light or the background. The group is chosen by its importance at the shading
+/// point, then a light within it by power.
+#[derive(Clone, Debug)]
+struct Group {
+    /// Its lights are `start..end` of [`LightSet::lights`].
+    start: u32,
+    end: u32,
+    /// The power-proportional probability of all its lights together.
+    prob: f32,
+}
+
+/// How a light is chosen at one shading point ([`LightSet::choice_at`]): by importance there,
+/// or (`None`) by power.
+#[derive(Clone, Copy, Debug)]
+pub struct LightChoice(Option<LocalChoice>);
+
+impl LightChoice {
+    /// In proportion to power, wherever the point.
+    pub const BY_POWER: LightChoice = LightChoice(None);
+}
+
+/// All lights of a scene, and how one is chosen.
 #[derive(Clone, Debug)]
 pub struct LightSet {
     lights: Vec<Light>,
+    /// What the choice by importance treats as one light (see [`Group`]), and which group
+    /// each light is in.
+    groups: Vec<Group>,
+    group_of: Vec<u32>,
+    /// Per group, for the choice by importance at a point (2 to [`LOCAL_CHOICE_MAX`]
+    /// groups); empty otherwise.
+    reach: Vec<Reach>,
+    /// The power-proportional choice: larger sets, and the fallback where importances are
+    /// unusable.
     cdf: Vec<f32>,
     prob: Vec<f32>,
     lookup: Vec<Lookup>,
@@ -90,6 +125,7 @@ impl LightSet {
         let mut lights = Vec::new();
         let mut power = Vec::new();
         let mut lookup = Vec::new();
+        let mut spans: Vec<(u32, u32)> = Vec::new();
         for (gi, g) in geometry.iter().enumerate() {
             let gi = gi as u32;
             let base = lights.len() as u32;
@@ -110,6 +146,9 @@ impl LightSet {
                         let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
                         lights.push(Light::Triangle { p, normal, area, emission: e });
                     }
+                    if lights.len() as u32 > base {
+                        spans.push((base, lights.len() as u32));
+                    }
                 }
                 Geometry::Spheres(s) => {
                     for (i, sp) in s.iter().enumerate() {
@@ -120,6 +159,7 @@ impl LightSet {
                         }
                         per.push(lights.len() as u32);
                         power.push(luminance(e) * 4.0 * PI * sp.radius * sp.radius * PI);
+                        spans.push((lights.len() as u32, lights.len() as u32 + 1));
                         lights.push(Light::Sphere { sphere: *sp, emission: e });
                     }
                 }
@@ -135,6 +175,7 @@ impl LightSet {
         }
         for pl in point_lights {
             power.push(luminance(pl.intensity) * 4.0 * PI);
+            spans.push((lights.len() as u32, lights.len() as u32 + 1));
             lights.push(Light::Point(*pl));
         }
         let mut background_index = None;
@@ -143,6 +184,7 @@ impl LightSet {
             let r = 0.5 * bounds.diagonal().length();
             let r = if r.is_finite() && r > 0.0 { r } else { 1.0 };
             background_index = Some(lights.len());
+            spans.push((lights.len() as u32, lights.len() as u32 + 1));
             power.push(luminance(background.average()).max(1e-6) * 4.0 * PI * PI * r * r);
             lights.push(Light::Background);
         }
@@ -152,6 +194,19 @@ impl LightSet {
         } else {
             vec![1.0 / lights.len().max(1) as f32; lights.len()]
         };
+        let groups: Vec<Group> = spans
+            .iter()
+            .map(|&(start, end)| Group { start, end, prob: prob[start as usize..end as usize].iter().sum() })
+            .collect();
+        let mut group_of = vec![0; lights.len()];
+        for (g, &(start, end)) in spans.iter().enumerate() {
+            group_of[start as usize..end as usize].fill(g as u32);
+        }
+        let reach = if (2..=LOCAL_CHOICE_MAX).contains(&groups.len()) {
+            groups.iter().map(|g| group_reach(&lights[g.start as usize..g.end as usize], background)).collect()
+        } else {
+            Vec::new()
+        };
         let mut acc = 0.0;
         let cdf = prob
             .iter()
@@ -160,7 +215,17 @@ impl LightSet {
                 acc
             })
             .collect();
-        LightSet { lights, cdf, prob, lookup, background: background.clone(), background_index }
+        LightSet {
+            lights,
+            groups,
+            group_of,
+            reach,
+            cdf,
+            prob,
+            lookup,
+            background: background.clone(),
+            background_index,
+        }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -176,24 +241,73 @@ impl LightSet {
         self.lights.iter().all(|l| matches!(l, Light::Point(_)))
     }
 
-    #[inline]
-    fn choose(&self, u: f32) -> usize {
-        if self.lights.len() == 1 {
-            return 0; // what the search below finds
-        }
-        let i = self.cdf.partition_point(|&c| c <= u);
-        i.min(self.lights.len() - 1)
+    /// How next-event estimation chooses a light at the shading point `p`. Computed once per
+    /// vertex: it serves [`LightSet::sample`] there and, at the next vertex, the densities
+    /// MIS weighs a BSDF-sampled ray's find against ([`LightSet::pdf_emitter`],
+    /// [`LightSet::pdf_background`]).
+    #[inline(always)]
+    pub fn choice_at(&self, p: Vec3) -> LightChoice {
+        if !self.reach.is_empty() { self.local_choice(p) } else { LightChoice::BY_POWER }
     }
 
-    /// Samples a light and a direction toward it from `p`. Inlined into the render kernels,
-    /// with the rarer sphere and background cases behind calls.
+    /// Out of line, so that kernels for one light (or many) carry none of its code.
+    #[inline(never)]
+    fn local_choice(&self, p: Vec3) -> LightChoice {
+        LightChoice(LocalChoice::at(&self.reach, p))
+    }
+
+    /// The light that `u` picks, and the probability of that choice.
     #[inline(always)]
-    pub fn sample(&self, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
+    fn choose(&self, choice: &LightChoice, u: f32) -> (usize, f32) {
+        let n = self.lights.len();
+        if n == 1 {
+            return (0, self.prob[0]); // what either choice below gives
+        }
+        if let Some(c) = &choice.0 {
+            let (g, p_group, u) = c.pick(self.groups.len(), u);
+            let group = &self.groups[g];
+            let (start, end) = (group.start as usize, group.end as usize);
+            if end - start == 1 {
+                return (start, p_group);
+            }
+            // Within the group by power, with what is left of `u`.
+            let below = if start == 0 { 0.0 } else { self.cdf[start - 1] };
+            let target = below + u * group.prob;
+            let i = (start + self.cdf[start..end].partition_point(|&c| c <= target)).min(end - 1);
+            return (i, p_group * (self.prob[i] / group.prob));
+        }
+        let i = self.cdf.partition_point(|&c| c <= u).min(n - 1);
+        (i, self.prob[i])
+    }
+
+    /// The probability that `choice` picks light `i`.
+    #[inline]
+    fn choice_probability(&self, choice: &LightChoice, i: usize) -> f32 {
+        match &choice.0 {
+            Some(c) => {
+                let g = self.group_of[i] as usize;
+                let group = &self.groups[g];
+                if group.end - group.start == 1 {
+                    c.probability(g)
+                } else if group.prob > 0.0 {
+                    c.probability(g) * (self.prob[i] / group.prob)
+                } else {
+                    0.0 // a group of zero-area triangles: never chosen
+                }
+            }
+            None => self.prob[i],
+        }
+    }
+
+    /// Samples a light (as `choice`, made at `p`, picks it) and a direction toward it from
+    /// `p`. Inlined into the render kernels, with the rarer sphere and background cases
+    /// behind calls.
+    #[inline(always)]
+    pub fn sample(&self, choice: &LightChoice, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
         if self.lights.is_empty() {
             return None;
         }
-        let i = self.choose(u_choice);
-        let sel = self.prob[i];
+        let (i, sel) = self.choose(choice, u_choice);
         if sel <= 0.0 {
             return None;
         }
@@ -256,9 +370,9 @@ impl LightSet {
         })
     }
 
-    /// Density with which `sample` from `p` picks the point `q` (normal `n`) on primitive
-    /// `prim` of geometry `geom`; 0 if that primitive is not a light.
-    pub fn pdf_emitter(&self, geom: u32, prim: u32, p: Vec3, q: Vec3, n: Vec3) -> f32 {
+    /// Density with which `sample` from `p` (with `choice`, made there) picks the point `q`
+    /// (normal `n`) on primitive `prim` of geometry `geom`; 0 if that primitive is not a light.
+    pub fn pdf_emitter(&self, choice: &LightChoice, geom: u32, prim: u32, p: Vec3, q: Vec3, n: Vec3) -> f32 {
         let i = match self.lookup.get(geom as usize) {
             Some(Lookup::Range(base)) => (base + prim) as usize,
             Some(Lookup::PerPrim(v)) => match v.get(prim as usize) {
@@ -267,7 +381,7 @@ impl LightSet {
             },
             _ => return 0.0,
         };
-        let sel = self.prob[i];
+        let sel = self.choice_probability(choice, i);
         match &self.lights[i] {
             Light::Triangle { area, .. } => {
                 let d = q - p;
@@ -280,9 +394,45 @@ impl LightSet {
         }
     }
 
-    /// Density with which `sample` picks direction `wi` toward the background.
-    pub fn pdf_background(&self) -> f32 {
-        self.background_index.map_or(0.0, |i| self.prob[i] / (4.0 * PI))
+    /// Density with which `sample` (with `choice`) picks a direction toward the background.
+    pub fn pdf_background(&self, choice: &LightChoice) -> f32 {
+        self.background_index.map_or(0.0, |i| self.choice_probability(choice, i) / (4.0 * PI))
+    }
+}
+
+/// What the importance of a group of lights needs (see [`Group`]).
+fn group_reach(lights: &[Light], background: &Background) -> Reach {
+    match lights {
+        [Light::Point(pl)] => Reach::point(pl.position, luminance(pl.intensity)),
+        [Light::Sphere { sphere, emission }] => Reach::sphere(sphere.center, sphere.radius, luminance(*emission)),
+        [Light::Background] => Reach::background(luminance(background.average())),
+        _ => {
+            // The triangles of one mesh.
+            let mut bounds = Aabb::EMPTY;
+            let mut scale = 0.0;
+            let mut normal: Option<Vec3> = None;
+            let mut flat = true;
+            for l in lights {
+                if let Light::Triangle { p, normal: n, area, emission } = l {
+                    if *area <= 0.0 {
+                        continue;
+                    }
+                    bounds = p.iter().fold(bounds, |b, v| b.grow(*v));
+                    scale += luminance(*emission) * area;
+                    match normal {
+                        None => normal = Some(*n),
+                        Some(m) => flat &= m.dot(*n).abs() > 0.9999,
+                    }
+                }
+            }
+            if !bounds.is_valid() {
+                return Reach::surfaces(Vec3::ZERO, 0.0, Vec3::ZERO, 0.0);
+            }
+            let center = bounds.center();
+            let radius = 0.5 * bounds.diagonal().length();
+            let normal = if flat { normal.unwrap_or(Vec3::ZERO) } else { Vec3::ZERO };
+            Reach::surfaces(center, radius, normal, scale)
+        }
     }
 }
 

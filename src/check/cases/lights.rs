@@ -1,4 +1,5 @@
-//! Lights at the extremes: radiance 1e6 next to 1e-6, and lights of zero area.
+//! Lights at the extremes: radiance 1e6 next to 1e-6, lights of zero area, and a close area
+//! light under a sky, whose share of the light changes across the image.
 
 use super::super::analytic::{Solid, first_hit};
 use super::super::pixel::{Reference, grey};
@@ -7,6 +8,7 @@ use super::{CheckError, Lab, Verdict, against_reference, camera_of, primary};
 use crate::film::Film;
 use crate::geometry::TriMesh;
 use crate::integrator::RenderSettings;
+use crate::light::Background;
 use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
 
@@ -102,6 +104,53 @@ pub fn dynamic_range(lab: &Lab) -> Result<Verdict, CheckError> {
     )
     .require(dim_px > 0, "the view must show the 1e-6 emitter")
     .require(frac <= 0.005, format!("{off} of {} plane pixels off the form-factor irradiance", mean.pixels.len())))
+}
+
+/// A diffuse plane (albedo 0.5) under a uniform sky of radiance 1 and a 2 × 2 light of
+/// radiance 20 at height 1, seen from below the light (direct light only). Under the light it
+/// brings most of the irradiance, two units away the sky does, so next-event estimation's
+/// light choice changes across the view: the plane must match π·1 + the light's form-factor
+/// irradiance at radiance 20 − 1 (the light hides that much sky), with the same statistics
+/// as `emitters-1e6-1e-6`. A choice whose density disagreed with the one MIS weighs against
+/// would show here as a bias.
+pub fn sky_and_area(lab: &Lab) -> Result<Verdict, CheckError> {
+    let (sky, light) = (1.0f32, 20.0f32);
+    let mut st = Stage::new("sky-and-area-light");
+    let plane = st.diffuse(0.5);
+    let e = st.emitter(light);
+    st.quad(Vec3::new(-6.0, 0.0, -6.0), Vec3::new(0.0, 0.0, 12.0), Vec3::new(12.0, 0.0, 0.0), plane);
+    st.quad(Vec3::new(-1.0, 1.0, -1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0), e);
+    st.background(Background::Constant(Vec3::splat(sky)));
+    st.camera(Vec3::new(1.2, 0.6, 0.0), Vec3::new(1.2, 0.0, 0.0), Vec3::Z, 120.0);
+    let scene = st.build();
+    let (w, h, spp, seeds) = lab.pick((24, 24, 8, 4), (48, 48, 16, 8));
+    let s = RenderSettings { max_depth: 1, ..lab.settings(w, h, spp) };
+    let (mean, se) = lab.render_seeds(&scene, &s, seeds)?;
+    let cam = camera_of(&scene, w, h);
+    let lit = Reference::new(w, h, 8, |film| {
+        let (o, d) = primary(&cam, film);
+        let q = o + d * (-o.y / d.y);
+        let e = PI * sky as f64 + rect_irradiance(q, (-1.0, 1.0), (-1.0, 1.0), 1.0, (light - sky) as f64);
+        0.5 / PI * e
+    });
+    let mut rel_se: Vec<f64> = mean.pixels.iter().zip(&se).map(|(p, s)| s / grey(*p).max(1e-30)).collect();
+    rel_se.sort_by(f64::total_cmp);
+    let pooled = rel_se[rel_se.len() / 2];
+    let errors: Vec<f64> = mean.pixels.iter().zip(&lit.pixels).map(|(p, e)| (grey(*p) - e.mean) / e.mean).collect();
+    let off = errors.iter().filter(|x| !(x.abs() <= 5.0 * pooled + 0.01)).count();
+    let frac = off as f64 / errors.len() as f64;
+    // A bias shows as a mean offset over the whole view, which 8 seeds of every pixel pin
+    // down far below any one pixel's noise.
+    let bias = errors.iter().sum::<f64>() / errors.len() as f64;
+    let (lo, hi) = lit.pixels.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| (lo.min(p.mean), hi.max(p.mean)));
+    Ok(Verdict::new(
+        bias.abs(),
+        0.01,
+        "mean relative error",
+        format!("{off} px off (pooled relative SE {pooled:.4}); analytic radiance {lo:.2}..{hi:.2}"),
+    )
+    .require(hi > 2.0 * lo, "the view must span where the light dominates and where the sky does")
+    .require(frac <= 0.005, format!("{off} of {} plane pixels off the analytic irradiance", errors.len())))
 }
 
 /// A plane and a sphere under a point light, plus emitters of zero area: a triangle with

@@ -93,6 +93,11 @@ pub fn all() -> Vec<Case> {
         ),
         case!("zero-area-lights", "lights of zero area contribute nothing and break nothing", lights::zero_area),
         case!(
+            "sky-and-area-light",
+            "a plane under a sky and a close area light gets the analytic direct light wherever either dominates",
+            lights::sky_and_area
+        ),
+        case!(
             "inside-closed-mesh",
             "a camera inside a closed mesh sees the closed-form radiance (no leaks)",
             camera::inside_mesh
