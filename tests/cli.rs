@@ -125,6 +125,17 @@ fn check_runs_cases_and_prints_a_table() {
     assert!(lines.last().unwrap().starts_with("2 cases, 2 passed, 0 failed"), "{out}");
 }
 
+/// `ember check --quick` is what a user runs to trust a build on a new machine: every case
+/// must pass at the quick size too, not only at the full size `tests/hard_cases.rs` runs.
+#[test]
+fn the_quick_check_suite_passes() {
+    let o = ember(&["check", "--quick"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}{}", stderr(&o));
+    let n = ember::check::catalog().len();
+    assert!(out.lines().last().unwrap().starts_with(&format!("{n} cases, {n} passed, 0 failed")), "{out}");
+}
+
 #[test]
 fn check_lists_cases_and_refuses_unknown_ones() {
     let o = ember(&["check", "--list"]);
