@@ -35,10 +35,10 @@ pub(super) const LOCAL_CHOICE_MAX: usize = 8;
 /// The largest f32 below 1.
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
-/// What the importance of one light needs.
+/// What the importance of one group of lights needs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Reach {
-    /// Centre of the emitter (centroid of a triangle).
+    /// Centre of the emitter (of the box around a mesh's emitting triangles).
     center: Vec3,
     /// Radius of a sphere around `center` holding the emitter (0 for a point light).
     radius: f32,
