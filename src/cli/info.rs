@@ -45,6 +45,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let settings = crate::integrator::RenderSettings::from_scene(&scene.render);
     println!("{effects}");
     println!("{}", super::render::describe_plan(&effects, &settings));
+    println!("lights:     {}", scene.light_set().describe());
     println!("bvh build:  {:.2} ms (medium quality)", accel.build_time().as_secs_f64() * 1e3);
     Ok(())
 }

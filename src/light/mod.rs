@@ -236,6 +236,24 @@ impl LightSet {
         self.lights.len()
     }
 
+    /// One line for `ember info`: how many lights, in how many groups, and how next-event
+    /// estimation chooses among them, e.g. `3 lights in 2 groups: a group chosen by
+    /// importance at each shading point, a light within it by power`.
+    pub fn describe(&self) -> String {
+        let (n, g) = (self.lights.len(), self.groups.len());
+        let how = if n <= 1 {
+            "nothing to choose".to_string()
+        } else if !self.reach.is_empty() {
+            "a group chosen by importance at each shading point, a light within it by power".to_string()
+        } else if g == 1 {
+            "chosen by power".to_string()
+        } else {
+            format!("chosen by power (more than {LOCAL_CHOICE_MAX} groups)")
+        };
+        let s = |k: usize| if k == 1 { "" } else { "s" };
+        format!("{n} light{} in {g} group{}: {how}", s(n), s(g))
+    }
+
     /// Whether every light is a point light.
     pub fn all_delta(&self) -> bool {
         self.lights.iter().all(|l| matches!(l, Light::Point(_)))
