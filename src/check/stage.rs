@@ -1,7 +1,7 @@
 //! Building the suite's scenes in code, so that `ember check` needs nothing but the binary
 //! (the teapot's OBJ text is compiled in).
 
-use crate::geometry::{Cylinder, Geometry, Sphere, TriMesh};
+use crate::geometry::{Aabb, Cylinder, Geometry, Sphere, TriMesh};
 use crate::light::{Background, PointLight};
 use crate::scene::{CameraSpec, Material, MaterialBinding, MaterialKind, Scene, parse_obj};
 use crate::texture::Texture;
@@ -93,14 +93,7 @@ pub fn quad_mesh(corner: Vec3, e1: Vec3, e2: Vec3) -> TriMesh {
 
 /// A closed axis-aligned box (12 triangles, outward winding).
 pub fn box_mesh(min: Vec3, max: Vec3) -> TriMesh {
-    let c = |i: u32| {
-        Vec3::new(
-            if i & 1 == 0 { min.x } else { max.x },
-            if i & 2 == 0 { min.y } else { max.y },
-            if i & 4 == 0 { min.z } else { max.z },
-        )
-    };
-    let positions = (0..8).map(c).collect();
+    let positions = Aabb::new(min, max).corners().collect();
     let faces: [[u32; 4]; 6] = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
     let indices = faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect();
     TriMesh::new("box", positions, indices, vec![], vec![]).expect("box indices are in range")

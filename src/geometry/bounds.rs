@@ -39,4 +39,10 @@ impl Aabb {
     pub fn diagonal(&self) -> Vec3 {
         self.max - self.min
     }
+
+    /// The eight corners; bit 0 of the index picks `max.x` over `min.x`, bit 1 y, bit 2 z.
+    pub fn corners(&self) -> impl Iterator<Item = Vec3> + use<> {
+        let (min, max) = (self.min, self.max);
+        (0..8).map(move |i| Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), max, min))
+    }
 }

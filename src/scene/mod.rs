@@ -127,14 +127,11 @@ impl Scene {
     /// Points whose convex hull holds every surface: mesh vertices, and the corners of each
     /// sphere's and cylinder's box.
     fn outline_points(&self) -> impl Iterator<Item = Vec3> + '_ {
-        let corners = |b: Aabb| {
-            (0..8).map(move |i| Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), b.max, b.min))
-        };
         self.geometry.iter().flat_map(move |g| -> Box<dyn Iterator<Item = Vec3> + '_> {
             match g {
                 Geometry::Mesh(m) => Box::new(m.positions.iter().copied()),
-                Geometry::Spheres(s) => Box::new(s.iter().flat_map(move |p| corners(p.bounds()))),
-                Geometry::Cylinders(c) => Box::new(c.iter().flat_map(move |p| corners(p.bounds()))),
+                Geometry::Spheres(s) => Box::new(s.iter().flat_map(|p| p.bounds().corners())),
+                Geometry::Cylinders(c) => Box::new(c.iter().flat_map(|p| p.bounds().corners())),
             }
         })
     }
