@@ -25,6 +25,23 @@ fn rect_irradiance(q: DVec3, (x0, x1): (f64, f64), (z0, z1): (f64, f64), c: f64,
     le * PI * (f(bx, bz) - f(ax, bz) - f(bx, az) + f(ax, az))
 }
 
+/// How a lit plane rendered over several seeds (`mean`, with `se` the standard error of each
+/// pixel's mean) compares with its analytic radiance `lit`: the pixels off by more than 5
+/// pooled standard errors + 1% of their value, and that pooled (median) relative standard
+/// error.
+fn off_analytic(mean: &Film, se: &[f64], lit: &Reference) -> (usize, f64) {
+    let mut rel_se: Vec<f64> = mean.pixels.iter().zip(se).map(|(p, s)| s / grey(*p).max(1e-30)).collect();
+    rel_se.sort_by(f64::total_cmp);
+    let pooled = rel_se[rel_se.len() / 2];
+    let off = mean
+        .pixels
+        .iter()
+        .zip(&lit.pixels)
+        .filter(|(p, e)| !((grey(**p) - e.mean).abs() <= (5.0 * pooled + 0.01) * e.mean))
+        .count();
+    (off, pooled)
+}
+
 /// Two 2 × 2 emitters at height 1, radiance 1e6 (over [-1, 1]²) and 1e-6 (over
 /// [2, 4] × [-1, 1]), above a diffuse plane of albedo 0.5; direct light only.
 ///
@@ -86,15 +103,7 @@ pub fn dynamic_range(lab: &Lab) -> Result<Verdict, CheckError> {
             + rect_irradiance(q, (2.0, 4.0), (-1.0, 1.0), 1.0, dim as f64);
         0.5 / PI * e
     });
-    let mut rel_se: Vec<f64> = mean.pixels.iter().zip(&se).map(|(p, s)| s / grey(*p).max(1e-30)).collect();
-    rel_se.sort_by(f64::total_cmp);
-    let pooled = rel_se[rel_se.len() / 2];
-    let off = mean
-        .pixels
-        .iter()
-        .zip(&lit.pixels)
-        .filter(|(p, e)| !((grey(**p) - e.mean).abs() <= (5.0 * pooled + 0.01) * e.mean))
-        .count();
+    let (off, pooled) = off_analytic(&mean, &se, &lit);
     let frac = off as f64 / mean.pixels.len() as f64;
     Ok(Verdict::new(
         direct.error,
@@ -133,11 +142,8 @@ pub fn sky_and_area(lab: &Lab) -> Result<Verdict, CheckError> {
         let e = PI * sky as f64 + rect_irradiance(q, (-1.0, 1.0), (-1.0, 1.0), 1.0, (light - sky) as f64);
         0.5 / PI * e
     });
-    let mut rel_se: Vec<f64> = mean.pixels.iter().zip(&se).map(|(p, s)| s / grey(*p).max(1e-30)).collect();
-    rel_se.sort_by(f64::total_cmp);
-    let pooled = rel_se[rel_se.len() / 2];
+    let (off, pooled) = off_analytic(&mean, &se, &lit);
     let errors: Vec<f64> = mean.pixels.iter().zip(&lit.pixels).map(|(p, e)| (grey(*p) - e.mean) / e.mean).collect();
-    let off = errors.iter().filter(|x| !(x.abs() <= 5.0 * pooled + 0.01)).count();
     let frac = off as f64 / errors.len() as f64;
     // A bias shows as a mean offset over the whole view, which 8 seeds of every pixel pin
     // down far below any one pixel's noise.
