@@ -92,15 +92,13 @@ for round in $(seq "$rounds"); do
         echo "$i $wall_ratio $cpu_ratio" >>"$ratios"
     done
 done
-median() { sort -n | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2}'; }
+# "median (min-max)" of the numbers on standard input.
+summary() { sort -n | awk '{v[NR] = $1} END {printf "%.2f (%.2f-%.2f)", (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2, v[1], v[NR]}'; }
 echo "pathtracer/ember, median of $rounds rounds (range):"
 for i in "${!variants[@]}"; do
     label=${variants[$i]%%|*}
-    wall=$(awk -v i="$i" '$1 == i {print $2}' "$ratios")
-    cpu=$(awk -v i="$i" '$1 == i {print $3}' "$ratios")
-    printf '  %-52s %.2f wall (%.2f-%.2f), %.2f CPU (%.2f-%.2f)\n' "ember $label" \
-        "$(echo "$wall" | median)" "$(echo "$wall" | sort -n | head -n 1)" "$(echo "$wall" | sort -n | tail -n 1)" \
-        "$(echo "$cpu" | median)" "$(echo "$cpu" | sort -n | head -n 1)" "$(echo "$cpu" | sort -n | tail -n 1)"
+    printf '  %-52s %s wall, %s CPU\n' "ember $label" \
+        "$(awk -v i="$i" '$1 == i {print $2}' "$ratios" | summary)" "$(awk -v i="$i" '$1 == i {print $3}' "$ratios" | summary)"
 done
 echo "load average after:  $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "(a ratio above 1 means ember is faster)"
