@@ -153,16 +153,22 @@ fn same_image(a: &Film, b: &Film, floor: f64, thr: f64) -> (f64, f64, f64) {
     (over as f64 / a.pixels.len() as f64, worst, (mean_a - mean_b).abs() / mean_b.max(1e-30))
 }
 
+/// The probability with which a correct pixel may stray beyond [`super::pixel::compare`]'s
+/// jitter allowance. A full suite run compares 18,176 pixels with references, 9,587 of them
+/// cut by an edge: under 1% of runs can see a correct pixel off, and as Bernstein's bound is
+/// not tight, far fewer do (none in 40 seeds × both sizes).
+const JITTER_DELTA: f64 = 1e-6;
+
 /// Compares with a closed-form reference: the verdict is the fraction of pixels off by more
-/// than `rel` beyond jitter noise (4σ), against `max_off`.
+/// than `rel` beyond jitter noise (Bernstein's bound at [`JITTER_DELTA`]), against `max_off`.
 fn against_reference(film: &Film, r: &Reference, spp: u32, rel: f64, max_off: f64) -> Verdict {
-    let c = super::pixel::compare(film, r, spp, rel, 4.0);
+    let c = super::pixel::compare(film, r, spp, rel, JITTER_DELTA);
     Verdict::new(
         100.0 * c.off_fraction(),
         100.0 * max_off,
         "% px off",
         format!(
-            "{} of {} px off by > {}% beyond 4σ jitter; worst flat-pixel error {:.2e}",
+            "{} of {} px off by > {}% beyond jitter; worst flat-pixel error {:.2e}",
             c.off,
             c.total,
             100.0 * rel,
