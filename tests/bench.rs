@@ -148,6 +148,10 @@ fn specialize_table_has_every_scene_file() {
     assert_eq!(rows.iter().map(|r| r["scene"].clone()).collect::<Vec<_>>(), want);
     for r in &rows {
         assert!(num(r, "general_us_per_sample") > 0.0 && num(r, "specialized_us_per_sample") > 0.0);
+        // The speedup is the median of the pairs' ratios: within their range.
+        assert!(num(r, "pairs") >= 1.0);
+        assert!(num(r, "speedup_min") <= num(r, "speedup") && num(r, "speedup") <= num(r, "speedup_max"), "{r:?}");
+        assert_eq!(r["identical_image"], "true");
     }
     assert!(!out.join("bench.csv").exists(), "--specialize runs only its own table");
     std::fs::remove_dir_all(&out).unwrap();

@@ -155,12 +155,16 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
     }
 
     if opts.sections.contains(&Section::Specialize) {
-        let cfg = if opts.quick { RenderConfig::quick() } else { RenderConfig::full() };
+        let cfg = if opts.quick { RenderConfig::quick() } else { specialize::config() };
         println!();
         println!(
-            "Specialised vs general kernel (RenderSettings.specialize), all cores, {} spp, width {}; best of >= {} \
-             alternating renders each.",
-            cfg.spp, cfg.width, cfg.timing.min_passes
+            "Specialised vs general kernel (RenderSettings.specialize), all cores, {} spp, width {}: >= {} pairs of \
+             renders and >= {:.1} s per scene, the order alternating; µs/sample: the fastest render (wall time); \
+             speedup: the median over the pairs of general / specialised CPU time.",
+            cfg.spp,
+            cfg.width,
+            cfg.timing.min_passes,
+            cfg.timing.min_total.as_secs_f64()
         );
         let mut ms = Vec::new();
         for file in specialize_files {

@@ -1,8 +1,16 @@
 //! Time per sample with the kernel specialised to the scene (`RenderSettings::specialize`)
-//! against the general kernel, on each scene file. The two settings are timed alternately
-//! (best pass of each kept), so a change in machine load affects both alike.
+//! against the general kernel, on each scene file.
+//!
+//! The renders are short (tens of milliseconds), and on a shared 2-core machine one render's
+//! wall time swings by ±10%: best-of-N wall times gave speedups that moved by as much between
+//! runs. So the two kernels are timed in pairs, the order alternating from pair to pair (a
+//! change in load hits both members of a pair alike, and neither always runs first), each
+//! render's time is the CPU time of all render threads ([`cpu_of`]: it does not count time
+//! the threads waited for a core), and the speedup is the median of the pairs' ratios.
 
 use super::BenchError;
+use super::cputime::cpu_of;
+use super::measure::Timing;
 use super::render::RenderConfig;
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
@@ -20,8 +28,11 @@ pub struct SpecializeMeasurement {
     pub height: u32,
     pub spp: u32,
     pub samples: u64,
+    /// Fastest render of each kernel, wall time.
     pub general: Duration,
     pub specialized: Duration,
+    /// General over specialised time of each pair of renders (CPU time where it can be read).
+    pub ratios: Vec<f64>,
     /// Whether both kernels gave the bit-identical image.
     pub identical: bool,
 }
@@ -32,10 +43,34 @@ impl SpecializeMeasurement {
         t.as_secs_f64() * 1e6 / self.samples.max(1) as f64
     }
 
-    /// General time over specialised time.
+    /// The median over the pairs of general time over specialised time.
     pub fn speedup(&self) -> f64 {
-        self.general.as_secs_f64() / self.specialized.as_secs_f64().max(1e-12)
+        median(&self.ratios)
     }
+
+    /// The lowest and highest ratio of a pair.
+    pub fn ratio_range(&self) -> (f64, f64) {
+        let lo = self.ratios.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = self.ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (lo, hi)
+    }
+}
+
+/// The full run's renders (those of `ember bench --render`: 128 pixels wide, 16 spp), with
+/// at least 15 pairs and 2 s per scene: enough pairs that the median moves by a percent or
+/// two between runs.
+pub fn config() -> RenderConfig {
+    RenderConfig { timing: Timing { min_passes: 15, min_total: Duration::from_secs(2) }, ..RenderConfig::full() }
+}
+
+fn median(xs: &[f64]) -> f64 {
+    let mut v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) }
 }
 
 /// The scene files in `dir` (`.toml`, and `.obj` meshes, which render with a default camera,
@@ -63,17 +98,23 @@ pub fn measure_scene(path: &Path, device: &Device, cfg: &RenderConfig) -> Result
     let mut best = [Duration::MAX; 2];
     let mut total = Duration::ZERO;
     let mut films: [Option<Film>; 2] = [None, None];
+    let mut ratios = Vec::new();
     let mut samples = 0;
-    let mut passes = 0;
-    while passes < cfg.timing.min_passes.max(1) || total < cfg.timing.min_total {
-        for (i, s) in [&general, &specialized].into_iter().enumerate() {
-            let (film, stats) = render(&scene, &accel, s)?;
+    while (ratios.len() as u32) < cfg.timing.min_passes.max(1) || total < cfg.timing.min_total {
+        let mut time = [Duration::ZERO; 2];
+        // Pairs alternate which kernel goes first.
+        let order = if ratios.len() % 2 == 0 { [0, 1] } else { [1, 0] };
+        for i in order {
+            let s = if i == 0 { &general } else { &specialized };
+            let (result, cpu) = cpu_of(|| render(&scene, &accel, s));
+            let (film, stats) = result?;
             best[i] = best[i].min(stats.elapsed);
+            time[i] = cpu.unwrap_or(stats.elapsed);
             total += stats.elapsed;
             samples = stats.samples;
             films[i] = Some(film);
         }
-        passes += 1;
+        ratios.push(time[0].as_secs_f64() / time[1].as_secs_f64().max(1e-12));
     }
     let identical = match (&films[0], &films[1]) {
         (Some(a), Some(b)) => a
@@ -92,26 +133,39 @@ pub fn measure_scene(path: &Path, device: &Device, cfg: &RenderConfig) -> Result
         samples,
         general: best[0],
         specialized: best[1],
+        ratios,
         identical,
     })
 }
 
 pub fn summary_table(ms: &[SpecializeMeasurement]) -> Table {
-    let mut t = Table::new(["scene", "image", "general µs/sample", "specialized µs/sample", "speedup", "same image"]);
+    let mut t = Table::new([
+        "scene",
+        "image",
+        "general µs/sample",
+        "specialized µs/sample",
+        "pairs",
+        "speedup (median)",
+        "pair range",
+        "same image",
+    ]);
     for m in ms {
+        let (lo, hi) = m.ratio_range();
         t.push([
             m.scene.clone(),
             format!("{}x{}x{}", m.width, m.height, m.spp),
             format!("{:.3}", m.us_per_sample(false)),
             format!("{:.3}", m.us_per_sample(true)),
-            format!("{:.2}×", m.speedup()),
+            m.ratios.len().to_string(),
+            format!("{:.3}×", m.speedup()),
+            format!("{lo:.2}–{hi:.2}"),
             if m.identical { "yes".into() } else { "no".into() },
         ]);
     }
     t
 }
 
-pub const CSV_COLUMNS: [&str; 9] = [
+pub const CSV_COLUMNS: [&str; 12] = [
     "scene",
     "width",
     "height",
@@ -119,13 +173,17 @@ pub const CSV_COLUMNS: [&str; 9] = [
     "samples",
     "general_us_per_sample",
     "specialized_us_per_sample",
+    "pairs",
     "speedup",
+    "speedup_min",
+    "speedup_max",
     "identical_image",
 ];
 
 pub fn csv_table(ms: &[SpecializeMeasurement]) -> Table {
     let mut t = Table::new(CSV_COLUMNS);
     for m in ms {
+        let (lo, hi) = m.ratio_range();
         t.push([
             m.scene.clone(),
             m.width.to_string(),
@@ -134,9 +192,25 @@ pub fn csv_table(ms: &[SpecializeMeasurement]) -> Table {
             m.samples.to_string(),
             format!("{:.4}", m.us_per_sample(false)),
             format!("{:.4}", m.us_per_sample(true)),
-            format!("{:.3}", m.speedup()),
+            m.ratios.len().to_string(),
+            format!("{:.4}", m.speedup()),
+            format!("{lo:.4}"),
+            format!("{hi:.4}"),
             m.identical.to_string(),
         ]);
     }
     t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn median_of_odd_and_even_counts_skips_non_finite() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(&[f64::NAN, 1.0, 5.0, f64::INFINITY]), 3.0);
+        assert!(median(&[]).is_nan());
+    }
 }
