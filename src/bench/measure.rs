@@ -16,6 +16,17 @@ pub struct Timing {
     pub min_total: Duration,
 }
 
+/// The median of the finite values of `xs` (NaN if there are none).
+pub fn median(xs: &[f64]) -> f64 {
+    let mut v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) }
+}
+
 /// Queries per parallel work item: large enough to amortise scheduling, small enough to
 /// balance two threads on small sets.
 const CHUNK: usize = 512;
@@ -162,4 +173,17 @@ pub fn time_answers(accel: &dyn Accel, queries: &[Query], closest: bool) -> Resu
         (a, start.elapsed())
     });
     Ok((Times { wall, cpu }, a?.into_iter().flatten().collect()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn median_of_odd_and_even_counts_skips_non_finite() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(&[f64::NAN, 1.0, 5.0, f64::INFINITY]), 3.0);
+        assert!(median(&[]).is_nan());
+    }
 }

@@ -10,7 +10,7 @@
 
 use super::BenchError;
 use super::cputime::cpu_of;
-use super::measure::{Times, Timing};
+use super::measure::{Timing, median};
 use super::record::{RecordedQuery, RecordingAccel, replay};
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
@@ -31,7 +31,7 @@ pub struct RenderConfig {
 
 impl RenderConfig {
     pub fn full() -> Self {
-        RenderConfig { width: 128, spp: 16, timing: Timing { min_passes: 3, min_total: Duration::from_millis(500) } }
+        RenderConfig { width: 128, spp: 16, timing: Timing { min_passes: 9, min_total: Duration::from_secs(2) } }
     }
 
     pub fn quick() -> Self {
@@ -58,12 +58,19 @@ pub struct RenderMeasurement {
     pub rays: u64,
     pub closest_queries: usize,
     pub occlusion_queries: usize,
-    /// Best render times with 1 and 2 threads.
+    /// The rounds measured, in order.
+    pub rounds: Vec<Round>,
+}
+
+/// One round of measurements, taken back to back: a render on 1 thread, the same render on 2
+/// threads, and the replay of its queries through Embree alone on 2 threads. A change in the
+/// machine's load then touches all three alike, and each ratio is taken within a round.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Round {
     pub one_thread: Duration,
     pub two_threads: Duration,
-    /// CPU time of the best 2-thread render (least over the renders).
+    /// CPU time of all threads of the 2-thread render and of the replay, where it can be read.
     pub two_threads_cpu: Option<Duration>,
-    /// Best replay of the recorded queries on 2 threads, and its CPU time.
     pub replay: Duration,
     pub replay_cpu: Option<Duration>,
 }
@@ -73,59 +80,72 @@ impl RenderMeasurement {
         self.closest_queries + self.occlusion_queries
     }
 
+    fn fastest(&self, time: impl Fn(&Round) -> Duration) -> Duration {
+        self.rounds.iter().map(time).min().unwrap_or(Duration::MAX)
+    }
+
+    /// Fastest render on 1 and on 2 threads, and fastest replay (wall time).
+    pub fn one_thread(&self) -> Duration {
+        self.fastest(|r| r.one_thread)
+    }
+
+    pub fn two_threads(&self) -> Duration {
+        self.fastest(|r| r.two_threads)
+    }
+
+    pub fn replay(&self) -> Duration {
+        self.fastest(|r| r.replay)
+    }
+
+    /// Least CPU time of a 2-thread render and of a replay.
+    pub fn two_threads_cpu(&self) -> Option<Duration> {
+        self.rounds.iter().filter_map(|r| r.two_threads_cpu).min()
+    }
+
+    pub fn replay_cpu(&self) -> Option<Duration> {
+        self.rounds.iter().filter_map(|r| r.replay_cpu).min()
+    }
+
     pub fn samples_per_s(&self, threads: usize) -> f64 {
-        let t = if threads == 1 { self.one_thread } else { self.two_threads };
+        let t = if threads == 1 { self.one_thread() } else { self.two_threads() };
         self.samples as f64 / t.as_secs_f64().max(1e-12)
     }
 
-    /// Samples/s with 2 threads over 1.
+    /// Samples/s with 2 threads over 1: the median over the rounds.
     pub fn thread_scaling(&self) -> f64 {
-        self.one_thread.as_secs_f64() / self.two_threads.as_secs_f64().max(1e-12)
+        median_over(&self.rounds, |r| Some(r.one_thread.as_secs_f64() / r.two_threads.as_secs_f64().max(1e-12)))
     }
 
     pub fn path_tracer_mrays_per_s(&self) -> f64 {
-        self.rays as f64 / self.two_threads.as_secs_f64().max(1e-12) / 1e6
+        self.rays as f64 / self.two_threads().as_secs_f64().max(1e-12) / 1e6
     }
 
     pub fn embree_mrays_per_s(&self) -> f64 {
-        self.recorded() as f64 / self.replay.as_secs_f64().max(1e-12) / 1e6
+        self.recorded() as f64 / self.replay().as_secs_f64().max(1e-12) / 1e6
     }
 
-    /// The path tracer's rays/s as a percentage of Embree's on the same rays (wall time).
+    /// The path tracer's rays/s as a percentage of Embree's on the same rays (wall time of
+    /// the 2-thread render and of the replay): the median over the rounds.
     pub fn efficiency_percent(&self) -> f64 {
-        100.0 * self.path_tracer_mrays_per_s() / self.embree_mrays_per_s()
+        let rays = self.rays as f64 / self.recorded().max(1) as f64;
+        median_over(&self.rounds, |r| {
+            Some(100.0 * rays * r.replay.as_secs_f64() / r.two_threads.as_secs_f64().max(1e-12))
+        })
     }
 
     /// The same from CPU time (the same rays, so Embree's CPU time over the path tracer's):
     /// less sensitive to other work on the machine.
     pub fn cpu_efficiency_percent(&self) -> Option<f64> {
-        Some(100.0 * self.replay_cpu?.as_secs_f64() / self.two_threads_cpu?.as_secs_f64().max(1e-12))
+        let rays = self.rays as f64 / self.recorded().max(1) as f64;
+        let p = median_over(&self.rounds, |r| {
+            Some(100.0 * rays * r.replay_cpu?.as_secs_f64() / r.two_threads_cpu?.as_secs_f64().max(1e-12))
+        });
+        p.is_finite().then_some(p)
     }
 }
 
-/// Best of repeated `f` runs by wall time (each returning its own wall time), with the
-/// least CPU time of the pool's threads over the runs.
-fn best_of<T>(
-    timing: Timing,
-    mut f: impl FnMut() -> Result<(T, Duration), BenchError>,
-) -> Result<(T, Times), BenchError> {
-    let (mut best, mut times, mut total, mut passes) =
-        (None::<T>, Times { wall: Duration::MAX, cpu: None }, Duration::ZERO, 0);
-    while passes < timing.min_passes.max(1) || total < timing.min_total {
-        let (r, cpu) = cpu_of(&mut f);
-        let (value, wall) = r?;
-        total += wall;
-        passes += 1;
-        if wall < times.wall {
-            times.wall = wall;
-            best = Some(value);
-        }
-        times.cpu = match (times.cpu, cpu) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        };
-    }
-    Ok((best.expect("at least one pass"), times))
+fn median_over(rounds: &[Round], f: impl Fn(&Round) -> Option<f64>) -> f64 {
+    median(&rounds.iter().filter_map(f).collect::<Vec<_>>())
 }
 
 fn pool(threads: usize) -> Result<rayon::ThreadPool, BenchError> {
@@ -153,33 +173,38 @@ pub fn measure_scene(path: &Path, device: &Device, cfg: &RenderConfig) -> Result
         )));
     }
 
-    let timed_render = |p: &rayon::ThreadPool| {
-        p.install(|| {
-            best_of(cfg.timing, || {
-                let (_, stats) = render(&scene, &accel, &settings)?;
-                Ok((stats, stats.elapsed))
+    let mut rounds = Vec::new();
+    let mut total = Duration::ZERO;
+    while (rounds.len() as u32) < cfg.timing.min_passes.max(1) || total < cfg.timing.min_total {
+        let (stats1, _) = one.install(|| cpu_of(|| render(&scene, &accel, &settings)));
+        let (stats2, two_cpu) = two.install(|| cpu_of(|| render(&scene, &accel, &settings)));
+        let (stats1, stats2) = (stats1?.1, stats2?.1);
+        if stats1.rays != recorded_stats.rays || stats2.rays != recorded_stats.rays {
+            return Err(BenchError::Invalid(format!(
+                "{}: renders with the same settings traced {} / {} / {} rays",
+                path.display(),
+                recorded_stats.rays,
+                stats1.rays,
+                stats2.rays
+            )));
+        }
+        let (replayed, replay_cpu) = two.install(|| {
+            cpu_of(|| {
+                let start = Instant::now();
+                std::hint::black_box(replay(&accel, &queries)?);
+                Ok::<_, BenchError>(start.elapsed())
             })
-        })
-    };
-    let (stats1, t1) = timed_render(&one)?;
-    let (stats2, t2) = timed_render(&two)?;
-    if stats1.rays != stats2.rays || stats2.rays != recorded_stats.rays {
-        return Err(BenchError::Invalid(format!(
-            "{}: renders with the same settings traced {} / {} / {} rays",
-            path.display(),
-            recorded_stats.rays,
-            stats1.rays,
-            stats2.rays
-        )));
+        });
+        let replay_wall = replayed?;
+        total += stats1.elapsed + stats2.elapsed + replay_wall;
+        rounds.push(Round {
+            one_thread: stats1.elapsed,
+            two_threads: stats2.elapsed,
+            two_threads_cpu: two_cpu,
+            replay: replay_wall,
+            replay_cpu,
+        });
     }
-
-    let ((), replay_times) = two.install(|| {
-        best_of(cfg.timing, || {
-            let start = Instant::now();
-            std::hint::black_box(replay(&accel, &queries)?);
-            Ok(((), start.elapsed()))
-        })
-    })?;
 
     let occlusion_queries = queries.iter().filter(|q| q.occlusion).count();
     let name = path.file_name().map_or(path.display().to_string(), |n| n.to_string_lossy().into_owned());
@@ -188,15 +213,11 @@ pub fn measure_scene(path: &Path, device: &Device, cfg: &RenderConfig) -> Result
         width: settings.width,
         height: settings.height,
         spp: settings.spp,
-        samples: stats2.samples,
-        rays: stats2.rays,
+        samples: recorded_stats.samples,
+        rays: recorded_stats.rays,
         closest_queries: queries.len() - occlusion_queries,
         occlusion_queries,
-        one_thread: t1.wall,
-        two_threads: t2.wall,
-        two_threads_cpu: t2.cpu,
-        replay: replay_times.wall,
-        replay_cpu: replay_times.cpu,
+        rounds,
     })
 }
 
@@ -266,16 +287,16 @@ pub fn csv_table(ms: &[RenderMeasurement]) -> Table {
             m.rays.to_string(),
             m.closest_queries.to_string(),
             m.occlusion_queries.to_string(),
-            format!("{:.6}", m.one_thread.as_secs_f64()),
-            format!("{:.6}", m.two_threads.as_secs_f64()),
+            format!("{:.6}", m.one_thread().as_secs_f64()),
+            format!("{:.6}", m.two_threads().as_secs_f64()),
             format!("{:.1}", m.samples_per_s(1)),
             format!("{:.1}", m.samples_per_s(2)),
             format!("{:.3}", m.thread_scaling()),
             format!("{:.3}", m.path_tracer_mrays_per_s()),
             format!("{:.3}", m.embree_mrays_per_s()),
             format!("{:.1}", m.efficiency_percent()),
-            m.two_threads_cpu.map_or(String::new(), |c| format!("{:.6}", c.as_secs_f64())),
-            m.replay_cpu.map_or(String::new(), |c| format!("{:.6}", c.as_secs_f64())),
+            m.two_threads_cpu().map_or(String::new(), |c| format!("{:.6}", c.as_secs_f64())),
+            m.replay_cpu().map_or(String::new(), |c| format!("{:.6}", c.as_secs_f64())),
             m.cpu_efficiency_percent().map_or(String::new(), |p| format!("{p:.1}")),
         ]);
     }

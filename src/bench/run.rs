@@ -140,8 +140,13 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
         println!(
             "Path tracer vs Embree alone ({} spp, width {}, scene depth and Russian roulette): the path tracer's rays/s \
              (2 threads) over Embree's on the same rays, recorded from the path tracer and replayed through \
-             rtcIntersect1/rtcOccluded1 on 2 threads; samples/s with 2 threads over 1. Best of >= {} renders.",
-            cfg.spp, cfg.width, cfg.timing.min_passes
+             rtcIntersect1/rtcOccluded1 on 2 threads; samples/s with 2 threads over 1. >= {} rounds and >= {:.1} s \
+             per scene, each a 1-thread render, a 2-thread render and the replay back to back; Mrays/s and samples/s \
+             from the fastest of each, the ratios (2t/1t, path tracer/Embree) the medians of the rounds' ratios.",
+            cfg.spp,
+            cfg.width,
+            cfg.timing.min_passes,
+            cfg.timing.min_total.as_secs_f64()
         );
         let mut ms = Vec::new();
         for file in ["cornell.toml", "teapot.toml"] {

@@ -10,7 +10,7 @@
 
 use super::BenchError;
 use super::cputime::cpu_of;
-use super::measure::Timing;
+use super::measure::{Timing, median};
 use super::render::RenderConfig;
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
@@ -61,16 +61,6 @@ impl SpecializeMeasurement {
 /// two between runs.
 pub fn config() -> RenderConfig {
     RenderConfig { timing: Timing { min_passes: 15, min_total: Duration::from_secs(2) }, ..RenderConfig::full() }
-}
-
-fn median(xs: &[f64]) -> f64 {
-    let mut v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let m = v.len() / 2;
-    if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) }
 }
 
 /// The scene files in `dir` (`.toml`, and `.obj` meshes, which render with a default camera,
@@ -200,17 +190,4 @@ pub fn csv_table(ms: &[SpecializeMeasurement]) -> Table {
         ]);
     }
     t
-}
-
-#[cfg(test)]
-mod tests {
-    use super::median;
-
-    #[test]
-    fn median_of_odd_and_even_counts_skips_non_finite() {
-        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
-        assert_eq!(median(&[f64::NAN, 1.0, 5.0, f64::INFINITY]), 3.0);
-        assert!(median(&[]).is_nan());
-    }
 }
