@@ -158,6 +158,34 @@ fn specialize_table_has_every_scene_file() {
 }
 
 #[test]
+fn render_section_takes_the_bvh_build_of_ember_render() {
+    let out = common::fresh_path("bench", "render-bvh");
+    let dir = out.to_str().unwrap();
+    let o = ember(&[
+        "bench",
+        "--quick",
+        "--render",
+        "--no-robust",
+        "--bvh-quality",
+        "low",
+        "--out",
+        dir,
+        "--scenes-dir",
+        &scenes_dir(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("Russian roulette, low BVH)"), "the table says which build it measured: {text}");
+    let (_, rows) = read_csv(&out.join("render.csv"));
+    assert_eq!(rows.len(), 2);
+    std::fs::remove_dir_all(&out).unwrap();
+    // The build is a setting of the render section only.
+    let o = ember(&["bench", "--quick", "--no-robust", "--out", dir]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--render"), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
 fn bad_bench_input_is_exit_2_and_names_the_problem() {
     let o = ember(&["bench", "--scene", "nosuch", "--out", "/tmp/never-used"]);
     assert_eq!(o.status.code(), Some(2));

@@ -155,9 +155,14 @@ fn pool(threads: usize) -> Result<rayon::ThreadPool, BenchError> {
 /// Measures one scene file. Everything runs in thread pools made here (renders with
 /// `threads: None` use the pool they run in), so their threads live through each measurement
 /// and their CPU time can be read.
-pub fn measure_scene(path: &Path, device: &Device, cfg: &RenderConfig) -> Result<RenderMeasurement, BenchError> {
+pub fn measure_scene(
+    path: &Path,
+    device: &Device,
+    cfg: &RenderConfig,
+    bvh: BuildOptions,
+) -> Result<RenderMeasurement, BenchError> {
     let scene = Scene::load(path)?;
-    let accel = EmbreeAccel::new(device, &scene.geometry, BuildOptions::default())?;
+    let accel = EmbreeAccel::new(device, &scene.geometry, bvh)?;
     let settings = cfg.settings(&scene, None);
     let (one, two) = (pool(1)?, pool(2)?);
 

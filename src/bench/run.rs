@@ -34,6 +34,8 @@ pub struct Options {
     /// Threads for the matrix (`None`: all cores). The render section always compares 1 and 2.
     pub threads: Option<usize>,
     pub scenes_dir: PathBuf,
+    /// The BVH build of the render section (its renders and the replay).
+    pub render_bvh: BuildOptions,
 }
 
 fn write_table(dir: &Path, name: &str, t: &Table) -> Result<PathBuf, BenchError> {
@@ -138,19 +140,20 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
         let cfg = if opts.quick { RenderConfig::quick() } else { RenderConfig::full() };
         println!();
         println!(
-            "Path tracer vs Embree alone ({} spp, width {}, scene depth and Russian roulette): the path tracer's rays/s \
+            "Path tracer vs Embree alone ({} spp, width {}, scene depth and Russian roulette, {}): the path tracer's rays/s \
              (2 threads) over Embree's on the same rays, recorded from the path tracer and replayed through \
              rtcIntersect1/rtcOccluded1 on 2 threads; samples/s with 2 threads over 1. >= {} rounds and >= {:.1} s \
              per scene, each a 1-thread render, a 2-thread render and the replay back to back; Mrays/s and samples/s \
              from the fastest of each, the ratios (2t/1t, path tracer/Embree) the medians of the rounds' ratios.",
             cfg.spp,
             cfg.width,
+            opts.render_bvh,
             cfg.timing.min_passes,
             cfg.timing.min_total.as_secs_f64()
         );
         let mut ms = Vec::new();
         for file in ["cornell.toml", "teapot.toml"] {
-            let m = render::measure_scene(&opts.scenes_dir.join(file), &device, &cfg)?;
+            let m = render::measure_scene(&opts.scenes_dir.join(file), &device, &cfg, opts.render_bvh)?;
             log(&format!("{file}: rendered, recorded and replayed"));
             ms.push(m);
         }

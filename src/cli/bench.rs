@@ -1,5 +1,6 @@
 use crate::bench::scenes::{BUILTIN, default_scenes_dir};
 use crate::bench::{Options, Section, run};
+use crate::embree::{BuildOptions, BuildQuality};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -27,6 +28,13 @@ pub struct BenchArgs {
     /// Folder of the sample scenes and models [./scenes, else the source tree's].
     #[arg(long)]
     pub scenes_dir: Option<PathBuf>,
+    /// With --render: the Embree BVH build quality of the renders and the replay, as in
+    /// `ember render` (low, medium or high).
+    #[arg(long, default_value = "medium", requires = "render")]
+    pub bvh_quality: BuildQuality,
+    /// With --render: build without RTC_SCENE_FLAG_ROBUST, as in `ember render --no-robust`.
+    #[arg(long, requires = "render")]
+    pub no_robust: bool,
 }
 
 pub fn run_bench(args: BenchArgs) -> anyhow::Result<()> {
@@ -51,6 +59,7 @@ pub fn run_bench(args: BenchArgs) -> anyhow::Result<()> {
         sections,
         threads: args.threads.map(|t| t as usize),
         scenes_dir: args.scenes_dir.unwrap_or_else(default_scenes_dir),
+        render_bvh: BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() },
     };
     run(&opts)?;
     Ok(())

@@ -256,8 +256,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         stats.mrays_per_s(),
         stats.rays,
         match args.accel {
-            AccelKind::Embree =>
-                format!("embree accel, {} BVH{}", bvh.quality, if bvh.robust { ", robust" } else { "" }),
+            AccelKind::Embree => format!("embree accel, {bvh}"),
             AccelKind::Naive => "naive accel".to_string(),
         },
         stats.nonfinite,

@@ -59,6 +59,20 @@ impl Default for BuildOptions {
     }
 }
 
+/// `medium BVH, robust` (the flags that are set, after the quality).
+impl std::fmt::Display for BuildOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} BVH", self.quality)?;
+        if self.robust {
+            write!(f, ", robust")?;
+        }
+        if self.compact {
+            write!(f, ", compact")?;
+        }
+        Ok(())
+    }
+}
+
 /// The owned scene handle plus everything Embree may call back into. Dropped as one: the
 /// scene is released before the user data it points to.
 pub(super) struct RawScene {
