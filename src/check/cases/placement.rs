@@ -67,6 +67,13 @@ fn means_agree(a: &Film, b: &Film) -> (bool, f64, f64) {
     (mean.abs() <= 4.0 * se + 0.002 * level, mean / level, se / level)
 }
 
+/// How much of a block's level one pixel's difference can count for in [`far`]'s block
+/// check. Without it the check was at the mercy of single fireflies: over seeds 1–24 the
+/// worst block of the full-size run reached 8.6% and 9.5% (`far-1e7`, seeds 11 and 23) and
+/// the quick run 5.2% (`far-1e5`, seed 7 on an AVX-512 machine), all without a systematic
+/// difference (image means within noise).
+const PIXEL_CLAMP: f64 = 0.25;
+
 /// The teapot scene scaled by `size` and moved by `d` along every axis, against the same
 /// shapes moved back to the origin.
 ///
@@ -83,13 +90,6 @@ fn means_agree(a: &Film, b: &Film) -> (bool, f64, f64) {
 /// block up to [`PIXEL_CLAMP`] of the block's level: a crossing sample that found the light
 /// (a whole firefly) then moves a block by at most 0.4%, while a shift of the whole region
 /// counts in full up to 25% (the errors this case has caught were 47–259%).
-/// How much of a block's level one pixel's difference can count for in [`far`]'s block
-/// check. Without it the check was at the mercy of single fireflies: over seeds 1–24 the
-/// worst block of the full-size run reached 8.6% and 9.5% (`far-1e7`, seeds 11 and 23) and
-/// the quick run 5.2% (`far-1e5`, seed 7 on an AVX-512 machine), all without a systematic
-/// difference (image means within noise).
-const PIXEL_CLAMP: f64 = 0.25;
-
 fn far(lab: &Lab, d: f32, size: f32) -> Result<Verdict, CheckError> {
     let base = teapot_stage(size);
     let there = map_scene(&base, |p| p + Vec3::splat(d), 1.0);
