@@ -101,13 +101,16 @@ fn far(lab: &Lab, d: f32, size: f32) -> Result<Verdict, CheckError> {
     let mut worst_block = 0.0f64;
     for by in (0..b.height).step_by(8) {
         for bx in (0..b.width).step_by(8) {
-            let pixels =
-                || (by..(by + 8).min(b.height)).flat_map(move |y| (bx..(bx + 8).min(b.width)).map(move |x| (x, y)));
-            let n = pixels().count() as f64;
-            let level = (pixels().map(|(x, y)| grey(b.get(x, y))).sum::<f64>() / n).max(0.1 * image_mean);
+            // (test, reference) grey values of the block's pixels.
+            let (a, b) = (&a, &b);
+            let block: Vec<(f64, f64)> = (by..(by + 8).min(b.height))
+                .flat_map(|y| (bx..(bx + 8).min(b.width)).map(move |x| (grey(a.get(x, y)), grey(b.get(x, y)))))
+                .collect();
+            let n = block.len() as f64;
+            let level = (block.iter().map(|&(_, r)| r).sum::<f64>() / n).max(0.1 * image_mean);
             let cap = PIXEL_CLAMP * level;
             // `max`/`min`, not `clamp`, which panics on a NaN bound; a NaN difference stays NaN.
-            let diff: f64 = pixels().map(|(x, y)| (grey(a.get(x, y)) - grey(b.get(x, y))).max(-cap).min(cap)).sum();
+            let diff: f64 = block.iter().map(|&(t, r)| (t - r).max(-cap).min(cap)).sum();
             let e = diff.abs() / n / level;
             worst_block = worst_block.max(if e.is_nan() || !level.is_finite() { f64::INFINITY } else { e });
         }
