@@ -121,10 +121,11 @@ fn environment_image_background_lights_the_scene() {
 
 #[test]
 fn check_runs_cases_and_prints_a_table() {
-    let o = ember(&["check", "--quick", "grazing-plane", "inside-sphere"]);
+    let o = ember(&["check", "--quick", "--seed", "8", "grazing-plane", "inside-sphere"]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert_eq!(o.status.code(), Some(0), "{out}{}", stderr(&o));
     let lines: Vec<&str> = out.lines().collect();
+    assert!(lines[0].contains("quick run, seed 8,"), "{out}");
     assert!(lines[1].starts_with("case") && lines[1].contains("result") && lines[1].contains("non-finite"), "{out}");
     for name in ["grazing-plane", "inside-sphere"] {
         let row = lines.iter().find(|l| l.starts_with(name)).unwrap_or_else(|| panic!("no row for {name}: {out}"));

@@ -14,12 +14,15 @@ use std::cell::Cell;
 pub struct Lab {
     pub device: Device,
     pub quality: Quality,
+    /// The seed of the case's renders ([`Lab::settings`]; [`Lab::render_seeds`] derives its own
+    /// from it).
+    pub seed: u64,
     nonfinite: Cell<u64>,
 }
 
 impl Lab {
-    pub fn new(quality: Quality) -> Result<Lab, CheckError> {
-        Ok(Lab { device: Device::new()?, quality, nonfinite: Cell::new(0) })
+    pub fn new(quality: Quality, seed: u64) -> Result<Lab, CheckError> {
+        Ok(Lab { device: Device::new()?, quality, seed, nonfinite: Cell::new(0) })
     }
 
     /// `quick` for `--quick`, else `full`.
@@ -40,10 +43,10 @@ impl Lab {
         self.nonfinite.set(self.nonfinite.get() + n);
     }
 
-    /// Settings for a `w` × `h` image at `spp`; seed 7, all threads, no progress bar, the
-    /// default Russian roulette (chosen from the scene).
+    /// Settings for a `w` × `h` image at `spp`; the lab's seed, all threads, no progress bar,
+    /// the default Russian roulette (chosen from the scene).
     pub fn settings(&self, w: u32, h: u32, spp: u32) -> RenderSettings {
-        RenderSettings { width: w, height: h, spp, seed: 7, progress: false, ..RenderSettings::default() }
+        RenderSettings { width: w, height: h, spp, seed: self.seed, progress: false, ..RenderSettings::default() }
     }
 
     /// One-bounce furnace settings: BSDF sampling only, one bounce, no Russian roulette.
@@ -79,11 +82,13 @@ impl Lab {
     }
 
     /// Renders with `k` seeds; returns the per-pixel mean and the standard error of that mean
-    /// (grey values), for statistical tolerances.
+    /// (grey values), for statistical tolerances. The seeds are the lab's + 993 + 0 … k − 1:
+    /// 1000 … at the default seed [`super::DEFAULT_SEED`], none of them the lab's own.
     pub fn render_seeds(&self, scene: &Scene, s: &RenderSettings, k: u64) -> Result<(Film, Vec<f64>), CheckError> {
         let accel = self.embree(scene)?;
+        let first = self.seed.wrapping_add(1000 - super::DEFAULT_SEED);
         let films: Vec<Film> = (0..k)
-            .map(|seed| self.render_with(scene, &accel, &RenderSettings { seed: 1000 + seed, ..s.clone() }))
+            .map(|i| self.render_with(scene, &accel, &RenderSettings { seed: first.wrapping_add(i), ..s.clone() }))
             .collect::<Result<_, _>>()?;
         let mut mean = Film::new(s.width, s.height);
         let mut se = vec![0.0; mean.pixels.len()];

@@ -1,6 +1,6 @@
 //! `ember check`: runs the hard-case suite and prints one table row per case.
 
-use crate::check::{CaseResult, Quality, catalog};
+use crate::check::{CaseResult, DEFAULT_SEED, Quality, catalog};
 use crate::embree::Device;
 use clap::Args;
 use std::io::Write;
@@ -12,6 +12,10 @@ pub struct CheckArgs {
     /// Smaller images and fewer samples: seconds instead of a minute or two.
     #[arg(long)]
     pub quick: bool,
+    /// Seed of the cases' renders: another seed draws other samples, against the same
+    /// tolerances (a sweep over seeds shows whether a check passes only by luck).
+    #[arg(long, default_value_t = DEFAULT_SEED)]
+    pub seed: u64,
     /// List the cases and their promises instead of running them.
     #[arg(long)]
     pub list: bool,
@@ -37,9 +41,10 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         all.into_iter().filter(|c| args.cases.is_empty() || args.cases.iter().any(|n| n == c.name)).collect();
     let device = Device::new()?;
     println!(
-        "ember {} hard cases ({} run, {} on {} threads)",
+        "ember {} hard cases ({} run, seed {}, {} on {} threads)",
         env!("CARGO_PKG_VERSION"),
         if args.quick { "quick" } else { "full" },
+        args.seed,
         device.version(),
         rayon::current_num_threads()
     );
@@ -51,7 +56,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     let mut failed = Vec::new();
     for case in &cases {
-        let r = case.run(quality);
+        let r = case.run_seeded(quality, args.seed);
         println!("{}", row(&r));
         let _ = std::io::stdout().flush();
         if !r.pass {

@@ -2,14 +2,22 @@
 //! a sphere alone under a uniform sky of 1, rendered with the default estimator (NEE + MIS).
 //!
 //! - Metal at roughness 0 is a perfect mirror reflecting everything: every pixel exactly 1.
-//! - The others may lose energy but never gain it: over 8 seeds, every pixel's mean must be
-//!   at most 1 + 4 standard errors + 1%.
+//! - The others may lose energy but never gain it: over 8 seeds (4 quick), the mean of every
+//!   5 × 5 block of pixels must be at most 1 + 4 standard errors + 1%. A block's standard
+//!   error pools its 25 pixels' (each from the spread of its 8 seeds), which is steady; one
+//!   pixel's, from 8 or 4 values, is not: checked pixel by pixel, correct renders failed on 4
+//!   of 80 seeds (40 × both sizes), at edge pixels where the sky (exactly 1) meets plastic at
+//!   grazing angles (Fresnel → 1, so nearly 1 too). A plastic without the coating's Fresnel
+//!   loss on its diffuse part (which gains up to 100% at grazing angles) fails by a wide
+//!   margin.
 //! - Metal at roughness 1, seen head-on, reflects 1 − ln 2 ≈ 0.3069 (the single-scattering
 //!   albedo of GGX with α = 1 at normal incidence, see `src/material/conductor.rs`): the
 //!   centre pixel must hold that within 4 standard errors + 1%.
 
+use super::super::pixel::grey;
 use super::super::stage::Stage;
 use super::{CheckError, Lab, Verdict, worst_abs};
+use crate::film::Film;
 use crate::integrator::RenderSettings;
 use crate::light::Background;
 use crate::scene::{MaterialKind, Scene};
@@ -39,21 +47,12 @@ pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
     ];
     for (i, (name, kind)) in bounded.into_iter().enumerate() {
         let (mean, se) = lab.render_seeds(&sphere(kind), &s, seeds)?;
-        let (mut worst, mut at) = (f64::NEG_INFINITY, 0);
-        for (k, p) in mean.pixels.iter().enumerate() {
-            let excess = (super::super::pixel::grey(*p) - 1.0) / (4.0 * se[k] + 0.01);
-            if excess > worst {
-                (worst, at) = (excess, k);
-            }
-        }
-        v.detail.push_str(&format!("; {name}: max (px − 1)/(4SE + 1%) = {worst:.2}"));
-        v = v.require(
-            worst <= 1.0,
-            format!("{name} gains energy: pixel {at} = {:.4}", super::super::pixel::grey(mean.pixels[at])),
-        );
+        let (worst, (x, y), block_mean) = worst_block_excess(&mean, &se);
+        v.detail.push_str(&format!("; {name}: max (block − 1)/(4SE + 1%) = {worst:.2}"));
+        v = v.require(worst <= 1.0, format!("{name} gains energy: the 5 × 5 block at ({x}, {y}) = {block_mean:.4}"));
         if i == 0 {
             let c = (h / 2 * w + w / 2) as usize;
-            let (got, want) = (super::super::pixel::grey(mean.pixels[c]), 1.0 - std::f64::consts::LN_2);
+            let (got, want) = (grey(mean.pixels[c]), 1.0 - std::f64::consts::LN_2);
             v.detail.push_str(&format!(", centre {got:.4} (1 − ln 2 = {want:.4})"));
             v = v.require(
                 (got - want).abs() <= 4.0 * se[c] + 0.01 * want,
@@ -62,4 +61,62 @@ pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
         }
     }
     Ok(v)
+}
+
+/// Side of the pixel blocks whose mean must not exceed 1 (the images are 25 and 45 wide).
+const BLOCK: u32 = 5;
+
+/// Over `BLOCK` × `BLOCK` blocks of `mean` (per-pixel standard errors `se`) other than those
+/// exactly 1 without noise: the largest (block mean − 1) / (4 SE + 1%), the block's top-left
+/// pixel, and its mean.
+fn worst_block_excess(mean: &Film, se: &[f64]) -> (f64, (u32, u32), f64) {
+    let mut worst = (f64::NEG_INFINITY, (0, 0), 0.0);
+    for by in (0..mean.height).step_by(BLOCK as usize) {
+        for bx in (0..mean.width).step_by(BLOCK as usize) {
+            let (mut sum, mut var, mut n) = (0.0, 0.0, 0.0);
+            for y in by..(by + BLOCK).min(mean.height) {
+                for x in bx..(bx + BLOCK).min(mean.width) {
+                    let i = (y * mean.width + x) as usize;
+                    sum += grey(mean.pixels[i]);
+                    var += se[i] * se[i];
+                    n += 1.0;
+                }
+            }
+            let (m, block_se) = (sum / n, var.sqrt() / n);
+            let excess = (m - 1.0) / (4.0 * block_se + 0.01);
+            // Blocks of sky alone (exactly 1, no noise) are left out, so the figure reported
+            // is the sphere's margin.
+            if (m != 1.0 || block_se != 0.0) && excess > worst.0 {
+                worst = (excess, (bx, by), m);
+            }
+        }
+    }
+    worst
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_block_over_1_by_more_than_its_noise_is_found() {
+        let mut film = Film::new(10, 5);
+        film.pixels.iter_mut().for_each(|p| *p = Vec3::splat(0.9));
+        // One pixel far above 1 in the right-hand block: its mean is 0.9 + 0.5/25 = 0.92.
+        film.pixels[7] = Vec3::splat(1.4);
+        let se = vec![0.0; 50];
+        let (worst, at, m) = worst_block_excess(&film, &se);
+        assert_eq!(at, (5, 0));
+        assert!((m - 0.92).abs() < 1e-6 && worst < 0.0, "{worst} {m}");
+        // The whole right-hand block at 1.03, with standard errors of 0.02 per pixel
+        // (0.004 for the block): (1.03 − 1) / (4 · 0.004 + 0.01) = 1.15.
+        for y in 0..5 {
+            for x in 5..10 {
+                film.pixels[y * 10 + x] = Vec3::splat(1.03);
+            }
+        }
+        let (worst, at, _) = worst_block_excess(&film, &vec![0.02; 50]);
+        assert_eq!(at, (5, 0));
+        assert!((worst - 0.03 / 0.026).abs() < 1e-3, "{worst}");
+    }
 }
