@@ -120,7 +120,8 @@ pub fn dynamic_range(lab: &Lab) -> Result<Verdict, CheckError> {
 /// brings most of the irradiance, two units away the sky does, so next-event estimation's
 /// light choice changes across the view: the plane must match π·1 + the light's form-factor
 /// irradiance at radiance 20 − 1 (the light hides that much sky), with the same statistics
-/// as `emitters-1e6-1e-6`. A choice whose density disagreed with the one MIS weighs against
+/// as `emitters-1e6-1e-6`, and its mean relative error over the view within 1% + 4 standard
+/// errors of that mean. A choice whose density disagreed with the one MIS weighs against
 /// would show here as a bias.
 pub fn sky_and_area(lab: &Lab) -> Result<Verdict, CheckError> {
     let (sky, light) = (1.0f32, 20.0f32);
@@ -148,7 +149,7 @@ pub fn sky_and_area(lab: &Lab) -> Result<Verdict, CheckError> {
     // A bias shows as a mean offset over the whole view, which averages out the pixels' noise:
     // it may be 1% plus 4 standard errors of that mean (pixels are independent, and their
     // variances pooled over the view are a steady estimate). At the full size those are
-    // ~0.4%; at the quick size ~2%, where a bare 1% failed a correct render on 1 of 40 seeds.
+    // ~0.5%; at the quick size ~2%, where a bare 1% failed a correct render on 1 of 40 seeds.
     let n = errors.len() as f64;
     let bias = errors.iter().sum::<f64>() / n;
     let bias_se = se.iter().zip(&lit.pixels).map(|(s, e)| (s / e.mean).powi(2)).sum::<f64>().sqrt() / n;
