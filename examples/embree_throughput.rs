@@ -10,7 +10,7 @@
 use ember::accel::{Accel, EmbreeAccel};
 use ember::camera::Camera;
 use ember::embree::{BuildOptions, Device};
-use ember::geometry::{Aabb, Geometry, Ray};
+use ember::geometry::{Aabb, Geometry, Ray, bounds_of};
 use ember::sampler::Rng;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -81,7 +81,7 @@ fn main() {
     println!("|---|---|---:|---:|---:|");
     for name in ["teapot.obj", "bunny.obj"] {
         let geometry = mesh(name);
-        let b = geometry.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()));
+        let b = bounds_of(&geometry);
         let accel = EmbreeAccel::new(&device, &geometry, BuildOptions::default()).unwrap();
         for (kind, rays) in [("camera", camera_rays(&b, side)), ("random", random_rays(&b, side * side))] {
             let (one, hits) = measure(&accel, &rays, repeats, false);

@@ -16,7 +16,7 @@ use ember::accel::{Accel, EmbreeAccel};
 use ember::bench::rays::{self, Query};
 use ember::bench::scenes::BenchScene;
 use ember::embree::{BuildOptions, BuildQuality, Device};
-use ember::geometry::Aabb;
+use ember::geometry::bounds_of;
 use std::time::Instant;
 
 /// Traces every query; returns how many hit (so the work cannot be optimised away).
@@ -59,7 +59,7 @@ fn main() {
     let device = Device::new().expect("Embree device");
     let options = BuildOptions { quality: BuildQuality::Medium, robust: false, compact: false };
     let accel = EmbreeAccel::new(&device, &scene.geometry, options).expect("BVH build");
-    let bounds = scene.geometry.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()));
+    let bounds = bounds_of(&scene.geometry);
     let camera = rays::coherent(&bounds, 512);
     let (queries, closest) = match kind.as_str() {
         "coherent" => (camera, true),

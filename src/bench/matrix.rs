@@ -10,7 +10,7 @@ use super::scenes::{BenchScene, Family};
 use super::strategy::Strategy;
 use crate::accel::{Accel, EmbreeAccel, NaiveAccel};
 use crate::embree::{BuildOptions, Device};
-use crate::geometry::{Aabb, Geometry};
+use crate::geometry::{Geometry, bounds_of};
 use crate::report::{Series, Table, log_log_plot};
 use std::collections::HashMap;
 use std::path::Path;
@@ -120,10 +120,6 @@ impl Measurement {
     }
 }
 
-fn bounds(geometry: &[Geometry]) -> Aabb {
-    geometry.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()))
-}
-
 /// Builds with `strategy`; Embree builds shorter than 70 ms are repeated (three in all) and
 /// the fastest is reported, small builds being noisy.
 fn build(
@@ -152,7 +148,7 @@ struct Workloads {
 
 impl Workloads {
     fn new(device: &Device, geometry: &[Geometry], cfg: &MatrixConfig) -> Result<Workloads, BenchError> {
-        let b = bounds(geometry);
+        let b = bounds_of(geometry);
         let camera = rays::coherent(&b, cfg.image_side);
         let incoherent = rays::incoherent(&b, cfg.incoherent, cfg.seed);
         // Shadow rays start where the camera rays hit, found with a medium-quality build.

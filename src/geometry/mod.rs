@@ -42,6 +42,11 @@ pub trait Shape: Send + Sync + 'static {
     }
 }
 
+/// Bounding box of every (valid) primitive of a geometry list.
+pub fn bounds_of(geometry: &[Geometry]) -> Aabb {
+    geometry.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()))
+}
+
 /// One entry of the scene's geometry list. Its index in the list is its geometry id, the same
 /// in every acceleration structure.
 #[derive(Clone, Debug)]

@@ -10,7 +10,7 @@ mod choice;
 pub use background::Background;
 use choice::{LOCAL_CHOICE_MAX, LocalChoice, Reach};
 
-use crate::geometry::{Aabb, Frame, Geometry, Sphere};
+use crate::geometry::{Aabb, Frame, Geometry, Sphere, bounds_of};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -180,7 +180,7 @@ impl LightSet {
         }
         let mut background_index = None;
         if !background.is_black() {
-            let bounds = geometry.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()));
+            let bounds = bounds_of(geometry);
             let r = 0.5 * bounds.diagonal().length();
             let r = if r.is_finite() && r > 0.0 { r } else { 1.0 };
             background_index = Some(lights.len());

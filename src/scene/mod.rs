@@ -17,7 +17,7 @@ pub use obj::{ObjFile, ObjMesh, load_obj, parse_obj};
 pub use roulette::{RR_THROUGHPUT, RrDepth, throughput_depth};
 
 use crate::camera::Camera;
-use crate::geometry::{Aabb, Geometry, Shape};
+use crate::geometry::{Aabb, Geometry, Shape, bounds_of};
 use crate::light::{Background, LightSet, PointLight};
 use crate::texture::{Image, Texture};
 use glam::Vec3;
@@ -121,7 +121,7 @@ impl Scene {
     }
 
     pub fn bounds(&self) -> Aabb {
-        self.geometry.iter().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()))
+        bounds_of(&self.geometry)
     }
 
     /// Points whose convex hull holds every surface: mesh vertices, and the corners of each
