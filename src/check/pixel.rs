@@ -132,6 +132,21 @@ pub fn compare(film: &Film, r: &Reference, spp: u32, rel: f64, delta: f64) -> Co
     Comparison { off, total: film.pixels.len(), worst_flat, worst_ratio }
 }
 
+/// The `side` × `side` pixel blocks of a `width` × `height` image (narrower at the right and
+/// lower edges), row by row from the top left: each block's top-left pixel and the indices of
+/// its pixels, row by row.
+pub fn blocks(width: u32, height: u32, side: u32) -> impl Iterator<Item = ((u32, u32), Vec<usize>)> {
+    let step = side.max(1) as usize;
+    (0..height).step_by(step).flat_map(move |by| {
+        (0..width).step_by(step).map(move |bx| {
+            let pixels = (by..(by + side).min(height))
+                .flat_map(|y| (bx..(bx + side).min(width)).map(move |x| (y * width + x) as usize))
+                .collect();
+            ((bx, by), pixels)
+        })
+    })
+}
+
 /// Grey value of a pixel.
 pub fn grey(p: glam::Vec3) -> f64 {
     (p.x as f64 + p.y as f64 + p.z as f64) / 3.0
@@ -141,6 +156,22 @@ pub fn grey(p: glam::Vec3) -> f64 {
 mod tests {
     use super::*;
     use glam::Vec3;
+
+    #[test]
+    fn blocks_cover_the_image_once_narrower_at_the_edges() {
+        let b: Vec<_> = blocks(5, 3, 2).collect();
+        assert_eq!(
+            b,
+            vec![
+                ((0, 0), vec![0, 1, 5, 6]),
+                ((2, 0), vec![2, 3, 7, 8]),
+                ((4, 0), vec![4, 9]),
+                ((0, 2), vec![10, 11]),
+                ((2, 2), vec![12, 13]),
+                ((4, 2), vec![14]),
+            ]
+        );
+    }
 
     fn film(w: u32, h: u32, f: impl Fn(u32, u32) -> f32) -> Film {
         let mut film = Film::new(w, h);

@@ -6,7 +6,7 @@
 //! paths, and any difference comes from the arithmetic done far from the origin. Scaled
 //! scenes are compared with the scene at scale 1 in the same way.
 
-use super::super::pixel::grey;
+use super::super::pixel::{blocks, grey};
 use super::super::stage::{Stage, map_scene, teapot};
 use super::{CheckError, Lab, Verdict, same_image};
 use crate::film::Film;
@@ -99,21 +99,16 @@ fn far(lab: &Lab, d: f32, size: f32) -> Result<Verdict, CheckError> {
     let (ok, mean, se) = means_agree(&a, &b);
     let image_mean = b.mean().element_sum() as f64 / 3.0;
     let mut worst_block = 0.0f64;
-    for by in (0..b.height).step_by(8) {
-        for bx in (0..b.width).step_by(8) {
-            // (test, reference) grey values of the block's pixels.
-            let (a, b) = (&a, &b);
-            let block: Vec<(f64, f64)> = (by..(by + 8).min(b.height))
-                .flat_map(|y| (bx..(bx + 8).min(b.width)).map(move |x| (grey(a.get(x, y)), grey(b.get(x, y)))))
-                .collect();
-            let n = block.len() as f64;
-            let level = (block.iter().map(|&(_, r)| r).sum::<f64>() / n).max(0.1 * image_mean);
-            let cap = PIXEL_CLAMP * level;
-            // `max`/`min`, not `clamp`, which panics on a NaN bound; a NaN difference stays NaN.
-            let diff: f64 = block.iter().map(|&(t, r)| (t - r).max(-cap).min(cap)).sum();
-            let e = diff.abs() / n / level;
-            worst_block = worst_block.max(if e.is_nan() || !level.is_finite() { f64::INFINITY } else { e });
-        }
+    for (_, pixels) in blocks(b.width, b.height, 8) {
+        // (test, reference) grey values of the block's pixels.
+        let block: Vec<(f64, f64)> = pixels.iter().map(|&i| (grey(a.pixels[i]), grey(b.pixels[i]))).collect();
+        let n = block.len() as f64;
+        let level = (block.iter().map(|&(_, r)| r).sum::<f64>() / n).max(0.1 * image_mean);
+        let cap = PIXEL_CLAMP * level;
+        // `max`/`min`, not `clamp`, which panics on a NaN bound; a NaN difference stays NaN.
+        let diff: f64 = block.iter().map(|&(t, r)| (t - r).max(-cap).min(cap)).sum();
+        let e = diff.abs() / n / level;
+        worst_block = worst_block.max(if e.is_nan() || !level.is_finite() { f64::INFINITY } else { e });
     }
     Ok(Verdict::new(
         100.0 * worst_block,

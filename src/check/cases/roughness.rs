@@ -14,7 +14,7 @@
 //!   albedo of GGX with α = 1 at normal incidence, see `src/material/conductor.rs`): the
 //!   centre pixel must hold that within 4 standard errors + 1%.
 
-use super::super::pixel::grey;
+use super::super::pixel::{blocks, grey};
 use super::super::stage::Stage;
 use super::{CheckError, Lab, Verdict, worst_abs};
 use crate::film::Film;
@@ -71,24 +71,15 @@ const BLOCK: u32 = 5;
 /// pixel, and its mean.
 fn worst_block_excess(mean: &Film, se: &[f64]) -> (f64, (u32, u32), f64) {
     let mut worst = (f64::NEG_INFINITY, (0, 0), 0.0);
-    for by in (0..mean.height).step_by(BLOCK as usize) {
-        for bx in (0..mean.width).step_by(BLOCK as usize) {
-            let (mut sum, mut var, mut n) = (0.0, 0.0, 0.0);
-            for y in by..(by + BLOCK).min(mean.height) {
-                for x in bx..(bx + BLOCK).min(mean.width) {
-                    let i = (y * mean.width + x) as usize;
-                    sum += grey(mean.pixels[i]);
-                    var += se[i] * se[i];
-                    n += 1.0;
-                }
-            }
-            let (m, block_se) = (sum / n, var.sqrt() / n);
-            let excess = (m - 1.0) / (4.0 * block_se + 0.01);
-            // Blocks of sky alone (exactly 1, no noise) are left out, so the figure reported
-            // is the sphere's margin.
-            if (m != 1.0 || block_se != 0.0) && excess > worst.0 {
-                worst = (excess, (bx, by), m);
-            }
+    for (corner, pixels) in blocks(mean.width, mean.height, BLOCK) {
+        let n = pixels.len() as f64;
+        let m = pixels.iter().map(|&i| grey(mean.pixels[i])).sum::<f64>() / n;
+        let block_se = pixels.iter().map(|&i| se[i] * se[i]).sum::<f64>().sqrt() / n;
+        let excess = (m - 1.0) / (4.0 * block_se + 0.01);
+        // Blocks of sky alone (exactly 1, no noise) are left out, so the figure reported is
+        // the sphere's margin.
+        if (m != 1.0 || block_se != 0.0) && excess > worst.0 {
+            worst = (excess, corner, m);
         }
     }
     worst
