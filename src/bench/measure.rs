@@ -16,6 +16,13 @@ pub struct Timing {
     pub min_total: Duration,
 }
 
+impl Timing {
+    /// Whether to measure again after `passes` passes (at least one) taking `total` in all.
+    pub fn wants_more(&self, passes: usize, total: Duration) -> bool {
+        passes < self.min_passes.max(1) as usize || total < self.min_total
+    }
+}
+
 /// The median of the finite values of `xs` (NaN if there are none).
 pub fn median(xs: &[f64]) -> f64 {
     let mut v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
@@ -117,11 +124,11 @@ pub fn time_queries(
     timing: Timing,
 ) -> Result<(Times, usize), AccelError> {
     let (mut best, mut total, mut passes, mut hits) =
-        (Times { wall: Duration::MAX, cpu: None }, Duration::ZERO, 0u32, 0usize);
+        (Times { wall: Duration::MAX, cpu: None }, Duration::ZERO, 0usize, 0usize);
     if queries.is_empty() {
         return Ok((Times::default(), 0));
     }
-    while passes < timing.min_passes || total < timing.min_total {
+    while timing.wants_more(passes, total) {
         let ((h, t), cpu) = cpu_of(|| {
             let start = Instant::now();
             (pass(accel, queries, closest, packets), start.elapsed())

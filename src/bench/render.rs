@@ -176,7 +176,7 @@ pub fn measure_scene(
 
     let mut rounds = Vec::new();
     let mut total = Duration::ZERO;
-    while (rounds.len() as u32) < cfg.timing.min_passes.max(1) || total < cfg.timing.min_total {
+    while cfg.timing.wants_more(rounds.len(), total) {
         // Only the 2-thread render's CPU time is used: the 1-thread one is timed by its wall clock.
         let (_, stats1) = one.install(|| render(&scene, &accel, &settings))?;
         let (stats2, two_cpu) = two.install(|| cpu_of(|| render(&scene, &accel, &settings)));

@@ -90,7 +90,7 @@ pub fn measure_scene(path: &Path, device: &Device, cfg: &RenderConfig) -> Result
     let mut films: [Option<Film>; 2] = [None, None];
     let mut ratios = Vec::new();
     let mut samples = 0;
-    while (ratios.len() as u32) < cfg.timing.min_passes.max(1) || total < cfg.timing.min_total {
+    while cfg.timing.wants_more(ratios.len(), total) {
         let mut time = [Duration::ZERO; 2];
         // Pairs alternate which kernel goes first.
         let order = if ratios.len() % 2 == 0 { [0, 1] } else { [1, 0] };
