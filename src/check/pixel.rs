@@ -112,7 +112,7 @@ pub fn compare(film: &Film, r: &Reference, spp: u32, rel: f64, delta: f64) -> Co
     let l = (2.0 / delta).ln();
     let n = spp as f64;
     for (i, (p, e)) in film.pixels.iter().zip(&r.pixels).enumerate() {
-        let got = (p.x as f64 + p.y as f64 + p.z as f64) / 3.0;
+        let got = grey(*p);
         let err = (got - e.mean).abs();
         // An edge can hide between grid points in up to about 1/grid of the pixel: the jitter
         // spread is at least that of a pixel split 1/grid : (grid − 1)/grid.
