@@ -1,15 +1,15 @@
 //! The core measurements of `ember bench`, small and quick, under criterion: the three ray
 //! workloads through Embree (medium) on the teapot and a 100k-triangle blob, BVH builds at
 //! each quality, the robust flag, and spheres/cylinders as user geometry vs tessellated.
-//! Rays and scenes come from `ember::bench`, so they are the ones the table measures (fewer).
+//! Rays and scenes come from `ember::tools::bench`, so they are the ones the table measures (fewer).
 //! Ray passes run on rayon's global pool, as in `ember bench`.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use ember::accel::Accel;
-use ember::bench::measure::pass;
-use ember::bench::rays::{self, Query, RayKind};
-use ember::bench::scenes::{BenchScene, default_scenes_dir};
-use ember::bench::strategy::Strategy;
+use ember::tools::bench::measure::pass;
+use ember::tools::bench::rays::{self, Query, RayKind};
+use ember::tools::bench::scenes::{BenchScene, default_scenes_dir};
+use ember::tools::bench::strategy::Strategy;
 use ember::embree::{BuildQuality, Device};
 use ember::geometry::{Aabb, Geometry};
 use std::hint::black_box;

@@ -7,14 +7,14 @@
 //!         --toggle-collect='scaling_counts::measured' target/release/examples/scaling_counts SCENE KIND 1
 //!
 //! SCENE is a bench scene (blob-1k … blob-1m), KIND coherent, incoherent or occlusion; the rays
-//! are the bench's own (`ember::bench::rays`, full-size set: 512² camera rays, 262,144 random
+//! are the bench's own (`ember::tools::bench::rays`, full-size set: 512² camera rays, 262,144 random
 //! rays, shadow rays from the camera rays' hits), the BVH the bench's "embree-medium" row
 //! (medium quality, not robust). After one warm-up pass it prints the best wall time per ray of
 //! REPEATS passes (default 5). `scripts/scaling-counts.sh` runs both for 1k and 1M triangles.
 
 use ember::accel::{Accel, EmbreeAccel};
-use ember::bench::rays::{self, Query};
-use ember::bench::scenes::BenchScene;
+use ember::tools::bench::rays::{self, Query};
+use ember::tools::bench::scenes::BenchScene;
 use ember::embree::{BuildOptions, BuildQuality, Device};
 use ember::geometry::bounds_of;
 use std::time::Instant;

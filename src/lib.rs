@@ -9,10 +9,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
-pub mod bench;
 pub mod camera;
-pub mod check;
-pub mod cli;
 pub mod embree;
 pub mod fastmath;
 pub mod film;
@@ -23,7 +20,7 @@ pub mod light;
 pub mod limits;
 pub mod material;
 pub mod output;
-pub mod report;
 pub mod sampler;
 pub mod scene;
 pub mod texture;
+pub mod tools;

@@ -1,3 +1,3 @@
 fn main() -> std::process::ExitCode {
-    ember::cli::main()
+    ember::tools::cli::main()
 }

@@ -141,7 +141,7 @@ fn the_quick_check_suite_passes() {
     let o = ember(&["check", "--quick"]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert_eq!(o.status.code(), Some(0), "{out}{}", stderr(&o));
-    let n = ember::check::catalog().len();
+    let n = ember::tools::check::catalog().len();
     assert!(out.lines().last().unwrap().starts_with(&format!("{n} cases, {n} passed, 0 failed")), "{out}");
 }
 
@@ -150,7 +150,7 @@ fn check_lists_cases_and_refuses_unknown_ones() {
     let o = ember(&["check", "--list"]);
     assert!(o.status.success());
     let out = String::from_utf8_lossy(&o.stdout);
-    assert_eq!(out.lines().count(), ember::check::catalog().len(), "{out}");
+    assert_eq!(out.lines().count(), ember::tools::check::catalog().len(), "{out}");
     assert!(out.contains("self-intersection"), "{out}");
     let o = ember(&["check", "no-such-case"]);
     assert_eq!(o.status.code(), Some(2));

@@ -3,7 +3,7 @@
 //! values plus the case's own check (analytic value, energy bound, or agreement with a
 //! reference render or double precision). `ember check` runs the same cases.
 
-use ember::check::{CaseResult, Quality, catalog, find};
+use ember::tools::check::{CaseResult, Quality, catalog, find};
 
 fn check(name: &str) {
     let case = find(name).unwrap_or_else(|| panic!("no hard case named {name:?}"));
@@ -157,8 +157,8 @@ fn up_vector_parallel_to_view() {
 fn another_seed_draws_other_samples_and_passes() {
     for name in ["far-1e5", "sky-and-area-light"] {
         let case = find(name).unwrap();
-        let a = case.run_seeded(Quality::Quick, ember::check::DEFAULT_SEED);
-        let b = case.run_seeded(Quality::Quick, ember::check::DEFAULT_SEED + 1);
+        let a = case.run_seeded(Quality::Quick, ember::tools::check::DEFAULT_SEED);
+        let b = case.run_seeded(Quality::Quick, ember::tools::check::DEFAULT_SEED + 1);
         assert_eq!(a, CaseResult { elapsed: a.elapsed, ..case.run(Quality::Quick) }, "{name}: run is run_seeded(7)");
         assert!(a.pass && b.pass, "{name}: {} / {}", a.detail, b.detail);
         assert_ne!(a.worst_error, b.worst_error, "{name}: the seed changed nothing ({})", a.detail);

@@ -8,7 +8,6 @@ mod mesh;
 mod ray;
 mod spawn;
 mod sphere;
-mod tessellate;
 mod triangle;
 
 pub use bounds::Aabb;
@@ -20,9 +19,6 @@ pub use spawn::{
     POINT_ERROR_ULPS, offset_ray_origin, offset_ray_origin_bounded, offset_toward, offset_toward_bounded, point_error,
 };
 pub use sphere::Sphere;
-pub use tessellate::{
-    Tessellation, cylinder_triangle_count, sphere_triangle_count, tessellate_cylinders, tessellate_spheres,
-};
 pub use triangle::{TriangleTest, WatertightRay};
 
 use std::sync::Arc;

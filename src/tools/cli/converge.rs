@@ -1,7 +1,7 @@
 use crate::accel::AccelKind;
 use crate::film::Film;
 use crate::output::write_file;
-use crate::report::converge::{Measurement, Study, parse_variants, spp_ladder, time_to_reach, to_csv, write_plots};
+use crate::tools::report::converge::{Measurement, Study, parse_variants, spp_ladder, time_to_reach, to_csv, write_plots};
 use crate::scene::Scene;
 use crate::scene::format::MAX_IMAGE_SIDE;
 use anyhow::Context;

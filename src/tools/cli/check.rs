@@ -1,6 +1,6 @@
 //! `ember check`: runs the hard-case suite and prints one table row per case.
 
-use crate::check::{CaseResult, DEFAULT_SEED, Quality, catalog};
+use crate::tools::check::{CaseResult, DEFAULT_SEED, Quality, catalog};
 use crate::embree::Device;
 use clap::Args;
 use std::io::Write;

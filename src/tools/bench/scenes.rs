@@ -3,7 +3,8 @@
 
 use super::BenchError;
 use super::procedural::{blob, blob_resolution, shape_field};
-use crate::geometry::{Geometry, tessellate_cylinders, tessellate_spheres};
+use super::tessellate::{tessellate_cylinders, tessellate_spheres};
+use crate::geometry::Geometry;
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

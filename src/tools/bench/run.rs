@@ -9,7 +9,7 @@ use super::specialize;
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
 use crate::output::write_file;
-use crate::report::Table;
+use crate::tools::report::Table;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

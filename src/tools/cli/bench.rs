@@ -1,5 +1,5 @@
-use crate::bench::scenes::{BUILTIN, default_scenes_dir};
-use crate::bench::{Options, Section, run};
+use crate::tools::bench::scenes::{BUILTIN, default_scenes_dir};
+use crate::tools::bench::{Options, Section, run};
 use crate::embree::{BuildOptions, BuildQuality};
 use clap::Args;
 use std::path::PathBuf;

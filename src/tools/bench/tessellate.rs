@@ -9,7 +9,7 @@
 //! cylinder has its vertices twice (side and cap normals) at identical positions, so the
 //! surface is closed without cracks.
 
-use super::{Cylinder, Frame, Sphere, TriMesh};
+use crate::geometry::{Cylinder, Frame, Sphere, TriMesh};
 use glam::Vec3;
 use std::f32::consts::PI;
 

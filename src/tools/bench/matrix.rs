@@ -11,7 +11,7 @@ use super::strategy::Strategy;
 use crate::accel::{Accel, EmbreeAccel, NaiveAccel};
 use crate::embree::{BuildOptions, Device};
 use crate::geometry::{Geometry, bounds_of};
-use crate::report::{Series, Table, log_log_plot};
+use crate::tools::report::{Series, Table, log_log_plot};
 use std::collections::HashMap;
 use std::path::Path;
 use std::time::{Duration, Instant};

@@ -174,7 +174,7 @@ pub fn teapot() -> TriMesh {
     static TEAPOT: OnceLock<TriMesh> = OnceLock::new();
     TEAPOT
         .get_or_init(|| {
-            let text = include_str!("../../scenes/teapot.obj");
+            let text = include_str!("../../../scenes/teapot.obj");
             let obj = parse_obj(text.as_bytes(), Path::new("teapot.obj (built in)"), &|_| {
                 Err(std::io::Error::other("no MTL files here"))
             })

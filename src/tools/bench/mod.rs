@@ -16,6 +16,7 @@ mod run;
 pub mod scenes;
 pub mod specialize;
 pub mod strategy;
+pub mod tessellate;
 
 pub use run::{Options, Section, run};
 
@@ -23,7 +24,7 @@ use crate::accel::AccelError;
 use crate::embree::EmbreeError;
 use crate::integrator::RenderError;
 use crate::output::WriteError;
-use crate::report::PlotError;
+use crate::tools::report::PlotError;
 use crate::scene::SceneError;
 
 /// Why a benchmark could not run or report.

@@ -15,7 +15,7 @@ use super::record::{RecordedQuery, RecordingAccel, replay};
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
 use crate::integrator::{RenderSettings, render};
-use crate::report::Table;
+use crate::tools::report::Table;
 use crate::scene::Scene;
 use std::path::Path;
 use std::time::{Duration, Instant};

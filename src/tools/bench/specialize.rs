@@ -16,7 +16,7 @@ use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
 use crate::film::Film;
 use crate::integrator::{RenderSettings, render};
-use crate::report::Table;
+use crate::tools::report::Table;
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
