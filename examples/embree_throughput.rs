@@ -19,7 +19,7 @@ use std::time::Instant;
 
 fn mesh(name: &str) -> Vec<Geometry> {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
-    let obj = ember::scene::load_obj(&path).unwrap_or_else(|e| panic!("{e}"));
+    let obj = ember::scene::mesh_file::load(&path).unwrap_or_else(|e| panic!("{e}"));
     obj.meshes.into_iter().map(|m| Geometry::Mesh(Arc::new(m.mesh))).collect()
 }
 

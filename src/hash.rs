@@ -24,6 +24,41 @@ impl Fnv1a {
     }
 }
 
+/// A hash of values (fingerprints of scenes and their parts): [`Fnv1a`] fed with each value's
+/// little-endian bytes, slices prefixed by their length.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Fingerprint(Fnv1a);
+
+impl Fingerprint {
+    pub fn bytes(&mut self, b: &[u8]) {
+        self.0.write(b);
+    }
+    pub fn u32(&mut self, x: u32) {
+        self.bytes(&x.to_le_bytes());
+    }
+    pub fn f32s(&mut self, v: &[f32]) {
+        self.u32(v.len() as u32);
+        for x in v {
+            self.bytes(&x.to_bits().to_le_bytes());
+        }
+    }
+    pub fn v3(&mut self, v: &[glam::Vec3]) {
+        self.u32(v.len() as u32);
+        v.iter().for_each(|p| self.f32s(&p.to_array()));
+    }
+    pub fn v2(&mut self, v: &[glam::Vec2]) {
+        self.u32(v.len() as u32);
+        v.iter().for_each(|p| self.f32s(&p.to_array()));
+    }
+    pub fn str(&mut self, s: &str) {
+        self.u32(s.len() as u32);
+        self.bytes(s.as_bytes());
+    }
+    pub fn finish(self) -> u64 {
+        self.0.finish()
+    }
+}
+
 /// The FNV-1a hash of `bytes`.
 pub fn fnv1a(bytes: &[u8]) -> u64 {
     let mut h = Fnv1a::default();

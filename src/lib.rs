@@ -9,6 +9,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
+pub mod atomic_write;
 pub mod camera;
 pub mod embree;
 pub mod fastmath;
@@ -17,10 +18,10 @@ pub mod geometry;
 pub mod hash;
 pub mod integrator;
 pub mod light;
-pub mod limits;
 pub mod material;
-pub mod output;
+pub mod memory;
 pub mod sampler;
 pub mod scene;
+pub mod settings;
 pub mod texture;
 pub mod tools;

@@ -2,7 +2,8 @@
 //! and a procedural checker. Looked up by surface coordinates (u, v) in [0, 1]².
 
 use crate::film::srgb_to_linear;
-use crate::limits::{self, MemoryLimit};
+use crate::hash::Fingerprint;
+use crate::memory::{self, MemoryLimit};
 use glam::{Vec2, Vec3};
 use std::path::Path;
 use std::sync::Arc;
@@ -45,7 +46,7 @@ impl Image {
         // The header gives the size; refuse what would not fit before decoding.
         let (w, h) = open()?.into_dimensions().map_err(|e| ImageError(e.to_string()))?;
         limit
-            .check(format!("{w}x{h} image"), "to load", limits::texture_bytes(w, h))
+            .check(format!("{w}x{h} image"), "to load", memory::texture_bytes(w, h))
             .map_err(|e| ImageError(e.to_string()))?;
         let mut reader = open()?;
         // Our limit replaces the image crate's fixed 512 MiB decoding allowance.
@@ -86,6 +87,13 @@ impl Image {
         top.lerp(bottom, fy)
     }
 
+    /// Feeds the image's size and pixels to a fingerprint.
+    pub fn fingerprint(&self, h: &mut Fingerprint) {
+        h.u32(self.width);
+        h.u32(self.height);
+        h.v3(&self.pixels);
+    }
+
     /// Mean colour.
     pub fn mean(&self) -> Vec3 {
         self.pixels.iter().copied().sum::<Vec3>() / self.pixels.len().max(1) as f32
@@ -124,6 +132,13 @@ impl Texture {
         }
     }
 
+    /// The value at `uv` when `TEX`; otherwise (the caller knows no texture is in use) the
+    /// constant it is, without looking at `uv`.
+    #[inline(always)]
+    pub fn at<const TEX: bool>(&self, uv: Vec2) -> Vec3 {
+        if TEX { self.eval(uv) } else { self.average() }
+    }
+
     /// Whether the value is the same everywhere.
     pub fn is_constant(&self) -> bool {
         matches!(self, Texture::Constant(_))
@@ -135,6 +150,25 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Image(img) => img.max(),
             Texture::Checker { a, b, .. } => a.max(*b),
+        }
+    }
+
+    /// Feeds the texture (an image's every pixel) to a fingerprint.
+    pub fn fingerprint(&self, h: &mut Fingerprint) {
+        match self {
+            Texture::Constant(c) => {
+                h.u32(0);
+                h.v3(&[*c]);
+            }
+            Texture::Image(img) => {
+                h.u32(1);
+                img.fingerprint(h);
+            }
+            Texture::Checker { a, b, scale } => {
+                h.u32(2);
+                h.v3(&[*a, *b]);
+                h.f32s(&[*scale]);
+            }
         }
     }
 

@@ -73,7 +73,7 @@ fn the_report_line_names_what_is_on_and_off() {
     );
     assert_eq!(
         KernelChoice::for_effects(&e),
-        KernelChoice { lens: false, textures: false, glossy: false, glass: false, mis: false }
+        KernelChoice { lens: false, textures: false, glossy: false, glass: false, hit_lights: false }
     );
 }
 
@@ -101,11 +101,11 @@ fn one_convex_object_needs_direct_light_only() {
     assert!(!e.indirect);
     assert_eq!(e.depth_limit(), DepthLimit::DirectOnly);
     let (spec, stats) = common::render_embree(&scene, &small(8));
-    assert_eq!(stats.max_depth, 1);
+    assert_eq!(stats.plan.path_depth, 1);
     // The general kernel at depth 8 traces the same paths: a ray leaving a convex object never
     // meets it again, so depth 1 loses nothing.
     let (general, gstats) = common::render_embree(&scene, &RenderSettings { specialize: false, ..small(8) });
-    assert_eq!(gstats.max_depth, 8);
+    assert_eq!(gstats.plan.path_depth, 8);
     assert_eq!(spec, general);
     assert_eq!(stats.rays, gstats.rays);
     // And it is not trivially black: the sphere under a white sky is lit.
@@ -137,7 +137,7 @@ fn only_emitters_need_no_bounce_and_no_light_needs_no_ray() {
     let scene = scene_from("emitter.toml", &emitter);
     assert_eq!(scene.effects().depth_limit(), DepthLimit::EmittersOnly);
     let (film, stats) = common::render_embree(&scene, &small(4));
-    assert_eq!(stats.max_depth, 0);
+    assert_eq!(stats.plan.path_depth, 0);
     let centre = film.get(20, 15);
     assert_eq!(centre, glam::Vec3::splat(2.0), "an emitter seen directly has exactly its radiance");
 
@@ -178,13 +178,13 @@ fn specialised_and_general_kernels_give_bit_identical_images() {
     for (name, scene) in &scenes {
         let (a, sa) = common::render_embree(scene, &small(2));
         let (b, sb) = common::render_embree(scene, &RenderSettings { specialize: false, ..small(2) });
-        assert_eq!(sb.kernel, KernelChoice::GENERAL);
+        assert_eq!(sb.plan.kernel, KernelChoice::GENERAL);
         let same = a
             .pixels
             .iter()
             .zip(&b.pixels)
             .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits));
-        assert!(same, "{name}: kernel {} differs from the general kernel", sa.kernel);
+        assert!(same, "{name}: kernel {} differs from the general kernel", sa.plan.kernel);
         assert!(a.mean().max_element() > 0.005, "{name} is black");
     }
 }

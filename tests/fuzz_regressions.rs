@@ -1,13 +1,15 @@
 //! Inputs the fuzzers (`fuzz/`) found crashing the loaders, reduced by hand; each must now give
 //! an error or a warning that names the file and line, never a panic.
 
-use ember::scene::parse_obj;
+use ember::material::{DiffuseMaterial, MaterialKind};
+use ember::scene::mesh_file::obj::parse_obj;
+use ember::texture::Texture;
 use std::path::Path;
 
 const TRIANGLE: &str = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n";
 
 /// Parses `obj` with every MTL library reading as `mtl`.
-fn obj_with_mtl(obj: &str, mtl: &str) -> ember::scene::ObjFile {
+fn obj_with_mtl(obj: &str, mtl: &str) -> ember::scene::MeshFile {
     let mtl = mtl.as_bytes().to_vec();
     parse_obj(obj.as_bytes(), Path::new("dir/t.obj"), &|_| Ok(mtl.clone())).expect("the OBJ itself is valid")
 }
@@ -29,7 +31,10 @@ fn mtl_colour_with_two_numbers_is_a_located_warning() {
     // The well-formed library still loads.
     let obj = obj_with_mtl(TRIANGLE, "newmtl a\nKd 1 0 0\n");
     assert_eq!(obj.materials.len(), 1);
-    assert_eq!(obj.materials[0].diffuse, Some([1.0, 0.0, 0.0]));
+    assert_eq!(
+        obj.materials[0].kind,
+        MaterialKind::Diffuse(DiffuseMaterial { color: Texture::Constant(glam::Vec3::new(1.0, 0.0, 0.0)) })
+    );
     assert_eq!(obj.meshes[0].material, Some(0));
 }
 

@@ -7,7 +7,7 @@ mod common;
 use ember::accel::EmbreeAccel;
 use ember::embree::{BuildOptions, Device};
 use ember::film::{Checkpoint, CheckpointError, Film};
-use ember::integrator::{RenderControl, RenderError, RenderSettings, render, render_controlled};
+use ember::integrator::{RenderControl, RenderError, RenderPlan, RenderSettings, render, render_controlled};
 use ember::scene::Scene;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
@@ -109,15 +109,15 @@ fn resume_refuses_other_settings_and_other_scenes() {
     let ckpt = dir.join("x.exr.checkpoint");
     // Stopped before it starts: nothing rendered, checkpoint written.
     let stop = AtomicBool::new(true);
-    let control = RenderControl { stop: Some(&stop), checkpoint: Some((&ckpt, None)), resume: None };
-    let r = render_controlled(&scene, &accel, &settings, control).unwrap();
+    let control = RenderControl { stop: Some(&stop), checkpoint: Some((&ckpt, None)), ..Default::default() };
+    let r = render_controlled(&scene, &accel, &RenderPlan::new(&scene, &settings), control).unwrap();
     assert!(!r.complete);
     assert_eq!(r.accum.samples(), 0);
 
     let resume_with = |scene: &Scene, s: &RenderSettings| {
         let c = Checkpoint::load(&ckpt).unwrap();
         let control = RenderControl { resume: Some((&ckpt, c)), ..Default::default() };
-        render_controlled(scene, &accel, s, control)
+        render_controlled(scene, &accel, &RenderPlan::new(scene, s), control)
     };
     match resume_with(&scene, &RenderSettings { spp: 16, ..settings.clone() }) {
         Err(RenderError::Checkpoint(e @ CheckpointError::OtherSettings(..))) => {

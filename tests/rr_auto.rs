@@ -6,7 +6,7 @@ mod common;
 
 use common::ember;
 use ember::film::Film;
-use ember::integrator::{KernelChoice, RenderSettings, RrDepth};
+use ember::integrator::{KernelChoice, RenderSettings, RrDepth, roulette};
 use ember::scene::Scene;
 
 /// Two diffuse spheres of albedo 0.7 on a floor of albedo 0.6 under a sky: light bounces
@@ -75,19 +75,19 @@ fn sample_scenes_start_roulette_where_their_albedo_says() {
         let e = scene.effects();
         assert!((e.albedo - albedo).abs() < 1e-6, "{name}: albedo {}", e.albedo);
         let max_depth = scene.render.max_depth.unwrap_or(RenderSettings::default().max_depth);
-        assert_eq!(e.rr_start(max_depth), start, "{name}");
+        assert_eq!(roulette::auto_start(&e, max_depth), start, "{name}");
     }
 }
 
 #[test]
 fn the_automatic_start_is_the_same_for_the_specialised_and_the_general_kernel() {
     let dim = scene("dim.toml", DIM);
-    assert_eq!(dim.effects().rr_start(8), Some(2));
+    assert_eq!(roulette::auto_start(&dim.effects(), 8), Some(2));
     let (spec, s) = common::render_embree(&dim, &small(RrDepth::Auto));
     let (general, g) = common::render_embree(&dim, &RenderSettings { specialize: false, ..small(RrDepth::Auto) });
-    assert_eq!(g.kernel, KernelChoice::GENERAL);
-    assert_ne!(s.kernel, KernelChoice::GENERAL);
-    assert_eq!((s.rr_start, g.rr_start), (Some(2), Some(2)));
+    assert_eq!(g.plan.kernel, KernelChoice::GENERAL);
+    assert_ne!(s.plan.kernel, KernelChoice::GENERAL);
+    assert_eq!((s.plan.roulette_start, g.plan.roulette_start), (Some(2), Some(2)));
     assert!(bits(&spec) == bits(&general), "the specialised kernel's image differs from the general kernel's");
     assert_eq!(s.rays, g.rays);
     assert!(spec.mean().max_element() > 0.05);
@@ -96,7 +96,7 @@ fn the_automatic_start_is_the_same_for_the_specialised_and_the_general_kernel() 
     let (explicit, _) = common::render_embree(&dim, &small(RrDepth::After(2)));
     assert!(bits(&explicit) == bits(&spec));
     let (off, o) = common::render_embree(&dim, &small(RrDepth::Off));
-    assert_eq!(o.rr_start, None);
+    assert_eq!(o.plan.roulette_start, None);
     assert!(bits(&off) != bits(&spec));
     assert!(o.rays > s.rays, "roulette ends paths early: {} rays without, {} with", o.rays, s.rays);
 }
@@ -124,23 +124,23 @@ material = "dark"
     let scene = scene("one-dark.toml", one);
     let e = scene.effects();
     assert!(!e.indirect, "{e}");
-    assert_eq!(e.rr_start(8), None);
+    assert_eq!(roulette::auto_start(&e, 8), None);
     let (spec, s) = common::render_embree(&scene, &small(RrDepth::Auto));
     let (general, g) = common::render_embree(&scene, &RenderSettings { specialize: false, ..small(RrDepth::Auto) });
-    assert_eq!((s.max_depth, g.max_depth), (1, 8));
+    assert_eq!((s.plan.path_depth, g.plan.path_depth), (1, 8));
     // (Roulette from depth 1 in the general kernel alone would change the weight of the sky
     // found after the first bounce: the images would differ.)
     assert!(bits(&spec) == bits(&general), "the specialised kernel's image differs from the general kernel's");
-    assert_eq!((s.rr_start, g.rr_start), (None, None));
+    assert_eq!((s.plan.roulette_start, g.plan.roulette_start), (None, None));
 }
 
 #[test]
 fn an_explicit_choice_wins_over_the_scene() {
     let dim = scene("dim-explicit.toml", DIM);
     let (_, s) = common::render_embree(&dim, &small(RrDepth::After(5)));
-    assert_eq!(s.rr_start, Some(5));
+    assert_eq!(s.plan.roulette_start, Some(5));
     let (_, s) = common::render_embree(&dim, &small(RrDepth::Off));
-    assert_eq!(s.rr_start, None);
+    assert_eq!(s.plan.roulette_start, None);
     // The scene file's own value wins over auto, and the command line over the scene file.
     let with_file_value = scene("dim-file.toml", &format!("[render]\nrr_depth = 6\n{DIM}"));
     assert_eq!(with_file_value.render.rr_depth, Some(RrDepth::After(6)));

@@ -41,7 +41,7 @@ pub enum CheckpointError {
     #[error("{}: checkpoint was made with different settings: {}", .0.display(), .1)]
     OtherSettings(PathBuf, String),
     #[error(transparent)]
-    Write(#[from] crate::output::WriteError),
+    Write(#[from] crate::atomic_write::WriteError),
 }
 
 /// Where the checkpoint of a render writing `output` lives: next to it.
@@ -70,7 +70,7 @@ impl Checkpoint {
         }
         let sum = fnv1a(&b);
         b.extend_from_slice(&sum.to_le_bytes());
-        crate::output::write_file(path, &b)?;
+        crate::atomic_write::write_file(path, &b)?;
         Ok(())
     }
 

@@ -87,7 +87,7 @@ impl Film {
     /// unless the whole file was written.
     pub fn save(&self, path: &Path) -> Result<(), FilmError> {
         let format = ImageFormat::from_path(path)?;
-        crate::output::write_atomically(path, |tmp| match format {
+        crate::atomic_write::write_atomically(path, |tmp| match format {
             ImageFormat::Png => image::save_buffer_with_format(
                 tmp,
                 &self.to_rgb8(),

@@ -12,9 +12,10 @@
 //!   with `GLASS`: every surface is Lambertian, and the BSDF is evaluated and sampled inline
 //!   without dispatch;
 //! - `GLASS`: refraction (off: every surface is opaque, shading-side flips are unconditional);
-//! - `MIS`: lights that BSDF sampling can also hit (area lights, sky, environment). Off: only
-//!   point lights exist, so emission is never found by BSDF-sampled rays, and neither MIS
-//!   weights nor light densities are computed.
+//! - `HIT_LIGHTS`: lights that BSDF-sampled rays can hit (area lights, sky, environment), so
+//!   emission found by a path counts and is weighed by MIS. Off: only point lights exist, so
+//!   emission is never found by BSDF-sampled rays, and neither MIS weights nor light
+//!   densities are computed.
 //!
 //! Every kernel takes the samples of a pixel in groups of [`LANES`] (8): their camera rays
 //! share an origin and nearly a direction, so they are traced as one Embree packet
@@ -43,12 +44,13 @@ pub struct KernelChoice {
     pub textures: bool,
     pub glossy: bool,
     pub glass: bool,
-    pub mis: bool,
+    pub hit_lights: bool,
 }
 
 impl KernelChoice {
     /// Every switch on: correct for any scene.
-    pub const GENERAL: KernelChoice = KernelChoice { lens: true, textures: true, glossy: true, glass: true, mis: true };
+    pub const GENERAL: KernelChoice =
+        KernelChoice { lens: true, textures: true, glossy: true, glass: true, hit_lights: true };
 
     /// The smallest kernel that is correct for a scene with these effects.
     pub fn for_effects(e: &Effects) -> KernelChoice {
@@ -57,18 +59,7 @@ impl KernelChoice {
             textures: e.textures,
             glossy: e.glossy || e.mirror,
             glass: e.glass,
-            mis: e.non_delta_lights(),
-        }
-    }
-
-    /// The kernel and bounce limit of a render: with `specialize`, the kernel for `effects` and
-    /// the depth the scene can use (at most `max_depth`); otherwise the general kernel at
-    /// `max_depth`.
-    pub fn plan(effects: &Effects, max_depth: u32, specialize: bool) -> (KernelChoice, u32) {
-        if specialize {
-            (KernelChoice::for_effects(effects), effects.depth_limit().apply(max_depth))
-        } else {
-            (KernelChoice::GENERAL, max_depth)
+            hit_lights: e.non_delta_lights(),
         }
     }
 
@@ -84,13 +75,13 @@ impl KernelChoice {
             if k.glass { glass::<L, T, G, true>(k) } else { glass::<L, T, G, false>(k) }
         }
         fn glass<const L: bool, const T: bool, const G: bool, const R: bool>(k: KernelChoice) -> SampleFn {
-            if k.mis { sample::<L, T, G, R, true> } else { sample::<L, T, G, R, false> }
+            if k.hit_lights { sample::<L, T, G, R, true> } else { sample::<L, T, G, R, false> }
         }
         if self.lens { lens::<true>(self) } else { lens::<false>(self) }
     }
 }
 
-/// `kernel: lens off, textures off, glossy on, glass off, mis on`
+/// `kernel: lens off, textures off, glossy on, glass off, hit lights on`
 impl fmt::Display for KernelChoice {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if *self == KernelChoice::GENERAL {
@@ -99,12 +90,12 @@ impl fmt::Display for KernelChoice {
         let on = |b: bool| if b { "on" } else { "off" };
         write!(
             f,
-            "lens {}, textures {}, glossy {}, glass {}, mis {}",
+            "lens {}, textures {}, glossy {}, glass {}, hit lights {}",
             on(self.lens),
             on(self.textures),
             on(self.glossy),
             on(self.glass),
-            on(self.mis)
+            on(self.hit_lights)
         )
     }
 }
@@ -117,7 +108,7 @@ pub(crate) type SampleFn =
 /// The samples of a pixel go together: their camera rays are coherent (one origin, directions
 /// within the pixel), so they are traced as one packet; each path then continues alone. Every
 /// sample draws its own random numbers, so its value does not depend on the others.
-fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const MIS: bool>(
+fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const HIT_LIGHTS: bool>(
     ctx: &PathContext,
     x: u32,
     y: u32,
@@ -148,13 +139,15 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     }
     let active: [bool; LANES] = std::array::from_fn(|i| i < n);
     match ctx.accel.as_embree() {
-        Some(embree) => trace::<_, TEX, GLOSSY, GLASS, MIS>(ctx, embree, &camera_rays, active, &mut rngs, out, rays),
-        None => trace::<_, TEX, GLOSSY, GLASS, MIS>(ctx, ctx.accel, &camera_rays, active, &mut rngs, out, rays),
+        Some(embree) => {
+            trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, embree, &camera_rays, active, &mut rngs, out, rays)
+        }
+        None => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, ctx.accel, &camera_rays, active, &mut rngs, out, rays),
     }
 }
 
 #[inline(always)]
-fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const MIS: bool>(
+fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const HIT_LIGHTS: bool>(
     ctx: &PathContext,
     accel: &A,
     camera_rays: &[Ray; LANES],
@@ -166,7 +159,7 @@ fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     let hits = accel.intersect_packet_deferred(camera_rays, active, 0.0, f32::INFINITY);
     for i in (0..LANES).filter(|&i| active[i]) {
         *rays += 1;
-        out[i] = radiance::<A, TEX, GLOSSY, GLASS, MIS>(ctx, accel, camera_rays[i], hits[i], &mut rngs[i], rays);
+        out[i] = radiance::<A, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, accel, camera_rays[i], hits[i], &mut rngs[i], rays);
     }
     // Queries report errors (a panicked user-geometry callback) once per packet of paths.
     accel.deferred_error()

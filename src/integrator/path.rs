@@ -3,7 +3,6 @@
 //! sampling, and Russian roulette.
 
 use super::surface::{FaceNormals, surface_point};
-use super::{Estimator, RenderSettings};
 use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::geometry::{Frame, Hit, Ray, offset_ray_origin, offset_toward};
@@ -11,6 +10,7 @@ use crate::light::{LightChoice, LightSet};
 use crate::material::{Bsdf, BsdfSample};
 use crate::sampler::Rng;
 use crate::scene::Scene;
+use crate::settings::{Estimator, RenderSettings};
 use glam::Vec3;
 
 /// Power heuristic with β = 2.
@@ -28,11 +28,11 @@ pub struct PathContext<'a> {
     pub normals: &'a FaceNormals,
     pub camera: &'a Camera,
     pub settings: &'a RenderSettings,
-    /// Bounce limit in force (the user's, or less where the scene cannot use more).
-    pub max_depth: u32,
-    /// Russian roulette runs after this many bounces (`u32::MAX`: never); resolved from
-    /// [`RenderSettings::rr_depth`] for the scene.
-    pub rr_depth: u32,
+    /// [`super::RenderPlan::path_depth`]: the most bounces a path takes.
+    pub path_depth: u32,
+    /// [`super::RenderPlan::roulette_start`]: Russian roulette runs after this many bounces
+    /// (`u32::MAX`: never).
+    pub roulette_start: u32,
 }
 
 /// Radiance along the camera ray `ray`, whose closest hit `first` the caller traced, then
@@ -42,7 +42,13 @@ pub struct PathContext<'a> {
 /// [`super::kernel::KernelChoice`]: each one off removes the code of an effect the scene
 /// lacks (see there).
 #[inline(always)]
-pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const MIS: bool>(
+pub(crate) fn radiance<
+    A: Accel + ?Sized,
+    const TEX: bool,
+    const GLOSSY: bool,
+    const GLASS: bool,
+    const HIT_LIGHTS: bool,
+>(
     ctx: &PathContext,
     accel: &A,
     mut ray: Ray,
@@ -53,7 +59,7 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
     let s = ctx.settings;
     let use_nee = matches!(s.estimator, Estimator::NeeMis | Estimator::NeeOnly) && !ctx.lights.is_empty();
     let uniform_diffuse = s.estimator == Estimator::BsdfUniform;
-    let mis = MIS && s.estimator == Estimator::NeeMis;
+    let mis = HIT_LIGHTS && s.estimator == Estimator::NeeMis;
     let found = FoundEmission { use_nee, count: s.estimator != Estimator::NeeOnly, mis };
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
@@ -70,8 +76,8 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
     loop {
         let Some(hit) = next_hit else {
             // Without non-delta lights the background is black.
-            if MIS {
-                let le = ctx.scene.background.radiance(ray.d);
+            if HIT_LIGHTS {
+                let le = ctx.lights.background().radiance(ray.d);
                 if le != Vec3::ZERO
                     && let Some(w) = found.weight(specular, prev_pdf, || ctx.lights.pdf_background(&choice))
                 {
@@ -84,14 +90,14 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         let wo = -ray.d;
         let emission = sp.material.emission;
         // Without non-delta lights nothing emits.
-        if MIS
+        if HIT_LIGHTS
             && emission != Vec3::ZERO
             && let Some(w) = found
                 .weight(specular, prev_pdf, || ctx.lights.pdf_emitter(&choice, hit.geom, hit.prim, prev_p, sp.p, sp.ng))
         {
             l += beta * emission * w;
         }
-        if depth >= ctx.max_depth {
+        if depth >= ctx.path_depth {
             break;
         }
         // Only Lambertian surfaces: the BSDF's variant is known here, so its methods inline
@@ -164,7 +170,7 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         prev_pdf = bs.pdf;
         prev_p = sp.p;
         depth += 1;
-        if depth >= ctx.rr_depth {
+        if depth >= ctx.roulette_start {
             let q = (1.0 - beta.max_element()).max(0.05);
             if rng.next_f32() < q {
                 break;
@@ -174,7 +180,7 @@ pub(crate) fn radiance<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, c
         if beta == Vec3::ZERO || !beta.is_finite() {
             break;
         }
-        if !MIS && depth >= ctx.max_depth {
+        if !HIT_LIGHTS && depth >= ctx.path_depth {
             // The next hit could only add emission, and nothing BSDF sampling can find emits.
             break;
         }

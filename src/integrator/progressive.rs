@@ -7,10 +7,9 @@
 //! whether or not the render was interrupted and resumed: work stops only at pixel boundaries
 //! (a pixel finishes the samples of its round), and each pixel's state is saved exactly.
 
-use super::kernel::KernelChoice;
 use super::path::PathContext;
 use super::surface::FaceNormals;
-use super::{RenderError, RenderSettings, RenderStats};
+use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
 use crate::film::{Accumulator, Checkpoint, PixelState};
 use crate::scene::Scene;
@@ -33,6 +32,27 @@ pub struct RenderControl<'a> {
     pub checkpoint: Option<(&'a Path, Option<Duration>)>,
     /// Continue from this checkpoint (checked against the scene and settings).
     pub resume: Option<(&'a Path, Checkpoint)>,
+    /// Called from the worker threads as tiles finish (see [`Progress`]).
+    pub progress: Option<&'a (dyn Fn(Progress) + Sync)>,
+}
+
+/// How far a render has got, reported to [`RenderControl::progress`] each time a tile
+/// finishes a round.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Progress {
+    /// Samples taken so far, earlier sessions of a resumed render included.
+    pub samples_done: u64,
+    /// Samples the render will have taken when the current round ends: the total, without a
+    /// target error; with one, later rounds may add more (only pixels still above the target
+    /// take part in them).
+    pub samples_planned: u64,
+    /// Rays traced in this session.
+    pub rays: u64,
+    /// Time spent in this session.
+    pub elapsed: Duration,
+    /// The current round (from 1) and the most rounds there can be.
+    pub round: u32,
+    pub rounds: u32,
 }
 
 /// The outcome of [`super::render_controlled`].
@@ -69,16 +89,16 @@ fn rounds(settings: &RenderSettings) -> u32 {
 pub(super) fn run(
     scene: &Scene,
     accel: &dyn Accel,
-    settings: &RenderSettings,
+    plan: &RenderPlan,
     control: RenderControl,
 ) -> Result<RenderResult, RenderError> {
     let start = Instant::now();
+    let settings = &plan.settings;
     let (w, h) = (settings.width, settings.height);
     // Hashing the scene reads all of its data: done only when a checkpoint is read or written.
     let fingerprint = std::sync::OnceLock::new();
     let fingerprint = || *fingerprint.get_or_init(|| scene.fingerprint());
-    let effects = scene.effects();
-    let key = settings.image_key(&effects);
+    let key = plan.checkpoint_key();
     let (mut accum, prior_elapsed, prior_nonfinite) = match control.resume {
         Some((path, c)) => {
             c.check_matches(path, fingerprint(), &key)?;
@@ -88,20 +108,20 @@ pub(super) fn run(
     };
     let camera = scene.camera(w as f32 / h as f32);
     let lights = scene.light_set();
-    let (kernel, max_depth) = KernelChoice::plan(&effects, settings.max_depth, settings.specialize);
-    // An estimator setting, not a kernel switch: the same whether specialised or not.
-    let rr_start = settings.rr_start(&effects);
-    let mut stats = RenderStats { effects, kernel, max_depth, rr_start, ..Default::default() };
-    let finish = |accum: Accumulator, mut stats: RenderStats, nonfinite: u64, complete: bool| {
-        stats.elapsed = start.elapsed();
-        stats.earlier_sessions = prior_elapsed;
-        stats.samples = accum.samples();
-        stats.nonfinite = prior_nonfinite + nonfinite;
-        stats.spp = accum.spp_range();
-        stats.error_estimate = accum.error_estimate();
+    let finish = |accum: Accumulator, rays: u64, nonfinite: u64, complete: bool| {
+        let stats = RenderStats {
+            elapsed: start.elapsed(),
+            earlier_sessions: prior_elapsed,
+            rays,
+            samples: accum.samples(),
+            nonfinite: prior_nonfinite + nonfinite,
+            plan: plan.clone(),
+            spp: accum.spp_range(),
+            error_estimate: accum.error_estimate(),
+        };
         RenderResult { accum, stats, complete }
     };
-    if settings.specialize && !effects.lit {
+    if plan.traces_nothing() {
         // Nothing emits: every path carries zero radiance, so none is traced; each pixel's
         // samples are all exactly zero.
         for p in &mut accum.pixels {
@@ -109,9 +129,9 @@ pub(super) fn run(
                 p.add(glam::Vec3::ZERO);
             }
         }
-        return Ok(finish(accum, stats, 0, true));
+        return Ok(finish(accum, 0, 0, true));
     }
-    let sample = kernel.sample_fn();
+    let sample = plan.kernel.sample_fn();
     let normals = FaceNormals::of(scene);
     let ctx = PathContext {
         scene,
@@ -120,14 +140,14 @@ pub(super) fn run(
         normals: &normals,
         camera: &camera,
         settings,
-        max_depth,
-        rr_depth: rr_start.unwrap_or(u32::MAX),
+        path_depth: plan.path_depth,
+        roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
     };
     let tiles: Vec<(u32, u32)> =
         (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
     let n_rounds = rounds(settings);
-    let bar = progress_bar(settings.progress, tiles.len() as u64 * n_rounds as u64);
     let rays_total = AtomicU64::new(0);
+    let samples_done = AtomicU64::new(accum.samples());
     let nonfinite = AtomicU64::new(0);
     let stopped = AtomicBool::new(false);
     let shared = Mutex::new(accum);
@@ -148,6 +168,14 @@ pub(super) fn run(
     };
 
     for round in 0..n_rounds {
+        let planned = {
+            let a = shared.lock().unwrap_or_else(|e| e.into_inner());
+            a.samples()
+                + a.pixels
+                    .iter()
+                    .map(|p| round_target(settings, round, p).map_or(0, |t| (t - p.count) as u64))
+                    .sum::<u64>()
+        };
         tiles.par_iter().try_for_each(|&(tx, ty)| -> Result<(), RenderError> {
             if stop_requested() {
                 stopped.store(true, Ordering::Relaxed);
@@ -156,6 +184,7 @@ pub(super) fn run(
             let (x0, y0) = (tx * TILE, ty * TILE);
             let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
             let mut rays = 0u64;
+            let mut taken = 0u64;
             let mut values = [glam::Vec3::ZERO; LANES];
             'pixels: for y in y0..y1 {
                 for x in x0..x1 {
@@ -169,6 +198,7 @@ pub(super) fn run(
                     let Some(target) = round_target(settings, round, &p) else { continue };
                     let mut pixel_bad = 0;
                     let mut s = p.count;
+                    taken += (target - s) as u64;
                     while s < target {
                         // Samples go in groups of LANES aligned on sample 0, whatever the
                         // rounds: a sample's packet mates never depend on when it is taken.
@@ -197,11 +227,17 @@ pub(super) fn run(
                     }
                 }
             }
-            let total = rays_total.fetch_add(rays, Ordering::Relaxed) + rays;
-            if let Some(b) = &bar {
-                b.inc(1);
-                let secs = start.elapsed().as_secs_f64().max(1e-9);
-                b.set_message(format!("round {}/{n_rounds}  {:.1} Mrays/s", round + 1, total as f64 / secs / 1e6));
+            let rays = rays_total.fetch_add(rays, Ordering::Relaxed) + rays;
+            let done = samples_done.fetch_add(taken, Ordering::Relaxed) + taken;
+            if let Some(report) = control.progress {
+                report(Progress {
+                    samples_done: done,
+                    samples_planned: planned,
+                    rays,
+                    elapsed: start.elapsed(),
+                    round: round + 1,
+                    rounds: n_rounds,
+                });
             }
             Ok(())
         })?;
@@ -209,28 +245,11 @@ pub(super) fn run(
             break;
         }
     }
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
     let accum = shared.into_inner().unwrap_or_else(|e| e.into_inner());
     let bad = nonfinite.load(Ordering::Relaxed);
     let complete = !stopped.load(Ordering::Relaxed);
     if !complete {
         save_checkpoint(&accum, bad)?;
     }
-    stats.rays = rays_total.load(Ordering::Relaxed);
-    Ok(finish(accum, stats, bad, complete))
-}
-
-fn progress_bar(wanted: bool, tiles: u64) -> Option<indicatif::ProgressBar> {
-    use std::io::IsTerminal;
-    if !wanted || !std::io::stderr().is_terminal() {
-        return None;
-    }
-    let bar = indicatif::ProgressBar::new(tiles);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40.cyan/blue} {percent:>3}% tiles {pos}/{len}  ETA {eta}  {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    Some(bar)
+    Ok(finish(accum, rays_total.load(Ordering::Relaxed), bad, complete))
 }

@@ -2,7 +2,8 @@
 //! triangles, re-projection for spheres), normals, texture coordinates, material.
 
 use crate::geometry::{Geometry, Hit, Ray};
-use crate::scene::{Material, Scene};
+use crate::material::Material;
+use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 
 pub struct SurfacePoint<'a> {

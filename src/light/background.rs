@@ -1,3 +1,10 @@
+//! The background: what a ray that leaves the scene sees (a constant or gradient sky, or an
+//! environment image), and, unless black, a light that next-event estimation samples
+//! (uniformly over the sphere of directions).
+
+use super::choice::LightBounds;
+use super::{LightSample, luminance, uniform_sphere};
+use crate::hash::Fingerprint;
 use crate::texture::Image;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -62,6 +69,46 @@ impl Background {
             Background::Constant(c) => *c,
             Background::Gradient { zenith, horizon, ground } => 0.5 * *horizon + 0.25 * (*zenith + *ground),
             Background::Image { image, scale } => image.mean() * *scale,
+        }
+    }
+
+    /// Luminance of the power it sends into a scene whose bounding sphere has radius `r`
+    /// (its cross-section πr² times the radiance over 4π sr; never quite zero).
+    pub(super) fn power(&self, r: f32) -> f32 {
+        luminance(self.average()).max(1e-6) * 4.0 * PI * PI * r * r
+    }
+
+    pub(super) fn bounds(&self) -> LightBounds {
+        LightBounds::background(luminance(self.average()))
+    }
+
+    /// A direction uniform over the sphere; the background was chosen with probability `sel`.
+    #[inline(never)]
+    pub(super) fn sample(&self, sel: f32, u: Vec2) -> Option<LightSample> {
+        let wi = uniform_sphere(u);
+        Some(LightSample {
+            wi,
+            point: None,
+            normal: Vec3::ZERO,
+            radiance: self.radiance(wi),
+            pdf: sel / (4.0 * PI),
+            delta: false,
+        })
+    }
+
+    /// Solid-angle density of [`Background::sample`], chosen with probability `sel`.
+    pub(super) fn pdf(sel: f32) -> f32 {
+        sel / (4.0 * PI)
+    }
+
+    pub fn fingerprint(&self, h: &mut Fingerprint) {
+        match self {
+            Background::Image { image, scale } => {
+                h.str("image");
+                image.fingerprint(h);
+                h.f32s(&[*scale]);
+            }
+            other => h.str(&format!("{other:?}")),
         }
     }
 }

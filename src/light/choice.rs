@@ -37,7 +37,7 @@ const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// What the importance of one group of lights needs.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Reach {
+pub(super) struct LightBounds {
     /// Centre of the emitter (of the box around a mesh's emitting triangles).
     center: Vec3,
     /// Radius of a sphere around `center` holding the emitter (0 for a point light).
@@ -51,20 +51,20 @@ pub(super) struct Reach {
     infinite: bool,
 }
 
-impl Reach {
-    pub(super) fn point(position: Vec3, intensity_lum: f32) -> Reach {
-        Reach { center: position, radius: 0.0, normal: Vec3::ZERO, scale: intensity_lum, infinite: false }
+impl LightBounds {
+    pub(super) fn point(position: Vec3, intensity_lum: f32) -> LightBounds {
+        LightBounds { center: position, radius: 0.0, normal: Vec3::ZERO, scale: intensity_lum, infinite: false }
     }
 
     /// Emitting surfaces within `radius` of `center`, all facing along `normal` (either way:
     /// emitters are two-sided) or, with a zero `normal`, facing every way; `scale` is the sum
     /// of luminance × area over them.
-    pub(super) fn surfaces(center: Vec3, radius: f32, normal: Vec3, scale: f32) -> Reach {
-        Reach { center, radius, normal, scale, infinite: false }
+    pub(super) fn surfaces(center: Vec3, radius: f32, normal: Vec3, scale: f32) -> LightBounds {
+        LightBounds { center, radius, normal, scale, infinite: false }
     }
 
-    pub(super) fn sphere(center: Vec3, radius: f32, radiance_lum: f32) -> Reach {
-        Reach {
+    pub(super) fn sphere(center: Vec3, radius: f32, radiance_lum: f32) -> LightBounds {
+        LightBounds {
             center,
             radius,
             normal: Vec3::ZERO,
@@ -73,8 +73,8 @@ impl Reach {
         }
     }
 
-    pub(super) fn background(average_lum: f32) -> Reach {
-        Reach {
+    pub(super) fn background(average_lum: f32) -> LightBounds {
+        LightBounds {
             center: Vec3::ZERO,
             radius: 0.0,
             normal: Vec3::ZERO,
@@ -118,11 +118,11 @@ impl LocalChoice {
     /// `None` when the importances are unusable (all zero, or not finite next to a point
     /// light): the caller then chooses by power.
     #[inline]
-    pub(super) fn at(reach: &[Reach], p: Vec3) -> Option<LocalChoice> {
-        debug_assert!(reach.len() <= LOCAL_CHOICE_MAX);
+    pub(super) fn at(bounds: &[LightBounds], p: Vec3) -> Option<LocalChoice> {
+        debug_assert!(bounds.len() <= LOCAL_CHOICE_MAX);
         let mut importance = [0.0; LOCAL_CHOICE_MAX];
         let mut total = 0.0;
-        for (slot, r) in importance.iter_mut().zip(reach) {
+        for (slot, r) in importance.iter_mut().zip(bounds) {
             *slot = r.importance(p);
             total += *slot;
         }
@@ -162,7 +162,7 @@ mod tests {
 
     #[test]
     fn a_point_light_falls_off_with_the_square_of_distance() {
-        let r = Reach::point(Vec3::ZERO, 3.0);
+        let r = LightBounds::point(Vec3::ZERO, 3.0);
         assert_eq!(r.importance(Vec3::new(0.0, 2.0, 0.0)), 0.75);
         assert_eq!(r.importance(Vec3::new(4.0, 0.0, 0.0)), 3.0 / 16.0);
     }
@@ -170,7 +170,7 @@ mod tests {
     #[test]
     fn a_small_flat_light_far_away_weighs_area_times_cosine_over_distance_squared() {
         let (area, radius) = (1e-4, 0.01);
-        let r = Reach::surfaces(Vec3::ZERO, radius, Vec3::Y, 2.0 * area);
+        let r = LightBounds::surfaces(Vec3::ZERO, radius, Vec3::Y, 2.0 * area);
         // 60° off the normal, 10 away, on either side (emitters are two-sided): the cosine
         // bound is cos 60° + r/d.
         for y in [1.0f32, -1.0] {
@@ -182,28 +182,28 @@ mod tests {
         let edge_on = r.importance(Vec3::new(10.0, 0.0, 0.0));
         assert!((edge_on / (2.0 * area * (radius / 10.0) / 100.0) - 1.0).abs() < 1e-4);
         // Facing every way: no cosine.
-        let round = Reach::surfaces(Vec3::ZERO, radius, Vec3::ZERO, 2.0 * area);
+        let round = LightBounds::surfaces(Vec3::ZERO, radius, Vec3::ZERO, 2.0 * area);
         assert!((round.importance(Vec3::new(10.0, 0.0, 0.0)) / (2.0 * area / 100.0) - 1.0).abs() < 1e-6);
     }
 
     #[test]
     fn importance_stays_finite_on_an_emitter() {
-        let flat = Reach::surfaces(Vec3::new(0.3, 0.0, 0.3), 0.5, Vec3::Y, 0.5);
-        let sph = Reach::sphere(Vec3::ZERO, 1.0, 1.0);
+        let flat = LightBounds::surfaces(Vec3::new(0.3, 0.0, 0.3), 0.5, Vec3::Y, 0.5);
+        let sph = LightBounds::sphere(Vec3::ZERO, 1.0, 1.0);
         for q in [Vec3::ZERO, Vec3::new(0.2, 0.0, 0.2), Vec3::new(1.0, 0.0, 0.0)] {
             assert!(flat.importance(q).is_finite() && flat.importance(q) > 0.0);
             assert!(sph.importance(q).is_finite() && sph.importance(q) > 0.0);
         }
         // A black or zero-sized light has none, even with a NaN normal.
-        assert_eq!(Reach::surfaces(Vec3::ZERO, 0.0, Vec3::NAN, 0.0).importance(Vec3::ONE), 0.0);
+        assert_eq!(LightBounds::surfaces(Vec3::ZERO, 0.0, Vec3::NAN, 0.0).importance(Vec3::ONE), 0.0);
     }
 
     #[test]
     fn picks_follow_the_importances_and_skip_zero_ones() {
         let reach = [
-            Reach::point(Vec3::new(0.0, 1.0, 0.0), 1.0), // importance 1 at the origin
-            Reach::point(Vec3::new(0.0, 1.0, 0.0), 0.0), // 0: never picked
-            Reach::background(3.0 / (2.0 * std::f32::consts::PI)), // 3
+            LightBounds::point(Vec3::new(0.0, 1.0, 0.0), 1.0), // importance 1 at the origin
+            LightBounds::point(Vec3::new(0.0, 1.0, 0.0), 0.0), // 0: never picked
+            LightBounds::background(3.0 / (2.0 * std::f32::consts::PI)), // 3
         ];
         let c = LocalChoice::at(&reach, Vec3::ZERO).unwrap();
         assert_eq!(c.pick(3, 0.0), (0, 0.25, 0.0));

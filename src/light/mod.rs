@@ -1,40 +1,68 @@
-//! Lights: point lights, emissive triangles and spheres (area lights), and the background
-//! (sky or environment image). [`LightSet`] chooses one (by its importance at the shading
-//! point for a few lights, by power for many: `choice`) and samples a direction toward it,
-//! for next-event estimation; its `pdf_*` methods give the matching densities for multiple
-//! importance sampling.
+//! Lights: what a scene describes ([`Light`]: point lights and the background), emitting
+//! triangles and spheres (area lights: surfaces whose material emits), and [`LightSet`], which
+//! chooses one (by its importance at the shading point for a few lights, by power for many:
+//! `choice`) and samples a direction toward it, for next-event estimation; its `pdf_*`
+//! methods give the matching densities for multiple importance sampling.
+//!
+//! Each kind is a file: `point.rs`, `background.rs` (sky and environment), `triangle.rs` and
+//! `sphere.rs` (emitting surfaces), with how it is sampled, its density, its power and its
+//! bounds for the choice by importance. Adding a kind: its file, a [`Light`] variant (if a
+//! scene describes it) and an [`Emitter`] variant with their arms here, and its `[[lights]]`
+//! section (`scene/format.rs`) with the arm that builds it (`scene/toml_file.rs`).
 
 mod background;
 mod choice;
+mod point;
+mod sphere;
+mod triangle;
 
 pub use background::Background;
-use choice::{LOCAL_CHOICE_MAX, LocalChoice, Reach};
+pub use point::PointLight;
 
-use crate::geometry::{Aabb, Frame, Geometry, Sphere, bounds_of};
+use crate::geometry::{Geometry, bounds_of};
+use crate::hash::Fingerprint;
+use choice::{LOCAL_CHOICE_MAX, LightBounds, LocalChoice};
 use glam::{Vec2, Vec3};
-use std::f32::consts::PI;
+use sphere::EmissiveSphere;
+use triangle::EmissiveTriangle;
 
-/// An isotropic point light; `intensity` is radiant intensity (W/sr) per channel.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PointLight {
-    pub position: Vec3,
-    pub intensity: Vec3,
+/// A light a scene describes, as opposed to a surface whose material emits.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    Point(PointLight),
+    /// What rays leaving the scene see; a light unless black. A scene has at most one.
+    Background(Background),
 }
 
+impl Light {
+    /// Whether it gives any light.
+    pub fn emits(&self) -> bool {
+        match self {
+            Light::Point(l) => l.emits(),
+            Light::Background(b) => !b.is_black(),
+        }
+    }
+
+    /// Whether BSDF sampling can never find it (so no MIS): a point.
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Light::Point(_))
+    }
+
+    /// Feeds the light to a fingerprint.
+    pub fn fingerprint(&self, h: &mut Fingerprint) {
+        match self {
+            Light::Point(l) => l.fingerprint(h),
+            Light::Background(b) => b.fingerprint(h),
+        }
+    }
+}
+
+/// What next-event estimation samples: one light of a [`LightSet`].
 #[derive(Clone, Debug, PartialEq)]
-enum Light {
+enum Emitter {
     Point(PointLight),
-    /// `normal`: the unit normal of the winding order, computed once here, not per sample.
-    Triangle {
-        p: [Vec3; 3],
-        normal: Vec3,
-        area: f32,
-        emission: Vec3,
-    },
-    Sphere {
-        sphere: Sphere,
-        emission: Vec3,
-    },
+    Triangle(EmissiveTriangle),
+    Sphere(EmissiveSphere),
     Background,
 }
 
@@ -56,12 +84,14 @@ pub struct LightSample {
     pub delta: bool,
 }
 
-/// Where to find the light of an emissive primitive.
+/// Which light of the set each primitive of a geometry is.
 #[derive(Clone, Debug, PartialEq)]
-enum Lookup {
+enum PrimitiveLights {
+    /// None of its primitives emits.
     None,
-    /// Light index of primitive i is base + i.
+    /// Every primitive emits: primitive i is light base + i.
     Range(u32),
+    /// Per primitive (`u32::MAX`: not a light).
     PerPrim(Vec<u32>),
 }
 
@@ -91,44 +121,39 @@ impl LightChoice {
 /// All lights of a scene, and how one is chosen.
 #[derive(Clone, Debug)]
 pub struct LightSet {
-    lights: Vec<Light>,
+    lights: Vec<Emitter>,
     /// What the choice by importance treats as one light (see [`Group`]), and which group
     /// each light is in.
     groups: Vec<Group>,
     group_of: Vec<u32>,
     /// Per group, for the choice by importance at a point (2 to [`LOCAL_CHOICE_MAX`]
     /// groups); empty otherwise.
-    reach: Vec<Reach>,
+    bounds: Vec<LightBounds>,
     /// The power-proportional choice: larger sets, and the fallback where importances are
     /// unusable.
     cdf: Vec<f32>,
     prob: Vec<f32>,
-    lookup: Vec<Lookup>,
+    /// Per geometry of the scene.
+    primitive_lights: Vec<PrimitiveLights>,
     background: Background,
     background_index: Option<usize>,
 }
 
-fn luminance(c: Vec3) -> f32 {
+pub(crate) fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
 impl LightSet {
     /// The lights of a scene: every primitive of `geometry` for which `emission(geom, prim)`
-    /// is not black (triangles and spheres; cylinders are not sampled), the point lights, and
-    /// the background unless it is black.
-    pub fn new(
-        geometry: &[Geometry],
-        emission: &dyn Fn(u32, u32) -> Vec3,
-        point_lights: &[PointLight],
-        background: &Background,
-    ) -> LightSet {
-        let mut lights = Vec::new();
-        let mut power = Vec::new();
-        let mut lookup = Vec::new();
+    /// is not black (triangles and spheres; cylinders are not sampled), then the described
+    /// `lights` in their order, the background last (unless black).
+    pub fn new(geometry: &[Geometry], emission: &dyn Fn(u32, u32) -> Vec3, lights: &[Light]) -> LightSet {
+        let mut emitters = Vec::new();
+        let mut primitive_lights = Vec::new();
         let mut spans: Vec<(u32, u32)> = Vec::new();
         for (gi, g) in geometry.iter().enumerate() {
             let gi = gi as u32;
-            let base = lights.len() as u32;
+            let base = emitters.len() as u32;
             let mut per = Vec::new();
             match g {
                 Geometry::Mesh(m) => {
@@ -138,16 +163,11 @@ impl LightSet {
                             per.push(u32::MAX);
                             continue;
                         }
-                        let p = m.triangle(i);
-                        let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
-                        let area = if area.is_finite() { area } else { 0.0 };
-                        per.push(lights.len() as u32);
-                        power.push(luminance(e) * area * PI);
-                        let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
-                        lights.push(Light::Triangle { p, normal, area, emission: e });
+                        per.push(emitters.len() as u32);
+                        emitters.push(Emitter::Triangle(EmissiveTriangle::new(m.triangle(i), e)));
                     }
-                    if lights.len() as u32 > base {
-                        spans.push((base, lights.len() as u32));
+                    if emitters.len() as u32 > base {
+                        spans.push((base, emitters.len() as u32));
                     }
                 }
                 Geometry::Spheres(s) => {
@@ -157,53 +177,66 @@ impl LightSet {
                             per.push(u32::MAX);
                             continue;
                         }
-                        per.push(lights.len() as u32);
-                        power.push(luminance(e) * 4.0 * PI * sp.radius * sp.radius * PI);
-                        spans.push((lights.len() as u32, lights.len() as u32 + 1));
-                        lights.push(Light::Sphere { sphere: *sp, emission: e });
+                        per.push(emitters.len() as u32);
+                        spans.push((emitters.len() as u32, emitters.len() as u32 + 1));
+                        emitters.push(Emitter::Sphere(EmissiveSphere { sphere: *sp, emission: e }));
                     }
                 }
                 Geometry::Cylinders(_) => {}
             }
-            lookup.push(if per.iter().all(|&x| x == u32::MAX) {
-                Lookup::None
+            primitive_lights.push(if per.iter().all(|&x| x == u32::MAX) {
+                PrimitiveLights::None
             } else if per.iter().enumerate().all(|(i, &x)| x == base + i as u32) {
-                Lookup::Range(base)
+                PrimitiveLights::Range(base)
             } else {
-                Lookup::PerPrim(per)
+                PrimitiveLights::PerPrim(per)
             });
         }
-        for pl in point_lights {
-            power.push(luminance(pl.intensity) * 4.0 * PI);
-            spans.push((lights.len() as u32, lights.len() as u32 + 1));
-            lights.push(Light::Point(*pl));
+        let mut background = Background::Black;
+        for light in lights {
+            match light {
+                Light::Point(pl) => {
+                    spans.push((emitters.len() as u32, emitters.len() as u32 + 1));
+                    emitters.push(Emitter::Point(*pl));
+                }
+                Light::Background(b) => background = b.clone(),
+            }
         }
         let mut background_index = None;
         if !background.is_black() {
-            let bounds = bounds_of(geometry);
-            let r = 0.5 * bounds.diagonal().length();
-            let r = if r.is_finite() && r > 0.0 { r } else { 1.0 };
-            background_index = Some(lights.len());
-            spans.push((lights.len() as u32, lights.len() as u32 + 1));
-            power.push(luminance(background.average()).max(1e-6) * 4.0 * PI * PI * r * r);
-            lights.push(Light::Background);
+            background_index = Some(emitters.len());
+            spans.push((emitters.len() as u32, emitters.len() as u32 + 1));
+            emitters.push(Emitter::Background);
         }
+        let power: Vec<f32> = emitters
+            .iter()
+            .map(|e| match e {
+                Emitter::Point(l) => l.power(),
+                Emitter::Triangle(t) => t.power(),
+                Emitter::Sphere(s) => s.power(),
+                Emitter::Background => {
+                    // Over the scene's bounding sphere.
+                    let r = 0.5 * bounds_of(geometry).diagonal().length();
+                    background.power(if r.is_finite() && r > 0.0 { r } else { 1.0 })
+                }
+            })
+            .collect();
         let total: f32 = power.iter().sum();
         let prob: Vec<f32> = if total > 0.0 && total.is_finite() {
             power.iter().map(|p| p / total).collect()
         } else {
-            vec![1.0 / lights.len().max(1) as f32; lights.len()]
+            vec![1.0 / emitters.len().max(1) as f32; emitters.len()]
         };
         let groups: Vec<Group> = spans
             .iter()
             .map(|&(start, end)| Group { start, end, prob: prob[start as usize..end as usize].iter().sum() })
             .collect();
-        let mut group_of = vec![0; lights.len()];
+        let mut group_of = vec![0; emitters.len()];
         for (g, &(start, end)) in spans.iter().enumerate() {
             group_of[start as usize..end as usize].fill(g as u32);
         }
-        let reach = if (2..=LOCAL_CHOICE_MAX).contains(&groups.len()) {
-            groups.iter().map(|g| group_reach(&lights[g.start as usize..g.end as usize], background)).collect()
+        let bounds = if (2..=LOCAL_CHOICE_MAX).contains(&groups.len()) {
+            groups.iter().map(|g| group_bounds(&emitters[g.start as usize..g.end as usize], &background)).collect()
         } else {
             Vec::new()
         };
@@ -216,16 +249,21 @@ impl LightSet {
             })
             .collect();
         LightSet {
-            lights,
+            lights: emitters,
             groups,
             group_of,
-            reach,
+            bounds,
             cdf,
             prob,
-            lookup,
-            background: background.clone(),
+            primitive_lights,
+            background,
             background_index,
         }
+    }
+
+    /// The background (black if the scene has none).
+    pub fn background(&self) -> &Background {
+        &self.background
     }
 
     pub fn is_empty(&self) -> bool {
@@ -243,7 +281,7 @@ impl LightSet {
         let (n, g) = (self.lights.len(), self.groups.len());
         let how = if n <= 1 {
             "nothing to choose".to_string()
-        } else if !self.reach.is_empty() {
+        } else if !self.bounds.is_empty() {
             "a group chosen by importance at each shading point, a light within it by power".to_string()
         } else if g == 1 {
             "chosen by power".to_string()
@@ -256,7 +294,7 @@ impl LightSet {
 
     /// Whether every light is a point light.
     pub fn all_delta(&self) -> bool {
-        self.lights.iter().all(|l| matches!(l, Light::Point(_)))
+        self.lights.iter().all(|l| matches!(l, Emitter::Point(_)))
     }
 
     /// How next-event estimation chooses a light at the shading point `p`. Computed once per
@@ -265,13 +303,13 @@ impl LightSet {
     /// [`LightSet::pdf_background`]).
     #[inline(always)]
     pub fn choice_at(&self, p: Vec3) -> LightChoice {
-        if !self.reach.is_empty() { self.local_choice(p) } else { LightChoice::BY_POWER }
+        if !self.bounds.is_empty() { self.local_choice(p) } else { LightChoice::BY_POWER }
     }
 
     /// Out of line, so that kernels for one light (or many) carry none of its code.
     #[inline(never)]
     fn local_choice(&self, p: Vec3) -> LightChoice {
-        LightChoice(LocalChoice::at(&self.reach, p))
+        LightChoice(LocalChoice::at(&self.bounds, p))
     }
 
     /// The light that `u` picks, and the probability of that choice.
@@ -330,70 +368,19 @@ impl LightSet {
             return None;
         }
         match &self.lights[i] {
-            Light::Point(l) => {
-                let d = l.position - p;
-                let d2 = d.length_squared();
-                if !(d2 > 0.0) {
-                    return None;
-                }
-                Some(LightSample {
-                    wi: d / d2.sqrt(),
-                    point: Some(l.position),
-                    normal: Vec3::ZERO,
-                    radiance: l.intensity / d2,
-                    pdf: sel,
-                    delta: true,
-                })
-            }
-            Light::Triangle { p: tri, normal: n, area, emission } => {
-                if *area <= 0.0 {
-                    return None;
-                }
-                let su = u.x.sqrt();
-                let (b0, b1) = (1.0 - su, u.y * su);
-                let q = b0 * tri[0] + b1 * tri[1] + (1.0 - b0 - b1) * tri[2];
-                let n = *n;
-                let d = q - p;
-                let d2 = d.length_squared();
-                let wi = d / d2.sqrt();
-                let cos = n.dot(wi).abs();
-                if !(cos > 0.0 && d2 > 0.0) {
-                    return None;
-                }
-                let pdf = sel * d2 / (cos * area);
-                pdf.is_finite().then_some(LightSample {
-                    wi,
-                    point: Some(q),
-                    normal: n,
-                    radiance: *emission,
-                    pdf,
-                    delta: false,
-                })
-            }
-            Light::Sphere { sphere, emission } => sample_sphere_light(sphere, *emission, sel, p, u),
-            Light::Background => self.sample_background(sel, u),
+            Emitter::Point(l) => l.sample(p, sel),
+            Emitter::Triangle(t) => t.sample(p, sel, u),
+            Emitter::Sphere(s) => s.sample(p, sel, u),
+            Emitter::Background => self.background.sample(sel, u),
         }
-    }
-
-    #[inline(never)]
-    fn sample_background(&self, sel: f32, u: Vec2) -> Option<LightSample> {
-        let wi = uniform_sphere(u);
-        Some(LightSample {
-            wi,
-            point: None,
-            normal: Vec3::ZERO,
-            radiance: self.background.radiance(wi),
-            pdf: sel / (4.0 * PI),
-            delta: false,
-        })
     }
 
     /// Density with which `sample` from `p` (with `choice`, made there) picks the point `q`
     /// (normal `n`) on primitive `prim` of geometry `geom`; 0 if that primitive is not a light.
     pub fn pdf_emitter(&self, choice: &LightChoice, geom: u32, prim: u32, p: Vec3, q: Vec3, n: Vec3) -> f32 {
-        let i = match self.lookup.get(geom as usize) {
-            Some(Lookup::Range(base)) => (base + prim) as usize,
-            Some(Lookup::PerPrim(v)) => match v.get(prim as usize) {
+        let i = match self.primitive_lights.get(geom as usize) {
+            Some(PrimitiveLights::Range(base)) => (base + prim) as usize,
+            Some(PrimitiveLights::PerPrim(v)) => match v.get(prim as usize) {
                 Some(&i) if i != u32::MAX => i as usize,
                 _ => return 0.0,
             },
@@ -401,73 +388,30 @@ impl LightSet {
         };
         let sel = self.choice_probability(choice, i);
         match &self.lights[i] {
-            Light::Triangle { area, .. } => {
-                let d = q - p;
-                let d2 = d.length_squared();
-                let cos = n.normalize().dot(d / d2.sqrt()).abs();
-                if *area <= 0.0 || cos <= 0.0 { 0.0 } else { sel * d2 / (cos * area) }
-            }
-            Light::Sphere { sphere, .. } => sel * pdf_sphere(sphere, p, q, n),
+            Emitter::Triangle(t) => t.pdf(sel, p, q, n),
+            Emitter::Sphere(s) => s.pdf(sel, p, q, n),
             _ => 0.0,
         }
     }
 
     /// Density with which `sample` (with `choice`) picks a direction toward the background.
     pub fn pdf_background(&self, choice: &LightChoice) -> f32 {
-        self.background_index.map_or(0.0, |i| self.choice_probability(choice, i) / (4.0 * PI))
+        self.background_index.map_or(0.0, |i| Background::pdf(self.choice_probability(choice, i)))
     }
 }
 
 /// What the importance of a group of lights needs (see [`Group`]).
-fn group_reach(lights: &[Light], background: &Background) -> Reach {
-    match lights {
-        [Light::Point(pl)] => Reach::point(pl.position, luminance(pl.intensity)),
-        [Light::Sphere { sphere, emission }] => Reach::sphere(sphere.center, sphere.radius, luminance(*emission)),
-        [Light::Background] => Reach::background(luminance(background.average())),
-        _ => {
-            // The triangles of one mesh.
-            let mut bounds = Aabb::EMPTY;
-            let mut scale = 0.0;
-            let mut normal: Option<Vec3> = None;
-            let mut flat = true;
-            for l in lights {
-                if let Light::Triangle { p, normal: n, area, emission } = l {
-                    if *area <= 0.0 {
-                        continue;
-                    }
-                    bounds = p.iter().fold(bounds, |b, v| b.grow(*v));
-                    scale += luminance(*emission) * area;
-                    match normal {
-                        None => normal = Some(*n),
-                        Some(m) => flat &= m.dot(*n).abs() > 0.9999,
-                    }
-                }
-            }
-            if !bounds.is_valid() {
-                return Reach::surfaces(Vec3::ZERO, 0.0, Vec3::ZERO, 0.0);
-            }
-            let center = bounds.center();
-            let radius = 0.5 * bounds.diagonal().length();
-            let normal = if flat { normal.unwrap_or(Vec3::ZERO) } else { Vec3::ZERO };
-            Reach::surfaces(center, radius, normal, scale)
-        }
+fn group_bounds(group: &[Emitter], background: &Background) -> LightBounds {
+    match group {
+        [Emitter::Point(l)] => l.bounds(),
+        [Emitter::Sphere(s)] => s.bounds(),
+        [Emitter::Background] => background.bounds(),
+        // The triangles of one mesh.
+        _ => triangle::group_bounds(group.iter().filter_map(|e| match e {
+            Emitter::Triangle(t) => Some(t),
+            _ => None,
+        })),
     }
-}
-
-/// A point seen from `p` on a sphere light chosen with probability `sel`.
-#[inline(never)]
-fn sample_sphere_light(sphere: &Sphere, emission: Vec3, sel: f32, p: Vec3, u: Vec2) -> Option<LightSample> {
-    let (q, n, pdf) = sample_sphere(sphere, p, u)?;
-    let wi = (q - p).normalize();
-    let pdf = pdf * sel;
-    (pdf.is_finite() && pdf > 0.0).then_some(LightSample {
-        wi,
-        point: Some(q),
-        normal: n,
-        radiance: emission,
-        pdf,
-        delta: false,
-    })
 }
 
 /// Uniform direction on the unit sphere.
@@ -477,64 +421,4 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let r = (1.0 - z * z).max(0.0).sqrt();
     let (sin_phi, cos_phi) = crate::fastmath::sin_cos_turns(u.y);
     Vec3::new(r * cos_phi, r * sin_phi, z)
-}
-
-/// 1 − cosθmax of the cone a sphere subtends from a point at distance² `d2` from its centre
-/// (outside), computed as sin²θmax / (1 + cosθmax): no cancellation for small or distant
-/// spheres.
-fn cone_one_minus_cos(radius: f32, d2: f32) -> f32 {
-    let sin2 = (radius * radius / d2).min(1.0);
-    let cos = (1.0 - sin2).max(0.0).sqrt();
-    sin2 / (1.0 + cos)
-}
-
-/// Whether `p` is inside the sphere or on its surface within rounding. A shading point on
-/// the sphere itself (a camera inside a glowing sphere) is computed with an error of a few
-/// float steps of the coordinates, so it lands outside about half the time; there the cone
-/// toward the sphere degenerates to a half-space whose near intersection is `p` itself, and
-/// light from the sphere would be lost. Sampling by area is valid from anywhere (only
-/// noisier), so it is used within that rounding margin.
-fn inside_or_on(s: &Sphere, p: Vec3) -> bool {
-    let magnitude = s.center.abs().max_element().max(p.abs().max_element()) + s.radius;
-    let r = s.radius + 8.0 * f32::EPSILON * magnitude;
-    (s.center - p).length_squared() <= r * r
-}
-
-/// Samples a point on a sphere as seen from `p`: uniformly in the subtended cone when outside
-/// (solid-angle density 1 / (2π(1 − cosθmax))), uniformly by area when inside or on it.
-fn sample_sphere(s: &Sphere, p: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
-    let to_c = s.center - p;
-    let d2 = to_c.length_squared();
-    if inside_or_on(s, p) {
-        let n = uniform_sphere(u);
-        let q = s.center + s.radius * n;
-        let d = q - p;
-        let dd = d.length_squared();
-        let cos = n.dot(d / dd.sqrt()).abs();
-        let pdf = dd / (cos * 4.0 * PI * s.radius * s.radius);
-        return (cos > 0.0).then_some((q, n, pdf));
-    }
-    let d = d2.sqrt();
-    let one_minus_cos = cone_one_minus_cos(s.radius, d2);
-    let cos_t = 1.0 - u.x * one_minus_cos;
-    let sin2_t = (1.0 - cos_t * cos_t).max(0.0);
-    let phi = 2.0 * PI * u.y;
-    // Distance along the sampled direction to the near intersection with the sphere.
-    let ds = d * cos_t - (s.radius * s.radius - d2 * sin2_t).max(0.0).sqrt();
-    let frame = Frame::from_normal(to_c / d);
-    let dir = frame.to_world(Vec3::new(sin2_t.sqrt() * phi.cos(), sin2_t.sqrt() * phi.sin(), cos_t));
-    let q = p + ds * dir;
-    let n = (q - s.center).normalize();
-    Some((q, n, 1.0 / (2.0 * PI * one_minus_cos)))
-}
-
-fn pdf_sphere(s: &Sphere, p: Vec3, q: Vec3, n: Vec3) -> f32 {
-    let d2 = (s.center - p).length_squared();
-    if inside_or_on(s, p) {
-        let d = q - p;
-        let dd = d.length_squared();
-        let cos = n.normalize().dot(d / dd.sqrt()).abs();
-        return if cos > 0.0 { dd / (cos * 4.0 * PI * s.radius * s.radius) } else { 0.0 };
-    }
-    1.0 / (2.0 * PI * cone_one_minus_cos(s.radius, d2))
 }

@@ -11,7 +11,9 @@ use glam::{Vec2, Vec3};
 
 use super::fresnel::fresnel_schlick;
 use super::microfacet::Ggx;
-use super::{BsdfSample, MIN_COS, reflect, reflect_z, same_hemisphere_above};
+use super::{Bsdf, BsdfSample, Lobes, MIN_COS, MaterialModel, reflect, reflect_z, same_hemisphere_above};
+use crate::hash::Fingerprint;
+use crate::texture::Texture;
 
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Conductor {
@@ -68,5 +70,43 @@ impl Conductor {
             return None; // Reflected into the surface: the single-scattering energy loss.
         }
         Some(BsdfSample { wi, f: self.eval(wo, wi), pdf: self.pdf(wo, wi), delta: false })
+    }
+}
+
+/// Rough metal of reflectance `color` at normal incidence; roughness 0 is a mirror (scene
+/// files: `type = "metal"`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MetalMaterial {
+    pub color: Texture,
+    pub roughness: f32,
+}
+
+impl MaterialModel for MetalMaterial {
+    #[inline(always)]
+    fn bsdf<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
+        Bsdf::Conductor { color: self.color.at::<TEX>(uv), roughness: self.roughness }
+    }
+    /// Its colour: the reflectance at normal incidence (only towards grazing angles does it
+    /// rise to 1).
+    fn albedo(&self) -> f32 {
+        self.color.max().max_element()
+    }
+    fn scatters(&self) -> bool {
+        !matches!(self.color, Texture::Constant(c) if c.max_element() <= 0.0)
+    }
+    fn lobes(&self) -> Lobes {
+        if Conductor::new(Vec3::ONE, self.roughness).is_delta() {
+            Lobes { mirror: true, ..Lobes::default() }
+        } else {
+            Lobes { glossy: true, ..Lobes::default() }
+        }
+    }
+    fn texture(&self) -> Option<&Texture> {
+        (!self.color.is_constant()).then_some(&self.color)
+    }
+    fn fingerprint(&self, h: &mut Fingerprint) {
+        h.str("metal");
+        self.color.fingerprint(h);
+        h.f32s(&[self.roughness]);
     }
 }

@@ -6,10 +6,11 @@
 //! 1/η² radiance compression: it cancels for light that enters and leaves a closed object,
 //! and omitting it keeps reflection + transmission = 1 (no energy bookkeeping across media).
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::fresnel::{fresnel_dielectric, refracted_cos};
-use super::{BsdfSample, MIN_COS, reflect_z};
+use super::{Bsdf, BsdfSample, Lobes, MIN_COS, MaterialModel, coated, reflect_z};
+use crate::hash::Fingerprint;
 
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Dielectric {
@@ -88,5 +89,35 @@ mod tests {
         let wo = Vec3::new(0.3, -0.4, 0.2).normalize();
         assert_eq!(refract(wo, 1.0), Some(-wo));
         assert_eq!(refract(-wo, 1.0), Some(wo));
+    }
+}
+
+/// Smooth glass of index of refraction `ior`, its transmission tinted by `tint` (scene files:
+/// `type = "glass"`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GlassMaterial {
+    pub ior: f32,
+    pub tint: Vec3,
+}
+
+impl MaterialModel for GlassMaterial {
+    #[inline(always)]
+    fn bsdf<const TEX: bool>(&self, _uv: Vec2) -> Bsdf {
+        Bsdf::Dielectric { ior: self.ior, tint: self.tint }
+    }
+    /// The reflected fraction F0 = ((η − 1)/(η + 1))² plus the tint times the rest.
+    fn albedo(&self) -> f32 {
+        coated(((self.ior - 1.0) / (self.ior + 1.0)).powi(2), self.tint.max_element())
+    }
+    fn scatters(&self) -> bool {
+        true
+    }
+    fn lobes(&self) -> Lobes {
+        Lobes { glass: true, ..Lobes::default() }
+    }
+    fn fingerprint(&self, h: &mut Fingerprint) {
+        h.str("glass");
+        h.f32s(&[self.ior]);
+        h.v3(&[self.tint]);
     }
 }

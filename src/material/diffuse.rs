@@ -7,7 +7,9 @@ use crate::fastmath::sin_cos_turns;
 
 use glam::{Vec2, Vec3};
 
-use super::{BsdfSample, MIN_COS, same_hemisphere_above};
+use super::{Bsdf, BsdfSample, Lobes, MIN_COS, MaterialModel, same_hemisphere_above};
+use crate::hash::Fingerprint;
+use crate::texture::Texture;
 
 /// f = albedo / π.
 #[derive(Clone, Copy, Debug)]
@@ -55,4 +57,38 @@ pub(super) fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
 #[inline(always)]
 pub(super) fn cosine_hemisphere_pdf(wi: Vec3) -> f32 {
     wi.z.max(0.0) * FRAC_1_PI
+}
+
+/// A Lambertian surface of colour `color` (scene files: `type = "diffuse"`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiffuseMaterial {
+    pub color: Texture,
+}
+
+impl MaterialModel for DiffuseMaterial {
+    #[inline(always)]
+    fn bsdf<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
+        Bsdf::Diffuse { albedo: self.color.at::<TEX>(uv) }
+    }
+    #[inline(always)]
+    fn lambert<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
+        self.bsdf::<TEX>(uv)
+    }
+    /// Its colour.
+    fn albedo(&self) -> f32 {
+        self.color.max().max_element()
+    }
+    fn scatters(&self) -> bool {
+        !matches!(self.color, Texture::Constant(c) if c.max_element() <= 0.0)
+    }
+    fn lobes(&self) -> Lobes {
+        Lobes { diffuse: true, ..Lobes::default() }
+    }
+    fn texture(&self) -> Option<&Texture> {
+        (!self.color.is_constant()).then_some(&self.color)
+    }
+    fn fingerprint(&self, h: &mut Fingerprint) {
+        h.str("diffuse");
+        self.color.fingerprint(h);
+    }
 }

@@ -4,10 +4,19 @@
 //! direction is unit length and points *away* from the surface (`wo` towards the viewer, `wi`
 //! towards the light). Convert with [`crate::geometry::Frame`] before and after.
 //!
-//! One concept per file:
-//! - `fresnel`: exact dielectric ([`fresnel_dielectric`]) and Schlick Fresnel reflectance,
-//! - `microfacet`: the GGX distribution, Smith masking-shadowing and visible-normal sampling,
-//! - `diffuse`, `conductor`, `plastic`, `dielectric`: the four BSDFs behind [`Bsdf`].
+//! A material kind is one file holding all that ember knows of it: its description as a scene
+//! gives it (colours, textures, roughness: a [`MaterialModel`]), the BSDF it turns into at a
+//! shading point, its albedo, the lobes the scene analysis reports, and its fingerprint:
+//! - `diffuse` ([`DiffuseMaterial`]), `conductor` ([`MetalMaterial`]), `plastic`
+//!   ([`PlasticMaterial`]), `dielectric` ([`GlassMaterial`]), `emissive`
+//!   ([`EmissiveMaterial`]);
+//! - shared by them: `fresnel`, exact dielectric ([`fresnel_dielectric`]) and Schlick Fresnel
+//!   reflectance; `microfacet`, the GGX distribution, Smith masking-shadowing and
+//!   visible-normal sampling.
+//!
+//! Adding a kind: its file, a line in the `material_kinds!` list below and a [`Bsdf`] variant
+//! with its arms here, and its `[materials]` section (`scene/format.rs`) with the arm that
+//! builds it (`scene/toml_file.rs`).
 //!
 //! Conventions shared by all BSDFs:
 //! - [`Bsdf::eval`] is f(wo, wi) *without* the cosine factor, and only for non-delta lobes.
@@ -22,18 +31,179 @@
 mod conductor;
 mod dielectric;
 mod diffuse;
+mod emissive;
 mod fresnel;
 mod microfacet;
 mod plastic;
 
 use glam::{Vec2, Vec3};
 
+use crate::hash::Fingerprint;
+use crate::texture::Texture;
 use conductor::Conductor;
 use dielectric::Dielectric;
 use diffuse::Diffuse;
 use plastic::Plastic;
 
+pub use conductor::MetalMaterial;
+pub use dielectric::GlassMaterial;
+pub use diffuse::DiffuseMaterial;
+pub use emissive::EmissiveMaterial;
 pub use fresnel::fresnel_dielectric;
+pub use plastic::PlasticMaterial;
+
+/// What a material kind answers: see the module documentation.
+pub trait MaterialModel {
+    /// The BSDF at texture coordinates `uv`. With `TEX == false` the caller knows no texture
+    /// is in use, so colours are read as the constants they are, without looking at `uv`.
+    fn bsdf<const TEX: bool>(&self, uv: Vec2) -> Bsdf;
+
+    /// [`MaterialModel::bsdf`] in a scene whose every surface is diffuse or purely emissive
+    /// (the caller knows): the Lambertian BSDF this kind gives there (black unless diffuse).
+    #[inline(always)]
+    fn lambert<const TEX: bool>(&self, _uv: Vec2) -> Bsdf {
+        Bsdf::Diffuse { albedo: Vec3::ZERO }
+    }
+
+    /// The largest fraction of light it sends on in one bounce, for the best colour channel
+    /// and where its colour is brightest (a texture's largest texel), at normal incidence: a
+    /// guide rather than a bound (towards grazing angles metals and coatings reflect more).
+    /// Russian roulette starts from it (`crate::integrator::roulette`).
+    fn albedo(&self) -> f32;
+
+    /// Whether it can scatter light at all (not black, not purely emissive).
+    fn scatters(&self) -> bool;
+
+    /// The kinds of scattering it has, as the scene analysis reports them.
+    fn lobes(&self) -> Lobes;
+
+    /// The texture, if its colour varies over the surface.
+    fn texture(&self) -> Option<&Texture> {
+        None
+    }
+
+    /// Feeds its kind and parameters to a fingerprint.
+    fn fingerprint(&self, h: &mut Fingerprint);
+}
+
+/// Kinds of scattering (a material may have several).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Lobes {
+    /// Lambertian (diffuse, the base of plastic).
+    pub diffuse: bool,
+    /// Rough microfacet reflection (rough metal, plastic).
+    pub glossy: bool,
+    /// A perfect mirror (metal of roughness ~0).
+    pub mirror: bool,
+    /// Refraction (glass).
+    pub glass: bool,
+}
+
+/// The [`MaterialKind`] enum, one variant per kind, and its [`MaterialModel`] implementation,
+/// which hands every question to the variant's own type.
+macro_rules! material_kinds {
+    ($($(#[$doc:meta])* $variant:ident($ty:ty),)*) => {
+        /// What a surface is made of.
+        #[derive(Clone, Debug, PartialEq)]
+        pub enum MaterialKind {
+            $($(#[$doc])* $variant($ty),)*
+        }
+
+        impl MaterialModel for MaterialKind {
+            #[inline(always)]
+            fn bsdf<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
+                match self { $(MaterialKind::$variant(m) => m.bsdf::<TEX>(uv),)* }
+            }
+            #[inline(always)]
+            fn lambert<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
+                match self { $(MaterialKind::$variant(m) => m.lambert::<TEX>(uv),)* }
+            }
+            fn albedo(&self) -> f32 {
+                match self { $(MaterialKind::$variant(m) => m.albedo(),)* }
+            }
+            fn scatters(&self) -> bool {
+                match self { $(MaterialKind::$variant(m) => m.scatters(),)* }
+            }
+            fn lobes(&self) -> Lobes {
+                match self { $(MaterialKind::$variant(m) => m.lobes(),)* }
+            }
+            fn texture(&self) -> Option<&Texture> {
+                match self { $(MaterialKind::$variant(m) => m.texture(),)* }
+            }
+            fn fingerprint(&self, h: &mut Fingerprint) {
+                match self { $(MaterialKind::$variant(m) => m.fingerprint(h),)* }
+            }
+        }
+    };
+}
+
+material_kinds! {
+    /// Lambertian.
+    Diffuse(DiffuseMaterial),
+    /// GGX rough metal; roughness 0 is a mirror.
+    Metal(MetalMaterial),
+    /// A diffuse base under a GGX dielectric coat.
+    Plastic(PlasticMaterial),
+    /// Smooth glass.
+    Glass(GlassMaterial),
+    /// Emits and reflects nothing.
+    Emissive(EmissiveMaterial),
+}
+
+/// A named material; any material may also emit (`emission`, radiance, both faces).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub kind: MaterialKind,
+    pub emission: Vec3,
+}
+
+impl Material {
+    /// A diffuse material of constant colour that does not emit.
+    pub fn diffuse(name: &str, color: Vec3) -> Material {
+        Material {
+            name: name.into(),
+            kind: MaterialKind::Diffuse(DiffuseMaterial { color: Texture::Constant(color) }),
+            emission: Vec3::ZERO,
+        }
+    }
+
+    /// The BSDF at `uv` ([`MaterialModel::bsdf`]).
+    #[inline(always)]
+    pub fn bsdf_at<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
+        self.kind.bsdf::<TEX>(uv)
+    }
+
+    /// The Lambertian BSDF of a scene whose every surface is diffuse or purely emissive
+    /// ([`MaterialModel::lambert`]): the same value as [`Material::bsdf_at`] gives there,
+    /// without dispatch.
+    #[inline(always)]
+    pub fn lambert_at<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
+        self.kind.lambert::<TEX>(uv)
+    }
+
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+
+    /// The texture, if the colour varies over the surface.
+    pub fn texture(&self) -> Option<&Texture> {
+        self.kind.texture()
+    }
+
+    /// Feeds the material to a fingerprint.
+    pub fn fingerprint(&self, h: &mut Fingerprint) {
+        h.str(&self.name);
+        h.v3(&[self.emission]);
+        self.kind.fingerprint(h);
+    }
+}
+
+/// `f0 + (1 − f0) c`: the albedo of a coating reflecting `f0` over a body sending on `c` of
+/// what passes it.
+fn coated(f0: f32, c: f32) -> f32 {
+    f0 + (1.0 - f0) * c
+}
 
 /// Directions whose |cos θ| to the normal is at most this are treated as lying in the surface
 /// plane: opaque BSDFs are zero there and sampling fails. It keeps delta weights `F / |cos θ|`

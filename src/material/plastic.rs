@@ -28,7 +28,9 @@ use glam::{Vec2, Vec3};
 use super::diffuse::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use super::fresnel::fresnel_dielectric;
 use super::microfacet::Ggx;
-use super::{BsdfSample, MIN_COS, reflect, reflect_z, same_hemisphere_above};
+use super::{Bsdf, BsdfSample, Lobes, MIN_COS, MaterialModel, coated, reflect, reflect_z, same_hemisphere_above};
+use crate::hash::Fingerprint;
+use crate::texture::Texture;
 
 /// Index of refraction of the coating.
 const COATING_IOR: f32 = 1.5;
@@ -106,5 +108,42 @@ impl Plastic {
             return None;
         }
         Some(BsdfSample { wi, f: self.eval(wo, wi), pdf: self.pdf(wo, wi), delta: false })
+    }
+}
+
+/// Reflectance at normal incidence of the coating (IOR 1.5).
+const COATING_F0: f32 = 0.04;
+
+/// Glossy plastic: a base of colour `color` under a coating of roughness `roughness` (scene
+/// files: `type = "plastic"`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlasticMaterial {
+    pub color: Texture,
+    pub roughness: f32,
+}
+
+impl MaterialModel for PlasticMaterial {
+    #[inline(always)]
+    fn bsdf<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
+        Bsdf::Plastic { diffuse: self.color.at::<TEX>(uv), roughness: self.roughness }
+    }
+    /// The coating's 4 % plus the base colour times the 96 % that passes the coating.
+    fn albedo(&self) -> f32 {
+        coated(COATING_F0, self.color.max().max_element())
+    }
+    /// Always: the coating reflects whatever the base colour.
+    fn scatters(&self) -> bool {
+        true
+    }
+    fn lobes(&self) -> Lobes {
+        Lobes { diffuse: true, glossy: true, ..Lobes::default() }
+    }
+    fn texture(&self) -> Option<&Texture> {
+        (!self.color.is_constant()).then_some(&self.color)
+    }
+    fn fingerprint(&self, h: &mut Fingerprint) {
+        h.str("plastic");
+        self.color.fingerprint(h);
+        h.f32s(&[self.roughness]);
     }
 }

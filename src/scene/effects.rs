@@ -5,18 +5,17 @@
 //! Only what the scene *uses* counts: a material defined but bound to no primitive, or a
 //! texture on an unused material, does not switch an effect on.
 //!
-//! The analysis also sets the render's bounds that are estimator settings rather than kernel
-//! switches: the path depth ([`Effects::depth_limit`]: none or one bounce when nothing can
-//! bounce light onward) and, from the brightest material in use ([`Effects::albedo`]), the
-//! depth at which Russian roulette starts ([`Effects::rr_start`], `super::roulette`). The
-//! user's `--max-depth` bounds both; an explicit `--rr-depth` replaces the latter.
+//! Each material kind says what it is ([`MaterialModel`]: its lobes, whether it scatters, its
+//! albedo) and each light whether it emits and is a point; this file only gathers the
+//! answers. The render plan (`crate::integrator::RenderPlan`) turns them into the kernel, the
+//! path depth ([`Effects::depth_limit`]: none or one bounce when nothing can bounce light
+//! onward) and, from the brightest material in use ([`Effects::albedo`]), the depth at which
+//! Russian roulette starts.
 
-use super::roulette::material_albedo;
-use super::{MaterialBinding, MaterialKind, Scene};
+use super::{MaterialBinding, Scene};
 use crate::geometry::Geometry;
 use crate::light::Background;
-use crate::material::Bsdf;
-use crate::texture::Texture;
+use crate::material::MaterialModel;
 use std::fmt;
 
 /// The effects present in a scene.
@@ -53,7 +52,7 @@ pub struct Effects {
     /// Some light exists (emitter, point light or non-black background).
     pub lit: bool,
     /// The largest albedo of a material in use (0 if nothing scatters): the best fraction of
-    /// light one bounce can send on (see `super::roulette::material_albedo`).
+    /// light one bounce can send on ([`MaterialModel::albedo`]).
     pub albedo: f32,
 }
 
@@ -105,9 +104,9 @@ impl Effects {
                 used[mi as usize] = true;
                 let m = &scene.materials[mi as usize];
                 e.area_lights |= samplable && m.is_emissive();
-                if scatters(&m.kind) {
+                if m.kind.scatters() {
                     scattering_prims += prims;
-                    transmissive_scatterer |= matches!(m.kind, MaterialKind::Glass { .. });
+                    transmissive_scatterer |= m.kind.lobes().glass;
                 }
             };
             match binding {
@@ -123,29 +122,17 @@ impl Effects {
                 e.emissive = true;
             }
             e.textures |= m.texture().is_some();
-            if scatters(&m.kind) {
-                e.albedo = e.albedo.max(material_albedo(&m.kind));
+            if m.kind.scatters() {
+                e.albedo = e.albedo.max(m.kind.albedo());
             }
-            match &m.kind {
-                MaterialKind::Diffuse { .. } => e.diffuse = true,
-                MaterialKind::Plastic { .. } => {
-                    e.diffuse = true;
-                    e.glossy = true;
-                }
-                MaterialKind::Metal { roughness, .. } => {
-                    let mirror = Bsdf::Conductor { color: glam::Vec3::ONE, roughness: *roughness }.is_delta();
-                    if mirror {
-                        e.mirror = true;
-                    } else {
-                        e.glossy = true;
-                    }
-                }
-                MaterialKind::Glass { .. } => e.glass = true,
-                MaterialKind::Emissive => {}
-            }
+            let lobes = m.kind.lobes();
+            e.diffuse |= lobes.diffuse;
+            e.glossy |= lobes.glossy;
+            e.mirror |= lobes.mirror;
+            e.glass |= lobes.glass;
         }
-        e.point_lights = scene.point_lights.iter().any(|l| l.intensity.max_element() > 0.0);
-        match &scene.background {
+        e.point_lights = scene.lights.iter().any(|l| l.is_delta() && l.emits());
+        match scene.background() {
             b if b.is_black() => {}
             Background::Image { .. } => e.environment = true,
             _ => e.sky = true,
@@ -202,19 +189,6 @@ impl Effects {
             ("depth of field", self.depth_of_field),
             ("indirect light", self.indirect),
         ]
-    }
-}
-
-/// Whether a material can scatter light at all (not black, not purely emissive).
-fn scatters(kind: &MaterialKind) -> bool {
-    match kind {
-        MaterialKind::Diffuse { color } | MaterialKind::Metal { color, .. } | MaterialKind::Plastic { color, .. } => {
-            // A plastic's coating reflects whatever its base colour.
-            !matches!(color, Texture::Constant(c) if c.max_element() <= 0.0)
-                || matches!(kind, MaterialKind::Plastic { .. })
-        }
-        MaterialKind::Glass { .. } => true,
-        MaterialKind::Emissive => false,
     }
 }
 

@@ -2,71 +2,16 @@
 //! (geometry, bindings, materials with their texture pixels, lights, background, camera), so a
 //! checkpoint can refuse to resume against a different scene. Computed from the loaded data,
 //! not the file bytes: editing a comment does not invalidate a checkpoint, editing a referenced
-//! mesh or texture does.
+//! mesh or texture does. Each material and light kind feeds its own parameters.
 
-use super::{MaterialBinding, MaterialKind, Scene};
+use super::{MaterialBinding, Scene};
 use crate::geometry::Geometry;
-use crate::hash::Fnv1a;
-use crate::light::Background;
-use crate::texture::{Image, Texture};
-use glam::{Vec2, Vec3};
-
-/// [`Fnv1a`] (stable across builds) fed with the scene's values.
-struct Fnv(Fnv1a);
-
-impl Fnv {
-    fn bytes(&mut self, b: &[u8]) {
-        self.0.write(b);
-    }
-    fn u32(&mut self, x: u32) {
-        self.bytes(&x.to_le_bytes());
-    }
-    fn f32s(&mut self, v: &[f32]) {
-        self.u32(v.len() as u32);
-        for x in v {
-            self.bytes(&x.to_bits().to_le_bytes());
-        }
-    }
-    fn v3(&mut self, v: &[Vec3]) {
-        self.u32(v.len() as u32);
-        v.iter().for_each(|p| self.f32s(&p.to_array()));
-    }
-    fn v2(&mut self, v: &[Vec2]) {
-        self.u32(v.len() as u32);
-        v.iter().for_each(|p| self.f32s(&p.to_array()));
-    }
-    fn str(&mut self, s: &str) {
-        self.u32(s.len() as u32);
-        self.bytes(s.as_bytes());
-    }
-    fn image(&mut self, img: &Image) {
-        self.u32(img.width);
-        self.u32(img.height);
-        self.v3(&img.pixels);
-    }
-    fn texture(&mut self, t: &Texture) {
-        match t {
-            Texture::Constant(c) => {
-                self.u32(0);
-                self.v3(&[*c]);
-            }
-            Texture::Image(img) => {
-                self.u32(1);
-                self.image(img);
-            }
-            Texture::Checker { a, b, scale } => {
-                self.u32(2);
-                self.v3(&[*a, *b]);
-                self.f32s(&[*scale]);
-            }
-        }
-    }
-}
+use crate::hash::Fingerprint;
 
 impl Scene {
     /// See the module documentation.
     pub fn fingerprint(&self) -> u64 {
-        let mut h = Fnv(Fnv1a::default());
+        let mut h = Fingerprint::default();
         for g in &self.geometry {
             match g {
                 Geometry::Mesh(m) => {
@@ -100,38 +45,9 @@ impl Scene {
                 }
             }
         }
-        for m in &self.materials {
-            h.str(&m.name);
-            h.v3(&[m.emission]);
-            match &m.kind {
-                MaterialKind::Diffuse { color } => {
-                    h.u32(0);
-                    h.texture(color);
-                }
-                MaterialKind::Metal { color, roughness } | MaterialKind::Plastic { color, roughness } => {
-                    h.u32(if matches!(m.kind, MaterialKind::Metal { .. }) { 1 } else { 2 });
-                    h.texture(color);
-                    h.f32s(&[*roughness]);
-                }
-                MaterialKind::Glass { ior, tint } => {
-                    h.u32(3);
-                    h.f32s(&[*ior]);
-                    h.v3(&[*tint]);
-                }
-                MaterialKind::Emissive => h.u32(4),
-            }
-        }
-        for l in &self.point_lights {
-            h.v3(&[l.position, l.intensity]);
-        }
-        match &self.background {
-            Background::Image { image, scale } => {
-                h.image(image);
-                h.f32s(&[*scale]);
-            }
-            other => h.str(&format!("{other:?}")),
-        }
+        self.materials.iter().for_each(|m| m.fingerprint(&mut h));
+        self.lights.iter().for_each(|l| l.fingerprint(&mut h));
         h.str(&format!("{:?}", self.camera));
-        h.0.finish()
+        h.finish()
     }
 }

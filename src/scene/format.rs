@@ -78,7 +78,7 @@ impl<'de> Deserialize<'de> for Unit {
 
 /// `rr_depth`: a number of bounces, `"off"` or `"auto"`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RrDepthValue(pub super::RrDepth);
+pub struct RrDepthValue(pub crate::settings::RrDepth);
 
 impl<'de> Deserialize<'de> for RrDepthValue {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -90,7 +90,7 @@ impl<'de> Deserialize<'de> for RrDepthValue {
             }
             fn visit_i64<E: de::Error>(self, v: i64) -> Result<RrDepthValue, E> {
                 u32::try_from(v)
-                    .map(|n| RrDepthValue(super::RrDepth::After(n)))
+                    .map(|n| RrDepthValue(crate::settings::RrDepth::After(n)))
                     .map_err(|_| E::custom(format!("expected a number of bounces, \"off\" or \"auto\", found {v}")))
             }
             fn visit_str<E: de::Error>(self, v: &str) -> Result<RrDepthValue, E> {

@@ -1,24 +1,24 @@
-//! Scene description: input files (TOML scenes, OBJ/MTL meshes) and the loaded [`Scene`].
+//! Scene description: input files (TOML scene files, `toml_file.rs` with the schema in
+//! `format.rs`; mesh files through one door, `mesh_file/`) and the loaded [`Scene`]; what the
+//! scene calls for (`effects.rs`) and its fingerprint (`fingerprint.rs`).
 
-mod build;
 mod effects;
 mod error;
 mod fingerprint;
 pub mod format;
 mod input;
-mod material;
-mod obj;
-mod roulette;
+pub mod mesh_file;
+mod toml_file;
 
 pub use effects::{DepthLimit, Effects};
 pub use error::SceneError;
-pub use material::{Material, MaterialKind};
-pub use obj::{ObjFile, ObjMesh, load_obj, parse_obj};
-pub use roulette::{RR_THROUGHPUT, RrDepth, throughput_depth};
+pub use mesh_file::{FileMesh, MeshFile};
 
 use crate::camera::Camera;
 use crate::geometry::{Aabb, Geometry, Shape, bounds_of};
-use crate::light::{Background, LightSet, PointLight};
+use crate::light::{Background, Light, LightSet};
+use crate::material::Material;
+use crate::settings::RenderDefaults;
 use crate::texture::{Image, Texture};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -54,17 +54,6 @@ pub struct CameraSpec {
     pub focus_distance: Option<f32>,
 }
 
-/// Render settings a scene file may suggest (the command line overrides them).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct RenderDefaults {
-    pub width: Option<u32>,
-    pub height: Option<u32>,
-    pub spp: Option<u32>,
-    pub max_depth: Option<u32>,
-    pub rr_depth: Option<RrDepth>,
-    pub seed: Option<u64>,
-}
-
 /// A loaded scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -74,8 +63,9 @@ pub struct Scene {
     /// One entry per geometry.
     pub bindings: Vec<MaterialBinding>,
     pub materials: Vec<Material>,
-    pub point_lights: Vec<PointLight>,
-    pub background: Background,
+    /// The lights the scene describes (area lights are surfaces whose material emits); the
+    /// background, if any, is one of them ([`Scene::background`]).
+    pub lights: Vec<Light>,
     pub camera: Option<CameraSpec>,
     pub render: RenderDefaults,
     /// Problems that did not stop loading.
@@ -90,26 +80,26 @@ impl Scene {
             geometry: Vec::new(),
             bindings: Vec::new(),
             materials: Vec::new(),
-            point_lights: Vec::new(),
-            background: Background::Black,
+            lights: Vec::new(),
             camera: None,
             render: RenderDefaults::default(),
             warnings: Vec::new(),
         }
     }
 
-    /// Loads a scene by extension: `.toml` (scene file) or `.obj` (a mesh, framed by the camera,
-    /// lit by a default sky when it has no emitters).
+    /// Loads a scene by extension: `.toml` (scene file) or a mesh file (rendered on its own:
+    /// [`mesh_file::scene_of`]).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
-        match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-            Some("toml") => build::from_toml(path),
-            Some("obj") => build::from_obj(path),
-            _ => {
-                if !path.exists() {
-                    return Err(SceneError::new(path, None, "no such file"));
-                }
-                Err(SceneError::new(path, None, "unknown scene format (expected .toml or .obj)"))
-            }
+        let toml = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        if toml {
+            toml_file::load(path)
+        } else if mesh_file::is_mesh_file(path) {
+            mesh_file::scene_of(path)
+        } else if !path.exists() {
+            Err(SceneError::new(path, None, "no such file"))
+        } else {
+            let formats = mesh_file::extensions();
+            Err(SceneError::new(path, None, format!("unknown scene format (expected .toml or a mesh file: {formats})")))
         }
     }
 
@@ -117,7 +107,7 @@ impl Scene {
     /// the scene refers to (meshes, textures) are found relative to its folder. [`Scene::load`]
     /// reads `path` and calls this for `.toml` files.
     pub fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
-        build::from_toml_str(text, path)
+        toml_file::from_str(text, path)
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -155,7 +145,7 @@ impl Scene {
                 _ => None,
             })
             .collect();
-        if let Background::Image { image, .. } = &self.background {
+        if let Background::Image { image, .. } = self.background() {
             images.push(image);
         }
         images.sort_by_key(|i| Arc::as_ptr(i));
@@ -187,9 +177,36 @@ impl Scene {
         }
     }
 
+    /// What rays leaving the scene see (black if the scene has no background).
+    pub fn background(&self) -> &Background {
+        static BLACK: Background = Background::Black;
+        self.lights
+            .iter()
+            .find_map(|l| match l {
+                Light::Background(b) => Some(b),
+                _ => None,
+            })
+            .unwrap_or(&BLACK)
+    }
+
+    /// Sets what rays leaving the scene see, replacing any background it had.
+    pub fn set_background(&mut self, background: Background) {
+        self.lights.retain(|l| !matches!(l, Light::Background(_)));
+        self.lights.push(Light::Background(background));
+    }
+
     /// The scene's lights, ready for sampling.
     pub fn light_set(&self) -> LightSet {
-        LightSet::new(&self.geometry, &|g, p| self.material(g, p).emission, &self.point_lights, &self.background)
+        LightSet::new(&self.geometry, &|g, p| self.material(g, p).emission, &self.lights)
+    }
+
+    /// The id of the material named "default" (a light grey diffuse), added if missing.
+    pub fn default_material(&mut self) -> u32 {
+        if let Some(i) = self.materials.iter().position(|m| m.name == "default") {
+            return i as u32;
+        }
+        self.materials.push(Material::diffuse("default", Vec3::splat(0.8)));
+        self.materials.len() as u32 - 1
     }
 
     /// The effects this scene calls for.

@@ -21,11 +21,11 @@ pub mod tessellate;
 pub use run::{Options, Section, run};
 
 use crate::accel::AccelError;
+use crate::atomic_write::WriteError;
 use crate::embree::EmbreeError;
 use crate::integrator::RenderError;
-use crate::output::WriteError;
-use crate::tools::report::PlotError;
 use crate::scene::SceneError;
+use crate::tools::report::PlotError;
 
 /// Why a benchmark could not run or report.
 #[derive(Debug, thiserror::Error)]

@@ -15,8 +15,8 @@ use super::record::{RecordedQuery, RecordingAccel, replay};
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
 use crate::integrator::{RenderSettings, render};
-use crate::tools::report::Table;
 use crate::scene::Scene;
+use crate::tools::report::Table;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -42,7 +42,7 @@ impl RenderConfig {
     pub fn settings(&self, scene: &Scene, threads: Option<usize>) -> RenderSettings {
         let s = RenderSettings::from_scene(&scene.render);
         let height = ((self.width as u64 * s.height as u64) / s.width.max(1) as u64).max(1) as u32;
-        RenderSettings { width: self.width, height, spp: self.spp, threads, progress: false, ..s }
+        RenderSettings { width: self.width, height, spp: self.spp, threads, ..s }
     }
 }
 

@@ -46,7 +46,7 @@ impl Lab {
     /// Settings for a `w` × `h` image at `spp`; the lab's seed, all threads, no progress bar,
     /// the default Russian roulette (chosen from the scene).
     pub fn settings(&self, w: u32, h: u32, spp: u32) -> RenderSettings {
-        RenderSettings { width: w, height: h, spp, seed: self.seed, progress: false, ..RenderSettings::default() }
+        RenderSettings { width: w, height: h, spp, seed: self.seed, ..RenderSettings::default() }
     }
 
     /// One-bounce furnace settings: BSDF sampling only, one bounce, no Russian roulette.

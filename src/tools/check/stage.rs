@@ -2,8 +2,10 @@
 //! (the teapot's OBJ text is compiled in).
 
 use crate::geometry::{Aabb, Cylinder, Geometry, Sphere, TriMesh};
-use crate::light::{Background, PointLight};
-use crate::scene::{CameraSpec, Material, MaterialBinding, MaterialKind, Scene, parse_obj};
+use crate::light::{Background, Light, PointLight};
+use crate::material::{DiffuseMaterial, EmissiveMaterial, GlassMaterial, Material, MaterialKind};
+use crate::scene::mesh_file::obj::parse_obj;
+use crate::scene::{CameraSpec, MaterialBinding, Scene};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 use std::path::Path;
@@ -27,16 +29,19 @@ impl Stage {
     }
 
     pub fn diffuse(&mut self, albedo: f32) -> u32 {
-        self.material(MaterialKind::Diffuse { color: Texture::Constant(Vec3::splat(albedo)) }, Vec3::ZERO)
+        self.material(
+            MaterialKind::Diffuse(DiffuseMaterial { color: Texture::Constant(Vec3::splat(albedo)) }),
+            Vec3::ZERO,
+        )
     }
 
     /// Emits `radiance` and reflects nothing.
     pub fn emitter(&mut self, radiance: f32) -> u32 {
-        self.material(MaterialKind::Emissive, Vec3::splat(radiance))
+        self.material(MaterialKind::Emissive(EmissiveMaterial), Vec3::splat(radiance))
     }
 
     pub fn glass(&mut self, ior: f32) -> u32 {
-        self.material(MaterialKind::Glass { ior, tint: Vec3::ONE }, Vec3::ZERO)
+        self.material(MaterialKind::Glass(GlassMaterial { ior, tint: Vec3::ONE }), Vec3::ZERO)
     }
 
     pub fn mesh(&mut self, mesh: TriMesh, material: u32) {
@@ -61,11 +66,11 @@ impl Stage {
     }
 
     pub fn point_light(&mut self, position: Vec3, intensity: f32) {
-        self.scene.point_lights.push(PointLight { position, intensity: Vec3::splat(intensity) });
+        self.scene.lights.push(Light::Point(PointLight { position, intensity: Vec3::splat(intensity) }));
     }
 
     pub fn background(&mut self, background: Background) {
-        self.scene.background = background;
+        self.scene.set_background(background);
     }
 
     /// A pinhole camera.
@@ -208,7 +213,8 @@ pub fn map_scene(scene: &Scene, point: impl Fn(Vec3) -> Vec3, scale: f32) -> Sce
             ),
         })
         .collect();
-    for l in &mut out.point_lights {
+    for l in &mut out.lights {
+        let Light::Point(l) = l else { continue };
         l.position = point(l.position);
         l.intensity *= scale * scale;
     }

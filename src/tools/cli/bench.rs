@@ -1,6 +1,6 @@
+use crate::embree::{BuildOptions, BuildQuality};
 use crate::tools::bench::scenes::{BUILTIN, default_scenes_dir};
 use crate::tools::bench::{Options, Section, run};
-use crate::embree::{BuildOptions, BuildQuality};
 use clap::Args;
 use std::path::PathBuf;
 

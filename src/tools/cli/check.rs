@@ -1,7 +1,7 @@
 //! `ember check`: runs the hard-case suite and prints one table row per case.
 
-use crate::tools::check::{CaseResult, DEFAULT_SEED, Quality, catalog};
 use crate::embree::Device;
+use crate::tools::check::{CaseResult, DEFAULT_SEED, Quality, catalog};
 use clap::Args;
 use std::io::Write;
 use std::process::ExitCode;

@@ -1,9 +1,11 @@
 use crate::accel::AccelKind;
+use crate::atomic_write::write_file;
 use crate::film::Film;
-use crate::output::write_file;
-use crate::tools::report::converge::{Measurement, Study, parse_variants, spp_ladder, time_to_reach, to_csv, write_plots};
 use crate::scene::Scene;
 use crate::scene::format::MAX_IMAGE_SIDE;
+use crate::tools::report::converge::{
+    Measurement, Study, parse_variants, spp_ladder, time_to_reach, to_csv, write_plots,
+};
 use anyhow::Context;
 use clap::Args;
 use std::path::PathBuf;

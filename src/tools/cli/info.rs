@@ -1,7 +1,9 @@
-use crate::accel::EmbreeAccel;
+use crate::accel::{AccelKind, EmbreeAccel};
 use crate::embree::{BuildOptions, Device};
-use crate::limits::{self, MemoryLimit};
+use crate::integrator::RenderPlan;
+use crate::memory::MemoryLimit;
 use crate::scene::Scene;
+use crate::settings::RenderSettings;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -17,15 +19,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
+    super::memory_check::check(&args.scene, &scene, AccelKind::Embree, None, &limit)?;
     let (tris, spheres, cylinders) = scene.primitive_counts();
-    let (data, bvh) = (scene.data_bytes(), limits::embree_bytes(tris as u64, (spheres + cylinders) as u64));
-    limit
-        .check(
-            format!("a BVH over {tris} triangles, {} spheres and cylinders", spheres + cylinders),
-            &format!("(scene data {}, Embree BVH {})", limits::format_bytes(data), limits::format_bytes(bvh)),
-            data + bvh,
-        )
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
     let b = scene.bounds();
     let device = Device::new()?;
     // Warm-up: the first commit in a process also starts Embree's threads.
@@ -41,10 +36,9 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
     );
     println!("embree:     {} ({} bindings, {})", device.version(), device.backend(), device.ray_hit_layout());
-    let effects = scene.effects();
-    let settings = crate::integrator::RenderSettings::from_scene(&scene.render);
-    println!("{effects}");
-    println!("{}", super::render::describe_plan(&effects, &settings));
+    let plan = RenderPlan::new(&scene, &RenderSettings::from_scene(&scene.render));
+    println!("{}", plan.effects);
+    println!("{plan}");
     println!("lights:     {}", scene.light_set().describe());
     println!("bvh build:  {:.2} ms (medium quality)", accel.build_time().as_secs_f64() * 1e3);
     Ok(())

@@ -5,6 +5,8 @@ mod bench;
 mod check;
 mod converge;
 mod info;
+mod memory_check;
+mod progress;
 mod render;
 
 use clap::{Parser, Subcommand};

@@ -169,14 +169,13 @@ impl Study {
             seed,
             threads: self.threads,
             estimator: variant.estimator,
-            progress: false,
             ..RenderSettings::default()
         }
     }
 
     /// The reference's settings: NEE+MIS at full depth with Russian roulette, the study's seed.
     pub fn reference_settings(&self, spp: u32) -> RenderSettings {
-        RenderSettings { progress: true, ..self.settings(&Variant::new(Estimator::NeeMis), spp, self.seed) }
+        self.settings(&Variant::new(Estimator::NeeMis), spp, self.seed)
     }
 
     /// The seed of the render at rung `rung` (index into the ladder), repeat `repeat`.

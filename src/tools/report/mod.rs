@@ -1,5 +1,5 @@
 //! Reports: tables and plots of measurements (benchmarks, convergence). Everything here
-//! writes files atomically (see [`crate::output`]).
+//! writes files atomically (see [`crate::atomic_write`]).
 
 pub mod converge;
 pub mod metrics;

@@ -23,7 +23,7 @@ pub enum PlotError {
     #[error("nothing to plot in {0}: no series has a positive, finite point")]
     Empty(PathBuf),
     #[error(transparent)]
-    Write(#[from] crate::output::WriteError),
+    Write(#[from] crate::atomic_write::WriteError),
 }
 
 const FONT_FAMILY: &str = "sans-serif";
@@ -107,7 +107,7 @@ pub fn log_log_plot_with(
     };
     let xr = range(&mut all.iter().map(|p| p.0));
     let yr = range(&mut all.iter().map(|p| p.1));
-    crate::output::write_atomically(path, |tmp| {
+    crate::atomic_write::write_atomically(path, |tmp| {
         draw(tmp, title, x_label, y_label, series, xr, yr, &usable, options).map_err(|e| e.to_string())
     })?;
     Ok(())

@@ -5,7 +5,8 @@ use super::super::pixel::Reference;
 use super::super::stage::{Stage, icosphere};
 use super::{CheckError, Lab, Verdict, against_reference, camera_of, primary};
 use crate::integrator::RenderSettings;
-use crate::scene::{MaterialKind, Scene};
+use crate::material::{DiffuseMaterial, MaterialKind};
+use crate::scene::Scene;
 use crate::texture::Texture;
 use glam::{DVec3, Vec3};
 
@@ -14,7 +15,10 @@ use glam::{DVec3, Vec3};
 /// escape to the black background.
 pub fn inside_mesh(lab: &Lab) -> Result<Verdict, CheckError> {
     let mut st = Stage::new("inside-mesh");
-    let m = st.material(MaterialKind::Diffuse { color: Texture::Constant(Vec3::splat(0.5)) }, Vec3::splat(0.5));
+    let m = st.material(
+        MaterialKind::Diffuse(DiffuseMaterial { color: Texture::Constant(Vec3::splat(0.5)) }),
+        Vec3::splat(0.5),
+    );
     st.mesh(icosphere(Vec3::new(0.2, -0.1, 0.3), 2.0, 3), m);
     st.camera(Vec3::new(0.8, 0.4, -0.2), Vec3::new(-1.0, 0.0, 0.5), Vec3::Y, 90.0);
     super::inside::enclosure(lab, &st.build())

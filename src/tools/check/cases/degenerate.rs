@@ -12,7 +12,8 @@ use super::{CheckError, Lab, Verdict};
 use crate::film::Film;
 use crate::geometry::TriMesh;
 use crate::light::Background;
-use crate::scene::{Scene, parse_obj};
+use crate::scene::Scene;
+use crate::scene::mesh_file::obj::parse_obj;
 use glam::Vec3;
 use std::path::Path;
 

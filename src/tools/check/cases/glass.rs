@@ -7,7 +7,7 @@ use super::super::pixel::Reference;
 use super::super::stage::{Stage, box_mesh};
 use super::{CheckError, Lab, Verdict, against_reference, camera_of, primary, worst_abs};
 use crate::light::Background;
-use crate::scene::MaterialKind;
+use crate::material::{DiffuseMaterial, MaterialKind};
 use crate::texture::Texture;
 use glam::Vec3;
 
@@ -48,7 +48,9 @@ pub fn ior_one(lab: &Lab) -> Result<Verdict, CheckError> {
     let (a, b, scale) = (0.8f32, 0.2f32, 8.0f32);
     let mut st = Stage::new("glass-ior-1");
     let plane = st.material(
-        MaterialKind::Diffuse { color: Texture::Checker { a: Vec3::splat(a), b: Vec3::splat(b), scale } },
+        MaterialKind::Diffuse(DiffuseMaterial {
+            color: Texture::Checker { a: Vec3::splat(a), b: Vec3::splat(b), scale },
+        }),
         Vec3::ZERO,
     );
     let glass = st.glass(1.0);

@@ -12,7 +12,8 @@ use super::super::pixel::grey;
 use super::super::stage::Stage;
 use super::{CheckError, Lab, Verdict, worst_abs};
 use crate::integrator::RenderSettings;
-use crate::scene::{MaterialKind, Scene};
+use crate::material::{DiffuseMaterial, MaterialKind};
+use crate::scene::Scene;
 use crate::texture::Texture;
 use glam::Vec3;
 
@@ -36,7 +37,7 @@ pub(super) fn enclosure(lab: &Lab, scene: &Scene) -> Result<Verdict, CheckError>
 }
 
 fn glowing(st: &mut Stage) -> u32 {
-    st.material(MaterialKind::Diffuse { color: Texture::Constant(Vec3::splat(0.5)) }, Vec3::splat(0.5))
+    st.material(MaterialKind::Diffuse(DiffuseMaterial { color: Texture::Constant(Vec3::splat(0.5)) }), Vec3::splat(0.5))
 }
 
 pub fn sphere(lab: &Lab) -> Result<Verdict, CheckError> {

@@ -12,7 +12,8 @@ use super::{CheckError, Lab, Verdict, same_image};
 use crate::film::Film;
 use crate::integrator::RenderSettings;
 use crate::light::Background;
-use crate::scene::{MaterialKind, Scene};
+use crate::material::{DiffuseMaterial, MaterialKind, PlasticMaterial};
+use crate::scene::Scene;
 use crate::texture::Texture;
 use glam::Vec3;
 
@@ -21,11 +22,16 @@ use glam::Vec3;
 pub(super) fn teapot_stage(size: f32) -> Scene {
     let mut st = Stage::new("teapot");
     let red = st.material(
-        MaterialKind::Plastic { color: Texture::Constant(Vec3::new(0.62, 0.08, 0.05)), roughness: 0.25 },
+        MaterialKind::Plastic(PlasticMaterial {
+            color: Texture::Constant(Vec3::new(0.62, 0.08, 0.05)),
+            roughness: 0.25,
+        }),
         Vec3::ZERO,
     );
     let ground = st.material(
-        MaterialKind::Diffuse { color: Texture::Checker { a: Vec3::splat(0.75), b: Vec3::splat(0.45), scale: 8.0 } },
+        MaterialKind::Diffuse(DiffuseMaterial {
+            color: Texture::Checker { a: Vec3::splat(0.75), b: Vec3::splat(0.45), scale: 8.0 },
+        }),
         Vec3::ZERO,
     );
     let grey = st.diffuse(0.6);

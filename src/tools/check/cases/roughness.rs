@@ -20,7 +20,8 @@ use super::{CheckError, Lab, Verdict, worst_abs};
 use crate::film::Film;
 use crate::integrator::RenderSettings;
 use crate::light::Background;
-use crate::scene::{MaterialKind, Scene};
+use crate::material::{MaterialKind, MetalMaterial, PlasticMaterial};
+use crate::scene::Scene;
 use crate::texture::Texture;
 use glam::Vec3;
 
@@ -37,13 +38,13 @@ pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
     let white = || Texture::Constant(Vec3::ONE);
     let (w, h, spp, seeds) = lab.pick((25, 25, 8, 4), (45, 45, 16, 8));
     let s = RenderSettings { max_depth: 2, ..lab.settings(w, h, spp) };
-    let mirror = lab.render(&sphere(MaterialKind::Metal { color: white(), roughness: 0.0 }), &s)?;
+    let mirror = lab.render(&sphere(MaterialKind::Metal(MetalMaterial { color: white(), roughness: 0.0 })), &s)?;
     let mirror_err = worst_abs(&mirror, 1.0);
     let mut v = Verdict::new(mirror_err, 1e-4, "max |px − 1|", "metal r=0: every pixel 1");
     let bounded = [
-        ("metal r=1", MaterialKind::Metal { color: white(), roughness: 1.0 }),
-        ("plastic r=0", MaterialKind::Plastic { color: white(), roughness: 0.0 }),
-        ("plastic r=1", MaterialKind::Plastic { color: white(), roughness: 1.0 }),
+        ("metal r=1", MaterialKind::Metal(MetalMaterial { color: white(), roughness: 1.0 })),
+        ("plastic r=0", MaterialKind::Plastic(PlasticMaterial { color: white(), roughness: 0.0 })),
+        ("plastic r=1", MaterialKind::Plastic(PlasticMaterial { color: white(), roughness: 1.0 })),
     ];
     for (i, (name, kind)) in bounded.into_iter().enumerate() {
         let (mean, se) = lab.render_seeds(&sphere(kind), &s, seeds)?;

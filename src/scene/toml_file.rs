@@ -1,9 +1,15 @@
-//! Turning scene files into a [`Scene`].
+//! Reading a TOML scene file (its schema is `format.rs`) into a [`Scene`]: each section's
+//! values become ember's geometry, materials, lights and camera; the meshes it names come
+//! through the mesh-file door (`mesh_file`).
 
 use super::format::{self, BackgroundSection, ColorSource, LightSection, MaterialSection, ScaleSpec, SceneFile};
-use super::{CameraSpec, Material, MaterialBinding, MaterialKind, RenderDefaults, Scene, SceneError, load_obj};
+use super::{CameraSpec, MaterialBinding, Scene, SceneError, mesh_file};
 use crate::geometry::{Cylinder, Geometry, Sphere, TriMesh};
-use crate::light::{Background, PointLight};
+use crate::light::{Background, Light, PointLight};
+use crate::material::{
+    DiffuseMaterial, EmissiveMaterial, GlassMaterial, Material, MaterialKind, MetalMaterial, PlasticMaterial,
+};
+use crate::settings::RenderDefaults;
 use crate::texture::{Image, Texture};
 use glam::{Affine3A, Quat, Vec3};
 use std::collections::HashMap;
@@ -15,14 +21,16 @@ fn line_of(text: &str, pos: usize) -> usize {
     text[..pos.min(text.len())].bytes().filter(|&b| b == b'\n').count() + 1
 }
 
-struct Ctx<'a> {
+/// The scene file being read: where it is, its text (for line numbers) and the images
+/// loaded so far (each file once).
+struct SceneFileReader<'a> {
     path: &'a Path,
     text: &'a str,
     dir: PathBuf,
     images: HashMap<PathBuf, Arc<Image>>,
 }
 
-impl Ctx<'_> {
+impl SceneFileReader<'_> {
     fn err_at(&self, span: std::ops::Range<usize>, msg: impl Into<String>) -> SceneError {
         SceneError::new(self.path, Some(line_of(self.text, span.start)), msg)
     }
@@ -57,18 +65,22 @@ impl Ctx<'_> {
     }
 }
 
-pub(super) fn from_toml(path: &Path) -> Result<Scene, SceneError> {
+pub(super) fn load(path: &Path) -> Result<Scene, SceneError> {
     let text = super::input::read_to_string(path)?;
-    from_toml_str(&text, path)
+    from_str(&text, path)
 }
 
-pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+pub(super) fn from_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
     let file: SceneFile = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| line_of(text, s.start));
         SceneError::new(path, line, e.message().trim().to_string())
     })?;
-    let mut ctx =
-        Ctx { path, text, dir: path.parent().map(Path::to_path_buf).unwrap_or_default(), images: HashMap::new() };
+    let mut ctx = SceneFileReader {
+        path,
+        text,
+        dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
+        images: HashMap::new(),
+    };
     let mut scene = Scene::empty(path);
     scene.render = render_defaults(&file.render);
 
@@ -80,7 +92,7 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
         by_name.insert(name, scene.materials.len() as u32);
         scene.materials.push(material);
     }
-    let lookup = |ctx: &Ctx, name: &toml::Spanned<String>| -> Result<u32, SceneError> {
+    let lookup = |ctx: &SceneFileReader, name: &toml::Spanned<String>| -> Result<u32, SceneError> {
         by_name.get(name.get_ref()).copied().ok_or_else(|| {
             let mut known: Vec<&str> = by_name.keys().map(String::as_str).collect();
             known.sort();
@@ -89,26 +101,28 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
     };
 
     for m in &file.meshes {
-        let obj_path = ctx.resolve(m.file.get_ref());
-        let obj = load_obj(&obj_path).map_err(|e| {
-            if e.line.is_none() && e.path == obj_path {
+        let mesh_path = ctx.resolve(m.file.get_ref());
+        let loaded = mesh_file::load(&mesh_path).map_err(|e| {
+            if e.line.is_none() && e.path == mesh_path {
                 // Point at the scene line that names the file, and say what is wrong with it.
-                ctx.err_at(m.file.span(), format!("mesh {}: {}", obj_path.display(), e.message))
+                ctx.err_at(m.file.span(), format!("mesh {}: {}", mesh_path.display(), e.message))
             } else {
                 e
             }
         })?;
-        scene.warnings.extend(obj.warnings.iter().cloned());
+        scene.warnings.extend(loaded.warnings.iter().cloned());
         let transform = mesh_transform(&ctx, m)?;
         let over = m.material.as_ref().map(|n| lookup(&ctx, n)).transpose()?;
-        let mtl_ids = mtl_materials(&mut scene, &obj_path, &obj.materials);
-        for om in obj.meshes {
+        let first = scene.materials.len() as u32;
+        scene.materials.extend(loaded.materials);
+        for om in loaded.meshes {
             let mut mesh = om.mesh;
             mesh.transform(transform);
             // A transform can collapse triangles too (a tiny scale underflows to zero area).
             let dropped = mesh.remove_degenerate();
             if !dropped.is_empty() {
-                let warning = super::obj::degenerate_warning(&obj_path, &mesh.name, &dropped, mesh.triangle_count());
+                let warning =
+                    mesh_file::obj::degenerate_warning(&mesh_path, &mesh.name, &dropped, mesh.triangle_count());
                 scene.warnings.push(format!("{warning}, after the scene's scale/rotate/translate"));
                 if mesh.triangle_count() == 0 {
                     continue;
@@ -117,8 +131,8 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
             if m.smooth && mesh.normals.is_empty() {
                 mesh.compute_vertex_normals();
             }
-            let id =
-                over.unwrap_or_else(|| om.material.map(|i| mtl_ids[i]).unwrap_or_else(|| default_material(&mut scene)));
+            let id = over
+                .unwrap_or_else(|| om.material.map(|i| first + i as u32).unwrap_or_else(|| scene.default_material()));
             scene.geometry.push(Geometry::Mesh(Arc::new(mesh)));
             scene.bindings.push(MaterialBinding::Uniform(id));
         }
@@ -177,22 +191,27 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
     for l in &file.lights {
         match l {
             LightSection::Point { position, intensity } => {
-                scene.point_lights.push(PointLight { position: position.0, intensity: intensity.0 })
+                scene.lights.push(Light::Point(PointLight { position: position.0, intensity: intensity.0 }))
             }
         }
     }
     let background_span = file.background.as_ref().map(|b| b.span());
-    scene.background = match file.background.map(toml::Spanned::into_inner) {
-        None => Background::Black,
-        Some(BackgroundSection::Constant { color }) => Background::Constant(color.0),
-        Some(BackgroundSection::Gradient { zenith, horizon, ground }) => {
-            Background::Gradient { zenith: zenith.0, horizon: horizon.0, ground: ground.map_or(horizon.0, |g| g.0) }
-        }
-        Some(BackgroundSection::Image { file, scale }) => Background::Image {
+    let background = match file.background.map(toml::Spanned::into_inner) {
+        None => None,
+        Some(BackgroundSection::Constant { color }) => Some(Background::Constant(color.0)),
+        Some(BackgroundSection::Gradient { zenith, horizon, ground }) => Some(Background::Gradient {
+            zenith: zenith.0,
+            horizon: horizon.0,
+            ground: ground.map_or(horizon.0, |g| g.0),
+        }),
+        Some(BackgroundSection::Image { file, scale }) => Some(Background::Image {
             image: ctx.image(&file, background_span.unwrap_or(0..0))?,
             scale: scale.map_or(1.0, |s| s.0),
-        },
+        }),
     };
+    if let Some(b) = background {
+        scene.set_background(b);
+    }
     if let Some(c) = file.camera {
         let fov = c.fov.as_ref().map_or(40.0, |f| f.get_ref().0);
         if fov >= 180.0 {
@@ -232,7 +251,7 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
 }
 
 fn material(
-    ctx: &mut Ctx,
+    ctx: &mut SceneFileReader,
     name: String,
     m: MaterialSection,
     span: std::ops::Range<usize>,
@@ -240,25 +259,32 @@ fn material(
     let e = |x: Option<format::Rgb>| x.map_or(Vec3::ZERO, |c| c.0);
     let (kind, emission) = match m {
         MaterialSection::Diffuse { color, emission } => {
-            (MaterialKind::Diffuse { color: ctx.texture(color, span)? }, e(emission))
+            (MaterialKind::Diffuse(DiffuseMaterial { color: ctx.texture(color, span)? }), e(emission))
         }
         MaterialSection::Metal { color, roughness, emission } => (
-            MaterialKind::Metal { color: ctx.texture(color, span)?, roughness: roughness.map_or(0.0, |r| r.0) },
+            MaterialKind::Metal(MetalMaterial {
+                color: ctx.texture(color, span)?,
+                roughness: roughness.map_or(0.0, |r| r.0),
+            }),
             e(emission),
         ),
         MaterialSection::Plastic { color, roughness, emission } => (
-            MaterialKind::Plastic { color: ctx.texture(color, span)?, roughness: roughness.map_or(0.2, |r| r.0) },
+            MaterialKind::Plastic(PlasticMaterial {
+                color: ctx.texture(color, span)?,
+                roughness: roughness.map_or(0.2, |r| r.0),
+            }),
             e(emission),
         ),
-        MaterialSection::Glass { ior, tint } => {
-            (MaterialKind::Glass { ior: ior.map_or(1.5, |i| i.0), tint: tint.map_or(Vec3::ONE, |t| t.0) }, Vec3::ZERO)
-        }
-        MaterialSection::Emissive { emission } => (MaterialKind::Emissive, emission.0),
+        MaterialSection::Glass { ior, tint } => (
+            MaterialKind::Glass(GlassMaterial { ior: ior.map_or(1.5, |i| i.0), tint: tint.map_or(Vec3::ONE, |t| t.0) }),
+            Vec3::ZERO,
+        ),
+        MaterialSection::Emissive { emission } => (MaterialKind::Emissive(EmissiveMaterial), emission.0),
     };
     Ok(Material { name, kind, emission })
 }
 
-fn mesh_transform(ctx: &Ctx, m: &format::MeshSection) -> Result<Affine3A, SceneError> {
+fn mesh_transform(ctx: &SceneFileReader, m: &format::MeshSection) -> Result<Affine3A, SceneError> {
     let scale = match m.scale.as_ref().map(|s| (*s.get_ref(), s.span())) {
         None => Vec3::ONE,
         Some((ScaleSpec::Uniform(s), span)) => {
@@ -278,85 +304,4 @@ fn mesh_transform(ctx: &Ctx, m: &format::MeshSection) -> Result<Affine3A, SceneE
     let rot = Quat::from_rotation_z(r.z) * Quat::from_rotation_y(r.y) * Quat::from_rotation_x(r.x);
     let t = m.translate.map_or(Vec3::ZERO, |t| t.0);
     Ok(Affine3A::from_scale_rotation_translation(scale, rot, t))
-}
-
-/// Adds the MTL materials of an OBJ file to the scene; returns their scene ids.
-///
-/// Mapping: `Kd` → diffuse colour; `Ks` > 0 with `Ns` → plastic with roughness
-/// `(2 / (Ns + 2))^(1/4)` (the Phong-to-Beckmann/GGX convention alpha = sqrt(2 / (Ns + 2)),
-/// roughness = sqrt(alpha)); dissolve `d` < 1 or `illum` 4/6/7 → glass with IOR `Ni`;
-/// `Ke` → emission, and, following Embree's `cornell_box.mtl`, an ambient `Ka` above 1 is
-/// read as emission too.
-fn mtl_materials(scene: &mut Scene, obj: &Path, mtls: &[tobj::Material]) -> Vec<u32> {
-    mtls.iter()
-        .map(|m| {
-            let kd = m.diffuse.map_or(Vec3::splat(0.8), Vec3::from_array);
-            let ks = m.specular.map_or(Vec3::ZERO, Vec3::from_array);
-            let ka = m.ambient.map_or(Vec3::ZERO, Vec3::from_array);
-            let ke = m.unknown_param.get("Ke").and_then(|s| parse3(s)).unwrap_or(Vec3::ZERO);
-            let emission = if ke.max_element() > 0.0 {
-                ke
-            } else if ka.max_element() > 1.0 {
-                ka
-            } else {
-                Vec3::ZERO
-            };
-            let glass = m.dissolve.is_some_and(|d| d < 1.0) || matches!(m.illumination_model, Some(4 | 6 | 7));
-            let kind = if glass {
-                MaterialKind::Glass { ior: m.optical_density.filter(|&n| n > 0.0).unwrap_or(1.5), tint: Vec3::ONE }
-            } else if ks.max_element() > 0.0 {
-                let ns = m.shininess.unwrap_or(10.0).max(0.0);
-                MaterialKind::Plastic { color: Texture::Constant(kd), roughness: (2.0 / (ns + 2.0)).powf(0.25) }
-            } else {
-                MaterialKind::Diffuse { color: Texture::Constant(kd) }
-            };
-            scene.materials.push(Material {
-                name: format!(
-                    "{}:{}",
-                    obj.file_name().map_or(String::new(), |f| f.to_string_lossy().into_owned()),
-                    m.name
-                ),
-                kind,
-                emission,
-            });
-            scene.materials.len() as u32 - 1
-        })
-        .collect()
-}
-
-fn parse3(s: &str) -> Option<Vec3> {
-    let v: Vec<f32> = s.split_whitespace().filter_map(|x| x.parse().ok()).collect();
-    (v.len() == 3 && v.iter().all(|x| x.is_finite() && *x >= 0.0)).then(|| Vec3::new(v[0], v[1], v[2]))
-}
-
-fn default_material(scene: &mut Scene) -> u32 {
-    if let Some(i) = scene.materials.iter().position(|m| m.name == "default") {
-        return i as u32;
-    }
-    scene.materials.push(Material::diffuse("default", Vec3::splat(0.8)));
-    scene.materials.len() as u32 - 1
-}
-
-/// A mesh file rendered on its own: MTL materials (or a light grey), a camera that frames it
-/// and, when nothing in it emits, a sky.
-pub(super) fn from_obj(path: &Path) -> Result<Scene, SceneError> {
-    let obj = load_obj(path)?;
-    let mut scene = Scene::empty(path);
-    scene.warnings = obj.warnings.clone();
-    let ids = mtl_materials(&mut scene, path, &obj.materials);
-    for om in obj.meshes {
-        let id = om.material.map(|i| ids[i]).unwrap_or_else(|| default_material(&mut scene));
-        scene.geometry.push(Geometry::Mesh(Arc::new(om.mesh)));
-        scene.bindings.push(MaterialBinding::Uniform(id));
-    }
-    // Only materials in use count: Embree's cornell_box.obj defines an emissive "light"
-    // material but its light face is commented out.
-    if !scene.effects().emissive {
-        scene.background = Background::Gradient {
-            zenith: Vec3::new(0.9, 0.95, 1.0),
-            horizon: Vec3::splat(0.8),
-            ground: Vec3::splat(0.25),
-        };
-    }
-    Ok(scene)
 }

@@ -202,19 +202,6 @@ pub fn texture_bytes(width: u32, height: u32) -> u64 {
     width as u64 * height as u64 * TEXTURE_BYTES_PER_PIXEL
 }
 
-/// Memory to load an OBJ file of `file_len` bytes with `vertices` positions and `triangles`
-/// triangles (after fan triangulation): the file's text, tobj's face records and vertex
-/// de-duplication map, and the mesh (measured: 218 MB peak for a 37.6 MB file of 501,501
-/// vertices and 1,000,000 triangles, 430 MB for twice that).
-pub fn obj_bytes(file_len: u64, vertices: u64, triangles: u64) -> u64 {
-    file_len
-        .saturating_add(vertices.saturating_mul(OBJ_BYTES_PER_VERTEX))
-        .saturating_add(triangles.saturating_mul(OBJ_BYTES_PER_TRIANGLE))
-}
-
-const OBJ_BYTES_PER_VERTEX: u64 = 100;
-const OBJ_BYTES_PER_TRIANGLE: u64 = 140;
-
 /// Memory Embree needs for `triangles` triangles and `shapes` user primitives (spheres,
 /// cylinders): its copies of the vertex and index buffers and the BVH being built (measured,
 /// medium build quality: 114 bytes per triangle for a 1,000,000-triangle height field, 113

@@ -1,0 +1,178 @@
+//! The render plan: what a render of a given scene with given settings runs, worked out once.
+//!
+//! The settings are requests ([`RenderSettings`]); the plan holds what is in force for this
+//! scene: the kernel (specialised to the scene's [`Effects`], or the general one), the path
+//! depth (the user's `max_depth`, or less where the scene cannot use more), and the depth from
+//! which Russian roulette runs — each with how it was decided, which is what its
+//! [`Display`](fmt::Display) prints (`ember render` and `ember info` show that line). The
+//! render loop, the checkpoint key and the summary read the plan; nothing else works these
+//! out again.
+
+use super::kernel::KernelChoice;
+use super::roulette::{auto_start, throughput_depth};
+use crate::scene::{DepthLimit, Effects, Scene};
+use crate::settings::{RenderSettings, RrDepth};
+use std::fmt;
+
+/// What a render runs. See the module documentation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderPlan {
+    /// The requests the plan was made from.
+    pub settings: RenderSettings,
+    /// What the scene analysis found.
+    pub effects: Effects,
+    /// The kernel that runs.
+    pub kernel: KernelChoice,
+    /// The most bounces a path takes: the user's `max_depth`, or less where the scene cannot
+    /// use more and the kernel is specialised.
+    pub path_depth: u32,
+    /// The depth the scene can use (at most `max_depth`), whichever kernel runs: the
+    /// automatic roulette start is judged against it.
+    pub scene_depth: u32,
+    /// Russian roulette runs after this many bounces (`None`: never).
+    pub roulette_start: Option<u32>,
+}
+
+impl RenderPlan {
+    /// The plan for `scene` rendered with `settings` (analyses the scene).
+    pub fn new(scene: &Scene, settings: &RenderSettings) -> RenderPlan {
+        RenderPlan::for_effects(scene.effects(), settings)
+    }
+
+    /// The plan for a scene with `effects` rendered with `settings`.
+    pub fn for_effects(effects: Effects, settings: &RenderSettings) -> RenderPlan {
+        let max_depth = settings.max_depth;
+        let scene_depth = effects.depth_limit().apply(max_depth);
+        let (kernel, path_depth) = if settings.specialize {
+            (KernelChoice::for_effects(&effects), scene_depth)
+        } else {
+            (KernelChoice::GENERAL, max_depth)
+        };
+        // An estimator setting, not a kernel switch: the same whether specialised or not.
+        let roulette_start = match settings.rr_depth {
+            RrDepth::Auto => auto_start(&effects, max_depth),
+            RrDepth::After(n) => Some(n),
+            RrDepth::Off => None,
+        };
+        RenderPlan { settings: settings.clone(), effects, kernel, path_depth, scene_depth, roulette_start }
+    }
+
+    /// Everything that changes the image, as `key=value` words: the requests that matter and
+    /// the roulette start in force (thread count and kernel choice do not change the image).
+    /// A checkpoint records this and resumes only against the same words.
+    pub fn checkpoint_key(&self) -> String {
+        let s = &self.settings;
+        let rr = self.roulette_start.map_or("off".to_string(), |d| d.to_string());
+        let te = s.target_error.map_or("none".to_string(), |e| e.to_string());
+        format!(
+            "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} target-error={te}",
+            s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator
+        )
+    }
+
+    /// Whether anything in the scene emits light; without light every sample is exactly zero
+    /// and the specialised render traces no ray.
+    pub fn traces_nothing(&self) -> bool {
+        self.settings.specialize && !self.effects.lit
+    }
+
+    fn depth_text(&self) -> String {
+        let (used, max_depth) = (self.path_depth, self.settings.max_depth);
+        if used == max_depth {
+            return format!("{used} (--max-depth)");
+        }
+        match self.effects.depth_limit() {
+            DepthLimit::EmittersOnly => {
+                format!("{used} (nothing scatters light: emitters only; --max-depth {max_depth})")
+            }
+            DepthLimit::DirectOnly => {
+                format!("{used} (direct light only: nothing can bounce light onward; --max-depth {max_depth})")
+            }
+            DepthLimit::Unbounded => format!("{used}"),
+        }
+    }
+
+    fn roulette_text(&self) -> String {
+        let albedo = self.effects.albedo;
+        match (self.settings.rr_depth, self.roulette_start) {
+            (RrDepth::Off, _) => "russian roulette off (--rr-depth off)".to_string(),
+            (RrDepth::After(n), _) => format!("russian roulette from depth {n} (--rr-depth {n})"),
+            (RrDepth::Auto, Some(k)) => format!("russian roulette from depth {k} (scene albedo ≤ {albedo:.2})"),
+            (RrDepth::Auto, None) => {
+                let why = match throughput_depth(albedo) {
+                    _ if !self.effects.scattering => "nothing scatters light".to_string(),
+                    None => format!("scene albedo {albedo:.2}: throughput never falls to 1/2"),
+                    Some(k) => format!(
+                        "scene albedo ≤ {albedo:.2}: it would start at depth {k}, the path depth is {}",
+                        self.scene_depth
+                    ),
+                };
+                format!("russian roulette off ({why})")
+            }
+        }
+    }
+}
+
+/// `kernel: …; path depth N (why); russian roulette …`
+impl fmt::Display for RenderPlan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "kernel: {}; path depth {}; {}", self.kernel, self.depth_text(), self.roulette_text())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scattering(albedo: f32) -> Effects {
+        Effects { scattering: true, indirect: true, lit: true, albedo, ..Effects::default() }
+    }
+
+    fn plan(e: Effects, rr_depth: RrDepth, specialize: bool) -> RenderPlan {
+        RenderPlan::for_effects(e, &RenderSettings { rr_depth, specialize, ..RenderSettings::default() })
+    }
+
+    #[test]
+    fn the_users_choice_wins() {
+        let dark = scattering(0.2);
+        assert_eq!(plan(dark, RrDepth::Auto, true).roulette_start, Some(1));
+        assert_eq!(plan(dark, RrDepth::After(3), true).roulette_start, Some(3));
+        assert_eq!(plan(dark, RrDepth::Off, true).roulette_start, None);
+        let white = scattering(1.0);
+        assert_eq!(plan(white, RrDepth::Auto, true).roulette_start, None);
+        assert_eq!(plan(white, RrDepth::After(2), true).roulette_start, Some(2));
+    }
+
+    #[test]
+    fn the_general_kernel_runs_to_the_users_depth_with_the_scenes_roulette() {
+        let direct = Effects { indirect: false, ..scattering(0.2) };
+        let spec = plan(direct, RrDepth::Auto, true);
+        let general = plan(direct, RrDepth::Auto, false);
+        assert_eq!((spec.path_depth, general.path_depth), (1, 8));
+        assert_eq!((spec.scene_depth, general.scene_depth), (1, 1));
+        assert_eq!((spec.roulette_start, general.roulette_start), (None, None));
+        assert_eq!(general.kernel, KernelChoice::GENERAL);
+        assert_eq!(
+            spec.to_string(),
+            "kernel: lens off, textures off, glossy off, glass off, hit lights off; path depth 1 (direct light \
+             only: nothing can bounce light onward; --max-depth 8); russian roulette off (scene albedo ≤ 0.20: it \
+             would start at depth 1, the path depth is 1)"
+        );
+        assert_eq!(
+            plan(scattering(0.75), RrDepth::Auto, true).to_string(),
+            "kernel: lens off, textures off, glossy off, glass off, hit lights off; path depth 8 (--max-depth); \
+             russian roulette from depth 3 (scene albedo ≤ 0.75)"
+        );
+    }
+
+    #[test]
+    fn the_checkpoint_key_names_the_roulette_start_in_force() {
+        let key = plan(scattering(0.75), RrDepth::Auto, true).checkpoint_key();
+        assert_eq!(
+            key,
+            "width=640 height=480 spp=64 max-depth=8 rr-depth=3 seed=0 estimator=nee-mis target-error=none"
+        );
+        // The kernel does not change the image, so it is not in the key.
+        assert_eq!(plan(scattering(0.75), RrDepth::After(3), false).checkpoint_key(), key);
+    }
+}

@@ -1,0 +1,177 @@
+//! What the user asks of a render: [`RenderSettings`], from the command line over a scene
+//! file's `[render]` suggestions ([`RenderDefaults`]) over built-in defaults. These are
+//! requests; what a render of a given scene actually runs (the path depth in force, where
+//! Russian roulette starts, which kernel) is worked out once from them and the scene, in
+//! [`crate::integrator::RenderPlan`].
+
+use std::fmt;
+use std::str::FromStr;
+
+/// Which estimator of the rendering equation to use.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Estimator {
+    /// Next-event estimation and BSDF sampling combined by MIS (the default).
+    #[default]
+    NeeMis,
+    /// Next-event estimation only; emission found by BSDF sampling is ignored (except after
+    /// specular bounces).
+    NeeOnly,
+    /// BSDF sampling only (point lights then contribute nothing).
+    BsdfOnly,
+    /// BSDF sampling only, with diffuse surfaces sampled uniformly over the hemisphere
+    /// instead of by cosine (the seed paper's estimator; other BSDFs use their own sampling).
+    BsdfUniform,
+}
+
+impl Estimator {
+    pub const ALL: [Estimator; 4] =
+        [Estimator::NeeMis, Estimator::NeeOnly, Estimator::BsdfOnly, Estimator::BsdfUniform];
+
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Estimator::NeeMis => "nee-mis",
+            Estimator::NeeOnly => "nee",
+            Estimator::BsdfOnly => "bsdf",
+            Estimator::BsdfUniform => "bsdf-uniform",
+        }
+    }
+}
+
+impl FromStr for Estimator {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Estimator::ALL
+            .into_iter()
+            .find(|e| e.name() == s)
+            .ok_or_else(|| format!("unknown estimator {s:?} (expected nee-mis, nee, bsdf or bsdf-uniform)"))
+    }
+}
+
+impl fmt::Display for Estimator {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// When Russian roulette should start, as asked for (`--rr-depth`, `[render] rr_depth`). The
+/// start in force for a scene is [`crate::integrator::RenderPlan::roulette_start`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RrDepth {
+    /// Chosen from the scene (see `crate::integrator::roulette`).
+    #[default]
+    Auto,
+    /// After this many bounces.
+    After(u32),
+    /// Never.
+    Off,
+}
+
+impl FromStr for RrDepth {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(RrDepth::Auto),
+            "off" => Ok(RrDepth::Off),
+            _ => s
+                .parse()
+                .map(RrDepth::After)
+                .map_err(|_| format!("expected a number, \"off\" or \"auto\", found {s:?}")),
+        }
+    }
+}
+
+/// `auto`, `off` or the number, as on the command line.
+impl fmt::Display for RrDepth {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RrDepth::Auto => f.write_str("auto"),
+            RrDepth::After(n) => write!(f, "{n}"),
+            RrDepth::Off => f.write_str("off"),
+        }
+    }
+}
+
+/// How to render, as asked for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// The most bounces a path may take (0 shows emitters only, 1 is direct lighting); the
+    /// render uses fewer where the scene cannot use them ([`crate::integrator::RenderPlan`]).
+    pub max_depth: u32,
+    /// When Russian roulette should start.
+    pub rr_depth: RrDepth,
+    pub seed: u64,
+    /// Worker threads (`None`: all cores).
+    pub threads: Option<usize>,
+    pub estimator: Estimator,
+    /// Run the kernel specialised to the scene's effects (`false`: the general kernel).
+    pub specialize: bool,
+    /// Adaptive sampling: a pixel stops taking samples once the estimated relative standard
+    /// error of its mean falls below this (see [`crate::film::PixelState::relative_error`]);
+    /// `spp` is then the most any pixel gets.
+    pub target_error: Option<f32>,
+}
+
+impl RenderSettings {
+    /// The defaults with a scene file's `[render]` values over them.
+    pub fn from_scene(r: &RenderDefaults) -> RenderSettings {
+        let d = RenderSettings::default();
+        RenderSettings {
+            width: r.width.unwrap_or(d.width),
+            height: r.height.unwrap_or(d.height),
+            spp: r.spp.unwrap_or(d.spp),
+            max_depth: r.max_depth.unwrap_or(d.max_depth),
+            rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
+            seed: r.seed.unwrap_or(d.seed),
+            ..d
+        }
+    }
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 640,
+            height: 480,
+            spp: 64,
+            max_depth: 8,
+            rr_depth: RrDepth::Auto,
+            seed: 0,
+            threads: None,
+            estimator: Estimator::NeeMis,
+            specialize: true,
+            target_error: None,
+        }
+    }
+}
+
+/// Render settings a scene file may suggest (the command line overrides them).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderDefaults {
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub spp: Option<u32>,
+    pub max_depth: Option<u32>,
+    pub rr_depth: Option<RrDepth>,
+    pub seed: Option<u64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rr_depth_parses_and_prints_as_on_the_command_line() {
+        for (s, v) in
+            [("auto", RrDepth::Auto), ("off", RrDepth::Off), ("0", RrDepth::After(0)), ("7", RrDepth::After(7))]
+        {
+            assert_eq!(s.parse::<RrDepth>(), Ok(v));
+            assert_eq!(v.to_string(), s);
+        }
+        assert_eq!("banana".parse::<RrDepth>(), Err("expected a number, \"off\" or \"auto\", found \"banana\"".into()));
+        assert!("-1".parse::<RrDepth>().is_err());
+    }
+}

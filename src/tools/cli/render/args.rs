@@ -1,0 +1,126 @@
+//! `ember render`'s arguments, and the settings they give with a scene's own.
+
+use crate::accel::AccelKind;
+use crate::embree::BuildQuality;
+use crate::scene::Scene;
+use crate::scene::format::MAX_IMAGE_SIDE;
+use crate::settings::{Estimator, RenderSettings, RrDepth};
+use clap::Args;
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Scene file (.toml) or mesh (.obj).
+    pub scene: PathBuf,
+    /// Output image: .png (8-bit sRGB) or .exr (linear float).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Samples per pixel [scene's render.spp, else 64].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub spp: Option<u32>,
+    /// Image width in pixels [scene's render.width, else 640].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_IMAGE_SIDE as i64))]
+    pub width: Option<u32>,
+    /// Image height in pixels [scene's render.height, else 480].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_IMAGE_SIDE as i64))]
+    pub height: Option<u32>,
+    /// Maximum bounces: 0 = emitters only, 1 = direct light [scene's render.max_depth, else 8].
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Russian roulette after this many bounces; "off" disables it; "auto" chooses from the
+    /// scene's albedo [scene's render.rr_depth, else auto].
+    #[arg(long)]
+    pub rr_depth: Option<String>,
+    /// Worker threads [all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+    /// Random seed [scene's render.seed, else 0].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Intersection strategy: embree or naive.
+    #[arg(long, default_value = "embree")]
+    pub accel: AccelKind,
+    /// Embree BVH build quality: low, medium or high (`ember bench` measures each).
+    #[arg(long, default_value = "medium")]
+    pub bvh_quality: BuildQuality,
+    /// Build the Embree BVH without RTC_SCENE_FLAG_ROBUST, as Embree's own tutorials do:
+    /// faster, but a ray passing exactly through an edge shared by two triangles can miss both
+    /// (hard case axis-parallel-rays).
+    #[arg(long)]
+    pub no_robust: bool,
+    /// Adaptive sampling: stop sampling a pixel once its estimated relative error is below
+    /// this (e.g. 0.01); --spp is then the most a pixel gets [scene's render.spp, else 1024].
+    #[arg(long, value_parser = parse_target_error)]
+    pub target_error: Option<f32>,
+    /// Continue the interrupted render whose checkpoint is next to the output
+    /// (<output>.checkpoint); scene and settings must be the same.
+    #[arg(long)]
+    pub resume: bool,
+    /// Also write the checkpoint periodically, e.g. 60s or 5m (it is always written when the
+    /// render is interrupted by Ctrl-C or SIGTERM).
+    #[arg(long)]
+    pub checkpoint_every: Option<CliDuration>,
+    /// Run the general kernel instead of the one specialised to the scene's effects.
+    #[arg(long)]
+    pub no_specialize: bool,
+    /// Estimator: nee-mis (default), nee, bsdf, bsdf-uniform.
+    #[arg(long, default_value = "nee-mis")]
+    pub estimator: Estimator,
+    /// Fail (exit 2, no image written) if any sample was NaN or infinite.
+    #[arg(long)]
+    pub strict: bool,
+}
+
+fn parse_target_error(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(e) if e > 0.0 && e < 1.0 => Ok(e),
+        _ => Err(format!("expected a relative error between 0 and 1 (e.g. 0.01), found {s:?}")),
+    }
+}
+
+/// Settings from the command line, then the scene file, then built-in defaults.
+pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> {
+    let s = RenderSettings::from_scene(&scene.render);
+    let rr_depth = match args.rr_depth.as_deref() {
+        Some(v) => v.parse::<RrDepth>().map_err(|e| anyhow::anyhow!("--rr-depth: {e}"))?,
+        None => s.rr_depth,
+    };
+    Ok(RenderSettings {
+        width: args.width.unwrap_or(s.width),
+        height: args.height.unwrap_or(s.height),
+        spp: args.spp.or(scene.render.spp).unwrap_or(if args.target_error.is_some() { 1024 } else { s.spp }),
+        max_depth: args.max_depth.unwrap_or(s.max_depth),
+        rr_depth,
+        seed: args.seed.unwrap_or(s.seed),
+        threads: args.threads.map(|t| t as usize),
+        estimator: args.estimator,
+        specialize: !args.no_specialize,
+        target_error: args.target_error,
+    })
+}
+
+/// A duration on the command line: `90`, `90s`, `1.5m`, `2h`.
+#[derive(Clone, Copy, Debug)]
+pub struct CliDuration(pub Duration);
+
+impl std::str::FromStr for CliDuration {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (num, unit) = match s.find(|c: char| c.is_ascii_alphabetic()) {
+            Some(i) => s.split_at(i),
+            None => (s, "s"),
+        };
+        let scale = match unit {
+            "s" => 1.0,
+            "m" | "min" => 60.0,
+            "h" => 3600.0,
+            _ => return Err(format!("unknown unit {unit:?} in {s:?} (use s, m or h)")),
+        };
+        let v: f64 = num.trim().parse().map_err(|_| format!("expected a duration such as 60s or 5m, found {s:?}"))?;
+        if !(v * scale > 0.0 && v * scale < 1e9) {
+            return Err(format!("duration {s:?} must be positive"));
+        }
+        Ok(CliDuration(Duration::from_secs_f64(v * scale)))
+    }
+}

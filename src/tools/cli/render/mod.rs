@@ -1,0 +1,97 @@
+//! `ember render`: load the scene, check memory, plan, build the accelerator, render (with
+//! signals, checkpoints and resumption), write the image and say what was done.
+
+mod args;
+mod interrupt;
+mod summary;
+
+pub use args::RenderArgs;
+pub use interrupt::Interrupted;
+
+use super::memory_check;
+use super::progress::ProgressBar;
+use crate::embree::BuildOptions;
+use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
+use crate::integrator::{RenderControl, RenderPlan, render_controlled};
+use crate::memory::MemoryLimit;
+use crate::scene::Scene;
+
+pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    ImageFormat::from_path(&args.output)?;
+    let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
+    crate::atomic_write::check_writable(&args.output)?;
+    let scene = Scene::load(&args.scene)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let settings = args::settings(&args, &scene)?;
+    memory_check::check(&args.scene, &scene, args.accel, Some((settings.width, settings.height)), &limit)?;
+    let checkpoint = checkpoint_path(&args.output);
+    let resume = if args.resume {
+        let c = Checkpoint::load(&checkpoint)?;
+        let (_, mean, _) = c.accum.spp_range();
+        eprintln!("resuming from {} ({mean:.1} of {} spp done)", checkpoint.display(), settings.spp);
+        Some((checkpoint.as_path(), c))
+    } else {
+        if checkpoint.exists() {
+            eprintln!(
+                "warning: {} holds an interrupted render; this render starts over (use --resume to continue it)",
+                checkpoint.display()
+            );
+        }
+        None
+    };
+    let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
+    let accel = args.accel.build_with(&scene.geometry, bvh)?;
+    let plan = RenderPlan::new(&scene, &settings);
+    eprintln!("{}", plan.effects);
+    eprintln!("{plan}");
+    interrupt::install_handler();
+    let bar = ProgressBar::new("");
+    let control = RenderControl {
+        stop: Some(&interrupt::STOP),
+        checkpoint: Some((checkpoint.as_path(), args.checkpoint_every.map(|d| d.0))),
+        resume,
+        progress: Some(&|p| bar.update(p)),
+    };
+    let result = render_controlled(&scene, accel.as_ref(), &plan, control);
+    bar.finish();
+    let result = result?;
+    let stats = result.stats;
+    if !result.complete {
+        let (_, mean, _) = stats.spp;
+        return Err(Interrupted(format!(
+            "interrupted after {:.1} s with {mean:.1} of {} spp done; checkpoint written to {}\nresume with: {}",
+            (stats.elapsed + stats.earlier_sessions).as_secs_f64(),
+            settings.spp,
+            checkpoint.display(),
+            interrupt::resume_command()
+        ))
+        .into());
+    }
+    let film = result.accum.film();
+    // A pixel can overflow to infinity even when every sample was finite (a sum of huge values).
+    let bad_pixels = film.pixels.iter().filter(|p| !p.is_finite()).count();
+    if args.strict && (stats.nonfinite > 0 || bad_pixels > 0) {
+        anyhow::bail!(
+            "{}: {} of {} samples were NaN or infinite (dropped) and {} pixels are not finite; --strict allows none, so {} was not written",
+            args.scene.display(),
+            stats.nonfinite,
+            stats.samples,
+            bad_pixels,
+            args.output.display()
+        );
+    }
+    film.save(&args.output)?;
+    if checkpoint.exists() {
+        std::fs::remove_file(&checkpoint)
+            .map_err(|e| anyhow::anyhow!("{}: cannot remove finished checkpoint: {e}", checkpoint.display()))?;
+    }
+    let accel_text = match args.accel {
+        crate::accel::AccelKind::Embree => format!("embree accel, {bvh}"),
+        crate::accel::AccelKind::Naive => "naive accel".to_string(),
+    };
+    eprintln!("{}", summary::rendered(&stats, &accel_text, &args.output));
+    eprintln!("{}", summary::error_estimate(&stats));
+    Ok(())
+}

@@ -1,0 +1,43 @@
+//! The lines `ember render` prints when it is done.
+
+use crate::integrator::RenderStats;
+use std::path::Path;
+
+/// `rendered WxH at N spp in T s: R Mrays/s (…, ACCEL), K non-finite samples dropped -> OUT`
+pub(super) fn rendered(stats: &RenderStats, accel: &str, output: &Path) -> String {
+    let settings = &stats.plan.settings;
+    let (min_spp, mean_spp, max_spp) = stats.spp;
+    let spp = if min_spp == max_spp {
+        format!("{max_spp} spp")
+    } else {
+        format!("{min_spp}..{max_spp} spp (mean {mean_spp:.1})")
+    };
+    let earlier = if stats.earlier_sessions.is_zero() {
+        String::new()
+    } else {
+        format!(" (plus {:.2} s before the interruption)", stats.earlier_sessions.as_secs_f64())
+    };
+    format!(
+        "rendered {}x{} at {spp} in {:.2} s{earlier}: {:.2} Mrays/s ({} rays, {accel}), {} non-finite samples dropped -> {}",
+        settings.width,
+        settings.height,
+        stats.elapsed.as_secs_f64(),
+        stats.mrays_per_s(),
+        stats.rays,
+        stats.nonfinite,
+        output.display()
+    )
+}
+
+/// `estimated relative error: mean M, max X` (with the target, if adaptive).
+pub(super) fn error_estimate(stats: &RenderStats) -> String {
+    let settings = &stats.plan.settings;
+    let (mean_err, max_err) = stats.error_estimate;
+    match settings.target_error {
+        Some(e) => format!(
+            "estimated relative error: mean {mean_err:.4}, max {max_err:.4} (target {e}; pixels stop at {} spp at most)",
+            settings.spp
+        ),
+        None => format!("estimated relative error: mean {mean_err:.4}, max {max_err:.4}"),
+    }
+}
