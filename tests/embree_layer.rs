@@ -177,3 +177,45 @@ fn queries_from_many_threads_agree() {
         .collect();
     assert_eq!(hits, (0..100).collect::<Vec<_>>());
 }
+
+/// Embree asserts on rays with a NaN or huge (beyond 1.844e18) origin or direction component,
+/// or a NaN tnear/tfar: the Debian build aborts the process (exit 134). The safe layer
+/// answers them itself: no hit, blocked. Run in this process: an abort would fail the test.
+#[test]
+fn rays_embree_refuses_are_answered_without_calling_it() {
+    let device = Device::new().unwrap();
+    let (v, i) = quad();
+    let mut b = SceneBuilder::new(&device, BuildOptions::default()).unwrap();
+    b.add_triangles(&v, &i).unwrap();
+    b.add_shapes(Arc::from(vec![Sphere::new(Vec3::new(0.0, 0.0, -3.0), 1.0)])).unwrap();
+    let scene = b.commit().unwrap();
+    let good = Ray::new(Vec3::new(0.2, 0.3, 1.0), -Vec3::Z);
+    let bad = [
+        Ray::new(Vec3::new(1e19, 0.0, 1.0), -Vec3::Z),
+        Ray::new(Vec3::new(0.2, -2e18, 1.0), -Vec3::Z),
+        Ray::new(Vec3::new(0.2, 0.3, f32::NAN), -Vec3::Z),
+        Ray::new(Vec3::new(0.2, 0.3, 1.0), Vec3::new(0.0, f32::NAN, -1.0)),
+        Ray::new(Vec3::new(0.2, 0.3, 1.0), Vec3::new(0.0, 0.0, -1e19)),
+    ];
+    for r in &bad {
+        assert_eq!(scene.intersect(r, 0.0, f32::INFINITY).unwrap(), None, "{r:?}");
+        assert!(scene.occluded(r, 0.0, f32::INFINITY).unwrap(), "{r:?}");
+    }
+    assert_eq!(scene.intersect(&good, f32::NAN, f32::INFINITY).unwrap(), None);
+    assert!(scene.occluded(&good, 0.0, f32::NAN).unwrap());
+    // At the limit it is traced: 1e18 away along the axis still hits the quad.
+    let far = Ray::new(Vec3::new(0.2, 0.3, 1e18), -Vec3::Z);
+    assert!(scene.intersect(&far, 0.0, f32::INFINITY).unwrap().is_some());
+    // In packets, refused lanes answer the same and the others are traced as usual.
+    let mut rays = [good; 8];
+    rays[1] = bad[0];
+    rays[5] = bad[3];
+    let active = [true, true, true, true, true, true, true, false];
+    let hits = scene.intersect8_deferred(&rays, active, 0.0, f32::INFINITY);
+    let blocked = scene.occluded8_deferred(&rays, active, 0.0, f32::INFINITY);
+    for i in 0..8 {
+        let expect_hit = active[i] && i != 1 && i != 5;
+        assert_eq!(hits[i].is_some(), expect_hit, "lane {i}");
+        assert_eq!(blocked[i], active[i], "lane {i}");
+    }
+}

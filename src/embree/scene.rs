@@ -282,6 +282,20 @@ impl SceneBuilder {
     }
 }
 
+/// Embree's `FLT_LARGE`: the largest ray origin or direction component it accepts.
+pub const FLT_LARGE: f32 = 1.844e18;
+
+/// Whether Embree accepts the ray (its `RayK::valid`): origin and direction components within
+/// ±[`FLT_LARGE`] (so not NaN), `tmin` and `tmax` not NaN. Embree asserts on any other ray —
+/// the Debian build aborts the process — so the queries here answer such a ray themselves
+/// (no hit; blocked) instead of passing it on. A scene within ember's coordinate range never
+/// makes one; a NaN from elsewhere must not take the process down.
+#[inline(always)]
+pub fn accepts(ray: &Ray, tmin: f32, tmax: f32) -> bool {
+    let lim = glam::Vec3::splat(FLT_LARGE);
+    ray.o.abs().cmple(lim).all() && ray.d.abs().cmple(lim).all() && !tmin.is_nan() && !tmax.is_nan()
+}
+
 impl Scene {
     /// Bounds of everything in the scene, as Embree computed them.
     pub fn bounds(&self) -> Aabb {
@@ -290,9 +304,13 @@ impl Scene {
 
     /// Closest hit with `tmin <= t <= tmax`, without the callback-failure check: for loops
     /// that call [`Scene::callback_failure`] once after a batch of queries (a failure is
-    /// sticky, so none is missed; answers given after one are discarded with the batch).
+    /// sticky, so none is missed; answers given after one are discarded with the batch). A
+    /// ray Embree would refuse ([`accepts`]) hits nothing.
     #[inline(always)]
     pub fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
+        if !accepts(ray, tmin, tmax) {
+            return None;
+        }
         let mut mem = RayHitMem::new(ray, tmin, tmax);
         // SAFETY: committed scene (Scene is only made by commit); `mem` is initialised,
         // 16-byte aligned and as large as the running library's RTCRayHit (layout.rs).
@@ -301,9 +319,12 @@ impl Scene {
     }
 
     /// [`Scene::occluded`] without the callback-failure check (see
-    /// [`Scene::intersect_deferred`]).
+    /// [`Scene::intersect_deferred`]). A ray Embree would refuse ([`accepts`]) is blocked.
     #[inline(always)]
     pub fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
+        if !accepts(ray, tmin, tmax) {
+            return true;
+        }
         let mut r = rtc_ray(ray, tmin, tmax);
         // SAFETY: committed scene; `r` is an initialised RTCRay (the same 48 bytes in every
         // Embree version).
@@ -312,8 +333,8 @@ impl Scene {
     }
 
     /// Closest hits of the `active` lanes of 8 rays on `[tmin, tmax]`, with one
-    /// `rtcIntersect8` (inactive lanes give `None`); errors deferred as in
-    /// [`Scene::intersect_deferred`]. For coherent rays (Embree is told so).
+    /// `rtcIntersect8` (inactive lanes, and rays Embree would refuse, give `None`); errors
+    /// deferred as in [`Scene::intersect_deferred`]. For coherent rays (Embree is told so).
     #[inline]
     pub fn intersect8_deferred(
         &self,
@@ -322,6 +343,7 @@ impl Scene {
         tmin: f32,
         tmax: f32,
     ) -> [Option<Hit>; LANES] {
+        let active: [bool; LANES] = std::array::from_fn(|i| active[i] && accepts(&rays[i], tmin, tmax));
         let (mut mem, valid) = RayHit8Mem::new(rays, active, tmin, tmax);
         // SAFETY: committed scene; `mem` is initialised, 32-byte aligned and as large as the
         // largest known RTCRayHit8 (packet.rs); `valid` is a 32-byte aligned mask.
@@ -330,7 +352,8 @@ impl Scene {
     }
 
     /// Whether each `active` lane of 8 rays is blocked on `[tmin, tmax]`, with one
-    /// `rtcOccluded8` (inactive lanes give `false`); errors deferred.
+    /// `rtcOccluded8` (inactive lanes give `false`, rays Embree would refuse `true`); errors
+    /// deferred.
     #[inline]
     pub fn occluded8_deferred(
         &self,
@@ -339,11 +362,13 @@ impl Scene {
         tmin: f32,
         tmax: f32,
     ) -> [bool; LANES] {
-        let (mut ray, valid) = ray8(rays, active, tmin, tmax);
+        let refused: [bool; LANES] = std::array::from_fn(|i| active[i] && !accepts(&rays[i], tmin, tmax));
+        let traced: [bool; LANES] = std::array::from_fn(|i| active[i] && !refused[i]);
+        let (mut ray, valid) = ray8(rays, traced, tmin, tmax);
         // SAFETY: committed scene; `ray` is an initialised, 32-byte aligned RTCRay8 (the same
         // 384 bytes in every Embree version); `valid` is a 32-byte aligned mask.
         unsafe { ffi::occluded8(&valid, self.scene.raw, &mut ray) };
-        std::array::from_fn(|i| active[i] && ray.tfar[i] == f32::NEG_INFINITY)
+        std::array::from_fn(|i| refused[i] || (traced[i] && ray.tfar[i] == f32::NEG_INFINITY))
     }
 
     /// The error of the first user-geometry callback that panicked on this scene, if any.
