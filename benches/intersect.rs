@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 fn teapot() -> Vec<Geometry> {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/teapot.obj");
-    let obj = ember::scene::mesh_file::load(&path).unwrap();
+    let obj = ember::scene::mesh_file::load(&path, &ember::memory::LoadBudget::unlimited()).unwrap();
     obj.meshes.into_iter().map(|m| Geometry::Mesh(Arc::new(m.mesh))).collect()
 }
 

@@ -19,7 +19,8 @@ use std::time::Instant;
 
 fn mesh(name: &str) -> Vec<Geometry> {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
-    let obj = ember::scene::mesh_file::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let obj =
+        ember::scene::mesh_file::load(&path, &ember::memory::LoadBudget::unlimited()).unwrap_or_else(|e| panic!("{e}"));
     obj.meshes.into_iter().map(|m| Geometry::Mesh(Arc::new(m.mesh))).collect()
 }
 

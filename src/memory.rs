@@ -7,7 +7,13 @@
 //!
 //! The estimates are measured peaks of this renderer (see the functions), not exact counts.
 //! The number of samples per pixel does not change memory: each pixel keeps a running sum.
+//!
+//! Loading counts everything together ([`LoadBudget`]): the scene file, each mesh and MTL
+//! file, each texture (decoded), the film and the accelerator's share of each mesh. Before a
+//! step allocates, what the load keeps so far plus the step's peak must fit; so forty large
+//! meshes are refused at the one that would not fit, not after all were read.
 
+use std::cell::Cell;
 use std::sync::OnceLock;
 
 /// The environment variable that overrides the limit.
@@ -117,6 +123,103 @@ impl MemoryLimit {
             LimitSource::Fallback => format!("available memory unknown; set {ENV} to change it"),
             LimitSource::Explicit => "given".to_string(),
         }
+    }
+}
+
+/// The memory a load may use (see the module documentation). Loaders ask it before each
+/// step that allocates ([`LoadBudget::admit`]) and tell it what they keep
+/// ([`LoadBudget::keep`]).
+#[derive(Debug)]
+pub struct LoadBudget {
+    limit: MemoryLimit,
+    kept: Cell<u64>,
+    /// The accelerator's bytes per triangle and per sphere or cylinder (0: none counted).
+    accel_per_triangle: u64,
+    accel_per_shape: u64,
+    /// Whether a film is counted, and the image size given on the command line, which wins
+    /// over the scene file's.
+    film: Option<(Option<u32>, Option<u32>)>,
+}
+
+impl LoadBudget {
+    /// A budget of `limit` with nothing kept yet, counting no film and no accelerator.
+    pub fn new(limit: MemoryLimit) -> LoadBudget {
+        LoadBudget { limit, kept: Cell::new(0), accel_per_triangle: 0, accel_per_shape: 0, film: None }
+    }
+
+    /// No limit.
+    pub fn unlimited() -> LoadBudget {
+        LoadBudget::new(MemoryLimit::unlimited())
+    }
+
+    /// Counts an Embree BVH over everything loaded ([`embree_bytes`]) and the film of an
+    /// image `width` x `height` (each `None`: the scene file's, else the default), which
+    /// [`LoadBudget::keep_film`] adds once the scene's own size is known.
+    pub fn for_render(limit: MemoryLimit, embree: bool, width: Option<u32>, height: Option<u32>) -> LoadBudget {
+        LoadBudget { film: Some((width, height)), ..LoadBudget::for_accel(limit, embree) }
+    }
+
+    /// Counts an Embree BVH over everything loaded (with `embree`), and no film.
+    pub fn for_accel(limit: MemoryLimit, embree: bool) -> LoadBudget {
+        let (accel_per_triangle, accel_per_shape) =
+            if embree { (EMBREE_BYTES_PER_TRIANGLE, EMBREE_BYTES_PER_SHAPE) } else { (0, 0) };
+        LoadBudget { accel_per_triangle, accel_per_shape, ..LoadBudget::new(limit) }
+    }
+
+    /// The limit it checks against.
+    pub fn limit(&self) -> &MemoryLimit {
+        &self.limit
+    }
+
+    /// Bytes kept so far.
+    pub fn kept(&self) -> u64 {
+        self.kept.get()
+    }
+
+    /// Refuses a step that needs `peak` bytes at its height, for `what`, if they do not fit
+    /// beside what is kept.
+    pub fn admit(&self, what: impl Into<String>, peak: u64) -> Result<(), LimitError> {
+        let kept = self.kept.get();
+        let purpose = if kept == 0 {
+            "to load".to_string()
+        } else {
+            format!("to load, with the {} already loaded", format_bytes(kept))
+        };
+        self.limit.check(what, &purpose, kept.saturating_add(peak))
+    }
+
+    /// Records `bytes` more kept.
+    pub fn keep(&self, bytes: u64) {
+        self.kept.set(self.kept.get().saturating_add(bytes));
+    }
+
+    /// Keeps `triangles` triangles and `shapes` spheres and cylinders: their share of the
+    /// accelerator (their own data is kept by the loader that reads them).
+    pub fn keep_primitives(&self, triangles: u64, shapes: u64) {
+        self.keep(
+            triangles
+                .saturating_mul(self.accel_per_triangle)
+                .saturating_add(shapes.saturating_mul(self.accel_per_shape)),
+        );
+    }
+
+    /// Keeps the film of the image the render will have, if a film is counted: the command
+    /// line's size, else the scene file's (`width`, `height`), else `default`; refused if it
+    /// does not fit.
+    pub fn keep_film(&self, width: Option<u32>, height: Option<u32>, default: (u32, u32)) -> Result<(), LimitError> {
+        let Some((cli_w, cli_h)) = self.film else { return Ok(()) };
+        let w = cli_w.or(width).unwrap_or(default.0);
+        let h = cli_h.or(height).unwrap_or(default.1);
+        let bytes = film_bytes(w, h);
+        let kept = self.kept.get();
+        let purpose = if kept == 0 {
+            "of film memory".to_string()
+        } else {
+            format!("of film memory, with the {} already loaded", format_bytes(kept))
+        };
+        self.limit.check(format!("image {w}x{h}"), &purpose, kept.saturating_add(bytes))?;
+        self.keep(bytes);
+        Ok(())
     }
 }
 

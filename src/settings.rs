@@ -131,6 +131,13 @@ impl RenderSettings {
     }
 }
 
+impl RenderSettings {
+    /// (width, height)
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+}
+
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {

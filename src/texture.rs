@@ -3,10 +3,34 @@
 
 use crate::film::srgb_to_linear;
 use crate::hash::Fingerprint;
-use crate::memory::{self, MemoryLimit};
+use crate::memory::{self, LoadBudget};
 use glam::{Vec2, Vec3};
 use std::path::Path;
 use std::sync::Arc;
+
+/// Bytes a decoded `width` x `height` texture keeps (linear RGB, f32).
+fn pixels_bytes(width: u32, height: u32) -> u64 {
+    width as u64 * height as u64 * size_of::<Vec3>() as u64
+}
+
+/// Refuses a JPEG file that does not end with the end-of-image marker (FF D9): a truncated
+/// file, which the decoder would fill out with grey without an error. Trailing bytes after
+/// the marker (some writers pad) are allowed.
+fn check_jpeg_end(path: &Path) -> Result<(), TextureError> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = std::fs::File::open(path).map_err(|e| TextureError(format!("cannot read: {e}")))?;
+    let len = f.metadata().map_err(|e| TextureError(format!("cannot read: {e}")))?.len();
+    let tail_len = len.min(1024);
+    let mut tail = vec![0u8; tail_len as usize];
+    f.seek(SeekFrom::Start(len - tail_len))
+        .and_then(|_| f.read_exact(&mut tail))
+        .map_err(|e| TextureError(format!("cannot read: {e}")))?;
+    if tail.windows(2).any(|w| w == [0xFF, 0xD9]) {
+        Ok(())
+    } else {
+        Err(TextureError("truncated or damaged JPEG: no end-of-image marker".into()))
+    }
+}
 
 /// A linear-RGB image.
 #[derive(Debug, PartialEq)]
@@ -16,44 +40,41 @@ pub struct Image {
     pub pixels: Vec<Vec3>,
 }
 
-/// Why an image could not be loaded.
+/// Why a texture image could not be loaded.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
-pub struct ImageError(pub String);
+pub struct TextureError(pub String);
 
 impl Image {
-    /// Loads an 8-bit image (PNG, JPEG), decoding sRGB to linear. Images too large for the
-    /// process's [`MemoryLimit`] are refused before they are decoded.
-    pub fn load(path: &Path) -> Result<Image, ImageError> {
-        Self::load_with_limit(path, &MemoryLimit::current())
-    }
-
-    /// [`Image::load`] under the given memory limit.
-    pub fn load_with_limit(path: &Path, limit: &MemoryLimit) -> Result<Image, ImageError> {
+    /// Loads an 8-bit image (PNG, JPEG), decoding sRGB to linear, within `budget`: an image
+    /// that would not fit is refused before it is decoded. A truncated or damaged file is an
+    /// error, not a partly grey image.
+    pub fn load(path: &Path, budget: &LoadBudget) -> Result<Image, TextureError> {
         let io = |e: std::io::Error| match e.kind() {
-            std::io::ErrorKind::NotFound => ImageError("no such file".into()),
-            std::io::ErrorKind::PermissionDenied => ImageError("permission denied".into()),
-            _ => ImageError(format!("cannot read: {e}")),
+            std::io::ErrorKind::NotFound => TextureError("no such file".into()),
+            std::io::ErrorKind::PermissionDenied => TextureError("permission denied".into()),
+            _ => TextureError(format!("cannot read: {e}")),
         };
         let meta = std::fs::metadata(path).map_err(io)?;
         if meta.is_dir() {
-            return Err(ImageError("is a directory, expected a file".into()));
+            return Err(TextureError("is a directory, expected a file".into()));
         }
         if !meta.is_file() {
-            return Err(ImageError("is not a regular file (a FIFO, socket or device?)".into()));
+            return Err(TextureError("is not a regular file (a FIFO, socket or device?)".into()));
         }
         let open = || image::ImageReader::open(path).and_then(|r| r.with_guessed_format()).map_err(io);
         // The header gives the size; refuse what would not fit before decoding.
-        let (w, h) = open()?.into_dimensions().map_err(|e| ImageError(e.to_string()))?;
-        limit
-            .check(format!("{w}x{h} image"), "to load", memory::texture_bytes(w, h))
-            .map_err(|e| ImageError(e.to_string()))?;
+        let (w, h) = open()?.into_dimensions().map_err(|e| TextureError(e.to_string()))?;
+        budget.admit(format!("{w}x{h} image"), memory::texture_bytes(w, h)).map_err(|e| TextureError(e.to_string()))?;
         let mut reader = open()?;
+        if reader.format() == Some(image::ImageFormat::Jpeg) {
+            check_jpeg_end(path)?;
+        }
         // Our limit replaces the image crate's fixed 512 MiB decoding allowance.
         let mut decode_limits = image::Limits::default();
-        decode_limits.max_alloc = limit.bytes;
+        decode_limits.max_alloc = budget.limit().bytes;
         reader.limits(decode_limits);
-        let img = reader.decode().map_err(|e| ImageError(e.to_string()))?;
+        let img = reader.decode().map_err(|e| TextureError(e.to_string()))?;
         let rgb = img.to_rgb8();
         drop(img);
         let (width, height) = rgb.dimensions();
@@ -62,6 +83,7 @@ impl Image {
             .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)
             .map(|c| c.map(srgb_to_linear))
             .collect();
+        budget.keep(pixels_bytes(width, height));
         Ok(Image { width, height, pixels })
     }
 

@@ -128,44 +128,13 @@ fn corner_irradiance(a: f64, b: f64, c: f64, le: f64) -> f64 {
     le * std::f64::consts::PI * f
 }
 
-#[test]
-fn plane_under_emissive_quad_matches_form_factor() {
-    // Light: 2 × 2 quad at height 1 over [-1,1]²; plane albedo 0.8. For points under the
-    // light, E is the sum of four corner rectangles. Tolerances: the image mean within 1%,
-    // 99% of pixels within 5% (1024 spp, Monte Carlo noise).
-    let (albedo, le) = (0.8f64, 3.0f64);
-    let p = common::write_scene(
-        "render",
-        "formfactor.toml",
-        &format!(
-            r#"
-            [camera]
-            position = [0.0, 0.5, 0.0]
-            look_at = [0.0, 0.0, 0.0]
-            up = [0.0, 0.0, -1.0]
-            fov = 90
-            [materials.plane]
-            type = "diffuse"
-            color = [{albedo}, {albedo}, {albedo}]
-            [materials.light]
-            type = "emissive"
-            emission = [{le}, {le}, {le}]
-            [[quads]]
-            corner = [-10.0, 0.0, -10.0]
-            edge1 = [0.0, 0.0, 20.0]
-            edge2 = [20.0, 0.0, 0.0]
-            material = "plane"
-            [[quads]]
-            corner = [-1.0, 1.0, -1.0]
-            edge1 = [2.0, 0.0, 0.0]
-            edge2 = [0.0, 0.0, 2.0]
-            material = "light"
-            "#
-        ),
-    );
-    let scene = Scene::load(&p).unwrap();
+/// Light: 2 × 2 quad at height 1 over [-1,1]², radiance `le`; a plane of albedo `albedo`
+/// seen from above. For points under the light, E is the sum of four corner rectangles.
+/// Tolerances: the image mean within 1%, 99% of pixels within 5% (1024 spp, Monte Carlo
+/// noise).
+fn check_plane_under_quad_light(scene: &Scene, albedo: f64, le: f64) {
     let (w, h) = (24, 24);
-    let film = embree_render(&scene, &RenderSettings { max_depth: 1, ..settings(w, h, 1024) });
+    let film = embree_render(scene, &RenderSettings { max_depth: 1, ..settings(w, h, 1024) });
     let cam = scene.camera(1.0);
     let (mut sum_got, mut sum_exp, mut n, mut off) = (0.0f64, 0.0f64, 0, 0);
     for y in 0..h {
@@ -193,6 +162,68 @@ fn plane_under_emissive_quad_matches_form_factor() {
     let mean_err = (sum_got - sum_exp).abs() / sum_exp;
     assert!(mean_err < 0.01, "mean relative error {mean_err}");
     assert!(off * 100 <= n, "{off} of {n} pixels off by more than 5%");
+}
+
+const CAMERA_ABOVE_PLANE: &str = r#"
+[camera]
+position = [0.0, 0.5, 0.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, -1.0]
+fov = 90
+"#;
+
+#[test]
+fn plane_under_emissive_quad_matches_form_factor() {
+    let (albedo, le) = (0.8f64, 3.0f64);
+    let p = common::write_scene(
+        "render",
+        "formfactor.toml",
+        &format!(
+            r#"{CAMERA_ABOVE_PLANE}
+            [materials.plane]
+            type = "diffuse"
+            color = [{albedo}, {albedo}, {albedo}]
+            [materials.light]
+            type = "emissive"
+            emission = [{le}, {le}, {le}]
+            [[quads]]
+            corner = [-10.0, 0.0, -10.0]
+            edge1 = [0.0, 0.0, 20.0]
+            edge2 = [20.0, 0.0, 0.0]
+            material = "plane"
+            [[quads]]
+            corner = [-1.0, 1.0, -1.0]
+            edge1 = [2.0, 0.0, 0.0]
+            edge2 = [0.0, 0.0, 2.0]
+            material = "light"
+            "#
+        ),
+    );
+    check_plane_under_quad_light(&Scene::load(&p).unwrap(), albedo, le);
+}
+
+/// The same scene from an OBJ whose light is an MTL material with `Ke` (and a black `Kd`):
+/// `Ke` is emission.
+#[test]
+fn mtl_ke_is_emission() {
+    let (albedo, le) = (0.8f64, 3.0f64);
+    common::write_scene(
+        "render",
+        "ke.mtl",
+        &format!("newmtl plane\nKd {albedo} {albedo} {albedo}\nnewmtl light\nKd 0 0 0\nKe {le} {le} {le}\n"),
+    );
+    common::write_scene(
+        "render",
+        "ke.obj",
+        "mtllib ke.mtl\n\
+         v -10 0 -10\nv 10 0 -10\nv 10 0 10\nv -10 0 10\n\
+         v -1 1 -1\nv 1 1 -1\nv 1 1 1\nv -1 1 1\n\
+         usemtl plane\nf 1 4 3 2\nusemtl light\nf 5 6 7 8\n",
+    );
+    let p = common::write_scene("render", "ke.toml", &format!("{CAMERA_ABOVE_PLANE}[[meshes]]\nfile = \"ke.obj\"\n"));
+    let scene = Scene::load(&p).unwrap();
+    assert!(scene.materials.iter().any(|m| m.emission == glam::Vec3::splat(le as f32)), "{:?}", scene.materials);
+    check_plane_under_quad_light(&scene, albedo, le);
 }
 
 fn image_mean(f: &Film) -> f64 {

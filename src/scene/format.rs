@@ -34,6 +34,61 @@ impl<'de> Deserialize<'de> for V3 {
     }
 }
 
+/// The largest magnitude of a coordinate or length a scene may use. Embree refuses (asserts
+/// on) rays whose origin or direction has a component beyond ~1.8e18, and ember's shadow rays
+/// span the difference of two points; intersection tests square coordinates (1e30 here, far
+/// from f32's 3.4e38). A scene a million times larger than the Earth's orbit fits.
+pub const MAX_COORDINATE: f32 = 1e15;
+
+/// Refuses a coordinate or length beyond ±[`MAX_COORDINATE`].
+fn within_range<E: de::Error>(v: f32, what: &str) -> Result<f32, E> {
+    if v.abs() > MAX_COORDINATE {
+        return Err(E::custom(format!(
+            "{what} must be between -{MAX_COORDINATE:e} and {MAX_COORDINATE:e}, found {v:e}"
+        )));
+    }
+    Ok(v)
+}
+
+/// A point (or an offset between points): three finite numbers within ±[`MAX_COORDINATE`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Point(pub glam::Vec3);
+
+impl<'de> Deserialize<'de> for Point {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let V3(v) = V3::deserialize(d)?;
+        for c in v.to_array() {
+            within_range::<D::Error>(c, "coordinates")?;
+        }
+        Ok(Point(v))
+    }
+}
+
+/// A length: a number > 0 and at most [`MAX_COORDINATE`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Length(pub f32);
+
+impl<'de> Deserialize<'de> for Length {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let Positive(v) = Positive::deserialize(d)?;
+        Ok(Length(within_range::<D::Error>(v, "a length")?))
+    }
+}
+
+/// A lens radius: 0 (a pinhole) to [`MAX_COORDINATE`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aperture(pub f32);
+
+impl<'de> Deserialize<'de> for Aperture {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let Num(v) = Num::deserialize(d)?;
+        if v < 0.0 {
+            return Err(de::Error::custom(format!("camera aperture must not be negative, found {v}")));
+        }
+        Ok(Aperture(within_range::<D::Error>(v, "the aperture")?))
+    }
+}
+
 /// A colour: three finite, non-negative numbers.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rgb(pub glam::Vec3);
@@ -170,14 +225,14 @@ pub struct RenderSection {
 #[derive(Debug, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSection {
-    pub position: V3,
-    pub look_at: V3,
+    pub position: Spanned<Point>,
+    pub look_at: Point,
     pub up: Option<V3>,
     /// Vertical field of view, degrees.
     pub fov: Option<Spanned<Positive>>,
     /// Lens radius (0 = pinhole).
-    pub aperture: Option<Num>,
-    pub focus_distance: Option<Positive>,
+    pub aperture: Option<Aperture>,
+    pub focus_distance: Option<Length>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -253,7 +308,7 @@ pub struct MeshSection {
     pub scale: Option<Spanned<ScaleSpec>>,
     /// Rotation in degrees about x, then y, then z.
     pub rotate: Option<V3>,
-    pub translate: Option<V3>,
+    pub translate: Option<Point>,
     /// Compute smooth vertex normals when the file has none.
     #[serde(default)]
     pub smooth: bool,
@@ -269,17 +324,17 @@ pub enum ScaleSpec {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SphereSection {
-    pub center: V3,
-    pub radius: Positive,
+    pub center: Point,
+    pub radius: Length,
     pub material: Spanned<String>,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CylinderSection {
-    pub p0: V3,
-    pub p1: V3,
-    pub radius: Positive,
+    pub p0: Point,
+    pub p1: Point,
+    pub radius: Length,
     pub material: Spanned<String>,
 }
 
@@ -287,9 +342,9 @@ pub struct CylinderSection {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct QuadSection {
-    pub corner: V3,
-    pub edge1: V3,
-    pub edge2: V3,
+    pub corner: Point,
+    pub edge1: Point,
+    pub edge2: Point,
     pub material: Spanned<String>,
 }
 
@@ -297,5 +352,5 @@ pub struct QuadSection {
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum LightSection {
     /// Radiant intensity in W/sr per channel.
-    Point { position: V3, intensity: Rgb },
+    Point { position: Point, intensity: Rgb },
 }

@@ -18,6 +18,7 @@ use crate::camera::Camera;
 use crate::geometry::{Aabb, Geometry, Shape, bounds_of};
 use crate::light::{Background, Light, LightSet};
 use crate::material::Material;
+use crate::memory::{LoadBudget, MemoryLimit};
 use crate::settings::RenderDefaults;
 use crate::texture::{Image, Texture};
 use glam::Vec3;
@@ -90,11 +91,17 @@ impl Scene {
     /// Loads a scene by extension: `.toml` (scene file) or a mesh file (rendered on its own:
     /// [`mesh_file::scene_of`]).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        Scene::load_within(path, &LoadBudget::new(MemoryLimit::current()))
+    }
+
+    /// [`Scene::load`] within `budget`: the scene file, meshes, MTL files and textures are
+    /// counted together as they load, with the film and accelerator it may count too.
+    pub fn load_within(path: &Path, budget: &LoadBudget) -> Result<Scene, SceneError> {
         let toml = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml"));
         if toml {
-            toml_file::load(path)
+            toml_file::load(path, budget)
         } else if mesh_file::is_mesh_file(path) {
-            mesh_file::scene_of(path)
+            mesh_file::scene_of(path, budget)
         } else if !path.exists() {
             Err(SceneError::new(path, None, "no such file"))
         } else {
@@ -107,7 +114,7 @@ impl Scene {
     /// the scene refers to (meshes, textures) are found relative to its folder. [`Scene::load`]
     /// reads `path` and calls this for `.toml` files.
     pub fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
-        toml_file::from_str(text, path)
+        toml_file::from_str(text, path, &LoadBudget::new(MemoryLimit::current()))
     }
 
     pub fn bounds(&self) -> Aabb {

@@ -64,7 +64,8 @@ pub fn scene_path(name: &str) -> PathBuf {
 /// The teapot (6,320 triangles) plus 12 spheres and 8 cylinders of assorted sizes and axes
 /// around and inside it.
 pub fn teapot_spheres_cylinders() -> Vec<Geometry> {
-    let obj = ember::scene::mesh_file::load(&scene_path("teapot.obj")).expect("teapot loads");
+    let obj = ember::scene::mesh_file::load(&scene_path("teapot.obj"), &ember::memory::LoadBudget::unlimited())
+        .expect("teapot loads");
     let mut geometry: Vec<Geometry> = obj.meshes.into_iter().map(|m| Geometry::Mesh(Arc::new(m.mesh))).collect();
     let mut rng = Rng::new(42, 0);
     let mut v = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();

@@ -10,7 +10,10 @@ pub mod obj;
 use crate::geometry::{Geometry, TriMesh};
 use crate::light::{Background, Light, PointLight};
 use crate::material::Material;
+use crate::memory::LoadBudget;
+use crate::scene::format::MAX_COORDINATE;
 use crate::scene::{CameraSpec, MaterialBinding, Scene, SceneError};
+use crate::settings::RenderSettings;
 use glam::Vec3;
 use std::path::Path;
 use std::sync::Arc;
@@ -50,7 +53,7 @@ impl MeshFile {
 }
 
 /// The format of a mesh file, by its (case-insensitive) extension.
-fn format_of(path: &Path) -> Option<fn(&Path) -> Result<MeshFile, SceneError>> {
+fn format_of(path: &Path) -> Option<fn(&Path, &LoadBudget) -> Result<MeshFile, SceneError>> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("obj") => Some(obj::load),
         _ => None,
@@ -67,18 +70,43 @@ pub fn extensions() -> &'static str {
     ".obj"
 }
 
-/// Loads the mesh file `path`, in the format its extension names.
-pub fn load(path: &Path) -> Result<MeshFile, SceneError> {
-    match format_of(path) {
-        Some(load) => load(path),
-        None => Err(SceneError::new(path, None, format!("not a mesh file (expected {})", extensions()))),
+/// Loads the mesh file `path`, in the format its extension names, within `budget`. Every finite vertex
+/// coordinate must lie within ±[`MAX_COORDINATE`] (non-finite ones make their triangles
+/// degenerate: the formats drop those with a warning).
+pub fn load(path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
+    let Some(load) = format_of(path) else {
+        return Err(SceneError::new(path, None, format!("not a mesh file (expected {})", extensions())));
+    };
+    let file = load(path, budget)?;
+    for m in &file.meshes {
+        let far = m
+            .mesh
+            .positions
+            .iter()
+            .enumerate()
+            .find(|(_, p)| p.to_array().iter().any(|c| c.is_finite() && c.abs() > MAX_COORDINATE));
+        if let Some((i, p)) = far {
+            return Err(SceneError::new(
+                path,
+                None,
+                format!(
+                    "mesh {:?}: vertex {} at {p} is beyond ±{MAX_COORDINATE:e}, the range ember renders",
+                    m.mesh.name,
+                    i + 1
+                ),
+            ));
+        }
     }
+    Ok(file)
 }
 
 /// A mesh file rendered on its own: its materials (or a light grey), its camera or one that
 /// frames it, its lights, and, when nothing in it emits, a sky.
-pub fn scene_of(path: &Path) -> Result<Scene, SceneError> {
-    let file = load(path)?;
+pub fn scene_of(path: &Path, budget: &LoadBudget) -> Result<Scene, SceneError> {
+    budget
+        .keep_film(None, None, RenderSettings::default().size())
+        .map_err(|e| SceneError::new(path, None, e.to_string()))?;
+    let file = load(path, budget)?;
     let mut scene = Scene::empty(path);
     scene.warnings = file.warnings;
     let first = scene.materials.len() as u32;

@@ -4,6 +4,7 @@
 use crate::geometry::{Aabb, Cylinder, Geometry, Sphere, TriMesh};
 use crate::light::{Background, Light, PointLight};
 use crate::material::{DiffuseMaterial, EmissiveMaterial, GlassMaterial, Material, MaterialKind};
+use crate::memory::LoadBudget;
 use crate::scene::mesh_file::obj::parse_obj;
 use crate::scene::{CameraSpec, MaterialBinding, Scene};
 use crate::texture::Texture;
@@ -180,10 +181,9 @@ pub fn teapot() -> TriMesh {
     TEAPOT
         .get_or_init(|| {
             let text = include_str!("../../../scenes/teapot.obj");
-            let obj = parse_obj(text.as_bytes(), Path::new("teapot.obj (built in)"), &|_| {
-                Err(std::io::Error::other("no MTL files here"))
-            })
-            .expect("the built-in teapot parses");
+            let no_mtl = |_: &Path| Err(std::io::Error::other("no MTL files here"));
+            let obj = parse_obj(text.as_bytes(), Path::new("teapot.obj (built in)"), &no_mtl, &LoadBudget::unlimited())
+                .expect("the built-in teapot parses");
             let mut mesh = obj.meshes.into_iter().next().expect("the teapot has a mesh").mesh;
             mesh.compute_vertex_normals();
             mesh

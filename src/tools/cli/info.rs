@@ -1,7 +1,7 @@
-use crate::accel::{AccelKind, EmbreeAccel};
+use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
 use crate::integrator::RenderPlan;
-use crate::memory::MemoryLimit;
+use crate::memory::{LoadBudget, MemoryLimit};
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
 use clap::Args;
@@ -15,11 +15,10 @@ pub struct InfoArgs {
 
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
-    let scene = Scene::load(&args.scene)?;
+    let scene = Scene::load_within(&args.scene, &LoadBudget::for_accel(limit, true))?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    super::memory_check::check(&args.scene, &scene, AccelKind::Embree, None, &limit)?;
     let (tris, spheres, cylinders) = scene.primitive_counts();
     let b = scene.bounds();
     let device = Device::new()?;

@@ -5,7 +5,6 @@ mod bench;
 mod check;
 mod converge;
 mod info;
-mod memory_check;
 mod progress;
 mod render;
 

@@ -67,7 +67,8 @@ fn max_rel(a: &Film, b: &Film) -> f64 {
 
 pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
     let path = Path::new("degenerate.obj (built in)");
-    let obj = parse_obj(OBJ.as_bytes(), path, &|_| Err(std::io::Error::other("no MTL files here")))?;
+    let no_mtl = |_: &std::path::Path| Err(std::io::Error::other("no MTL files here"));
+    let obj = parse_obj(OBJ.as_bytes(), path, &no_mtl, &crate::memory::LoadBudget::unlimited())?;
     let loaded = obj.meshes[0].mesh.clone();
     let warned = obj.warnings.iter().any(|w| w.contains("skipped 4 degenerate triangle(s)"));
 

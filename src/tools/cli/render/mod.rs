@@ -8,24 +8,24 @@ mod summary;
 pub use args::RenderArgs;
 pub use interrupt::Interrupted;
 
-use super::memory_check;
 use super::progress::ProgressBar;
 use crate::embree::BuildOptions;
 use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
-use crate::memory::MemoryLimit;
+use crate::memory::{LoadBudget, MemoryLimit};
 use crate::scene::Scene;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     ImageFormat::from_path(&args.output)?;
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
     crate::atomic_write::check_writable(&args.output)?;
-    let scene = Scene::load(&args.scene)?;
+    let embree = args.accel == crate::accel::AccelKind::Embree;
+    let budget = LoadBudget::for_render(limit, embree, args.width, args.height);
+    let scene = Scene::load_within(&args.scene, &budget)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
     let settings = args::settings(&args, &scene)?;
-    memory_check::check(&args.scene, &scene, args.accel, Some((settings.width, settings.height)), &limit)?;
     let checkpoint = checkpoint_path(&args.output);
     let resume = if args.resume {
         let c = Checkpoint::load(&checkpoint)?;
