@@ -64,6 +64,32 @@ impl Image {
         Ok(Image { width, height, pixels })
     }
 
+    /// Decodes an 8-bit image (PNG, JPEG) held in memory — an image embedded in a mesh file —
+    /// like [`Image::load`], refusing one too large for `limit` before decoding it.
+    pub fn from_memory(bytes: &[u8], limit: &MemoryLimit) -> Result<Image, ImageError> {
+        let open = || {
+            image::ImageReader::new(std::io::Cursor::new(bytes))
+                .with_guessed_format()
+                .map_err(|e| ImageError(format!("cannot read: {e}")))
+        };
+        let (w, h) = open()?.into_dimensions().map_err(|e| ImageError(e.to_string()))?;
+        limit
+            .check(format!("{w}x{h} image"), "to load", limits::texture_bytes(w, h))
+            .map_err(|e| ImageError(e.to_string()))?;
+        let mut reader = open()?;
+        let mut decode_limits = image::Limits::default();
+        decode_limits.max_alloc = limit.bytes;
+        reader.limits(decode_limits);
+        let rgb = reader.decode().map_err(|e| ImageError(e.to_string()))?.to_rgb8();
+        let (width, height) = rgb.dimensions();
+        let pixels = rgb
+            .pixels()
+            .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)
+            .map(|c| c.map(srgb_to_linear))
+            .collect();
+        Ok(Image { width, height, pixels })
+    }
+
     #[inline]
     fn texel(&self, x: i64, y: i64) -> Vec3 {
         let x = x.rem_euclid(self.width as i64) as usize;
