@@ -7,6 +7,7 @@ mod fingerprint;
 pub mod format;
 mod input;
 mod material;
+pub mod mesh_file;
 mod obj;
 mod roulette;
 
