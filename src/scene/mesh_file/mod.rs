@@ -1,12 +1,13 @@
 //! The door for mesh files: one call, [`load`], reads any mesh format ember knows (chosen by
 //! extension) into ember's own types — world-space triangle meshes, materials, a camera and
-//! point lights where the format has them. PLY so far (`ply.rs`).
+//! point lights where the format has them: PLY (`ply.rs`) and glTF 2.0 / GLB (`gltf.rs`).
 //!
 //! Every format follows the loaders' rules: errors name the file and where in it (line, JSON
 //! path or element), memory is checked against [`crate::limits::MemoryLimit`] before the big
 //! allocations, only regular files are opened, and triangles that cannot be hit are dropped
 //! with a warning.
 
+mod gltf;
 mod ply;
 
 use super::SceneError;
@@ -45,11 +46,12 @@ impl MeshFile {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
     Ply,
+    Gltf,
 }
 
 impl Format {
     /// Every format with its extensions.
-    pub const ALL: [(Format, &'static [&'static str]); 1] = [(Format::Ply, &["ply"])];
+    pub const ALL: [(Format, &'static [&'static str]); 2] = [(Format::Ply, &["ply"]), (Format::Gltf, &["gltf", "glb"])];
 
     /// The format of `path`, by its (case-insensitive) extension.
     pub fn of(path: &Path) -> Option<Format> {
@@ -67,6 +69,7 @@ pub fn is_mesh_file(path: &Path) -> bool {
 pub fn load(path: &Path) -> Result<MeshFile, SceneError> {
     match Format::of(path) {
         Some(Format::Ply) => ply::load(path),
+        Some(Format::Gltf) => gltf::load(path),
         None => {
             let known: Vec<String> = Format::ALL.iter().flat_map(|(_, e)| e.iter()).map(|e| format!(".{e}")).collect();
             Err(SceneError::new(path, None, format!("not a mesh file ember reads ({})", known.join(", "))))
