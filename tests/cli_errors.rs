@@ -106,7 +106,7 @@ fn unknown_scene_format() {
         &[],
         &[],
         &at(&p, None),
-        "unknown scene format (expected .toml or .obj)",
+        "unknown scene format (expected .toml, .obj, .ply, .gltf or .glb)",
     );
 }
 

@@ -90,14 +90,22 @@ pub(super) fn from_toml_str(text: &str, path: &Path) -> Result<Scene, SceneError
 
     for m in &file.meshes {
         let obj_path = ctx.resolve(m.file.get_ref());
-        let obj = load_obj(&obj_path).map_err(|e| {
+        let at_scene_line = |e: SceneError| {
             if e.line.is_none() && e.path == obj_path {
                 // Point at the scene line that names the file, and say what is wrong with it.
                 ctx.err_at(m.file.span(), format!("mesh {}: {}", obj_path.display(), e.message))
             } else {
                 e
             }
-        })?;
+        };
+        if super::mesh_file::is_mesh_file(&obj_path) {
+            let (transform, over) =
+                (mesh_transform(&ctx, m)?, m.material.as_ref().map(|n| lookup(&ctx, n)).transpose()?);
+            super::mesh_file::scene::add_to_scene(&mut scene, &obj_path, transform, over, m.smooth)
+                .map_err(at_scene_line)?;
+            continue;
+        }
+        let obj = load_obj(&obj_path).map_err(at_scene_line)?;
         scene.warnings.extend(obj.warnings.iter().cloned());
         let transform = mesh_transform(&ctx, m)?;
         let over = m.material.as_ref().map(|n| lookup(&ctx, n)).transpose()?;

@@ -99,17 +99,19 @@ impl Scene {
         }
     }
 
-    /// Loads a scene by extension: `.toml` (scene file) or `.obj` (a mesh, framed by the camera,
-    /// lit by a default sky when it has no emitters).
+    /// Loads a scene by extension: `.toml` (scene file), or a mesh file — `.obj`, `.ply`, `.gltf`,
+    /// `.glb` — with its own camera or one that frames it, lit by a default sky when nothing in
+    /// it emits.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
         match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
             Some("toml") => build::from_toml(path),
             Some("obj") => build::from_obj(path),
+            _ if mesh_file::is_mesh_file(path) => mesh_file::scene::from_mesh_file(path),
             _ => {
                 if !path.exists() {
                     return Err(SceneError::new(path, None, "no such file"));
                 }
-                Err(SceneError::new(path, None, "unknown scene format (expected .toml or .obj)"))
+                Err(SceneError::new(path, None, "unknown scene format (expected .toml, .obj, .ply, .gltf or .glb)"))
             }
         }
     }

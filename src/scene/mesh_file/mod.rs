@@ -1,6 +1,7 @@
 //! The door for mesh files: one call, [`load`], reads any mesh format ember knows (chosen by
 //! extension) into ember's own types — world-space triangle meshes, materials, a camera and
-//! point lights where the format has them: PLY (`ply.rs`) and glTF 2.0 / GLB (`gltf.rs`).
+//! point lights where the format has them. PLY (`ply.rs`) and glTF 2.0 / GLB (`gltf.rs`);
+//! `scene.rs` turns a [`MeshFile`] into a scene, or adds it to a TOML scene's.
 //!
 //! Every format follows the loaders' rules: errors name the file and where in it (line, JSON
 //! path or element), memory is checked against [`crate::limits::MemoryLimit`] before the big
@@ -9,6 +10,9 @@
 
 mod gltf;
 mod ply;
+pub(super) mod scene;
+
+pub use scene::VERTEX_COLOURS_WARNING;
 
 use super::SceneError;
 use crate::geometry::TriMesh;
