@@ -13,23 +13,11 @@ fn pixels_bytes(width: u32, height: u32) -> u64 {
     width as u64 * height as u64 * size_of::<Vec3>() as u64
 }
 
-/// Refuses a JPEG file that does not end with the end-of-image marker (FF D9): a truncated
-/// file, which the decoder would fill out with grey without an error. Trailing bytes after
-/// the marker (some writers pad) are allowed.
-fn check_jpeg_end(path: &Path) -> Result<(), TextureError> {
-    use std::io::{Read, Seek, SeekFrom};
-    let mut f = std::fs::File::open(path).map_err(|e| TextureError(format!("cannot read: {e}")))?;
-    let len = f.metadata().map_err(|e| TextureError(format!("cannot read: {e}")))?.len();
-    let tail_len = len.min(1024);
-    let mut tail = vec![0u8; tail_len as usize];
-    f.seek(SeekFrom::Start(len - tail_len))
-        .and_then(|_| f.read_exact(&mut tail))
-        .map_err(|e| TextureError(format!("cannot read: {e}")))?;
-    if tail.windows(2).any(|w| w == [0xFF, 0xD9]) {
-        Ok(())
-    } else {
-        Err(TextureError("truncated or damaged JPEG: no end-of-image marker".into()))
-    }
+/// Whether a JPEG file's bytes end with its end-of-image marker (FF D9) within the last
+/// kilobyte (some writers pad after it). A truncated file does not, and the decoder would
+/// fill out the missing part with grey without an error.
+fn ends_jpeg(bytes: &[u8]) -> bool {
+    bytes[bytes.len().saturating_sub(1024)..].windows(2).any(|w| w == [0xFF, 0xD9])
 }
 
 /// A linear-RGB image.
@@ -62,21 +50,32 @@ impl Image {
         if !meta.is_file() {
             return Err(TextureError("is not a regular file (a FIFO, socket or device?)".into()));
         }
-        let open = || image::ImageReader::open(path).and_then(|r| r.with_guessed_format()).map_err(io);
+        let what = format!("texture file of {}", memory::format_bytes(meta.len()));
+        budget.admit(what, meta.len()).map_err(|e| TextureError(e.to_string()))?;
+        Image::from_memory(&std::fs::read(path).map_err(io)?, budget)
+    }
+
+    /// Decodes an 8-bit image (PNG, JPEG) held in memory — a file's bytes, or an image
+    /// embedded in a mesh file — as [`Image::load`] does.
+    pub fn from_memory(bytes: &[u8], budget: &LoadBudget) -> Result<Image, TextureError> {
+        let open = || {
+            image::ImageReader::new(std::io::Cursor::new(bytes))
+                .with_guessed_format()
+                .map_err(|e| TextureError(format!("cannot read: {e}")))
+        };
         // The header gives the size; refuse what would not fit before decoding.
         let (w, h) = open()?.into_dimensions().map_err(|e| TextureError(e.to_string()))?;
-        budget.admit(format!("{w}x{h} image"), memory::texture_bytes(w, h)).map_err(|e| TextureError(e.to_string()))?;
+        let peak = memory::texture_bytes(w, h).saturating_add(bytes.len() as u64);
+        budget.admit(format!("{w}x{h} image"), peak).map_err(|e| TextureError(e.to_string()))?;
         let mut reader = open()?;
-        if reader.format() == Some(image::ImageFormat::Jpeg) {
-            check_jpeg_end(path)?;
+        if reader.format() == Some(image::ImageFormat::Jpeg) && !ends_jpeg(bytes) {
+            return Err(TextureError("truncated or damaged JPEG: no end-of-image marker".into()));
         }
         // Our limit replaces the image crate's fixed 512 MiB decoding allowance.
         let mut decode_limits = image::Limits::default();
         decode_limits.max_alloc = budget.limit().bytes;
         reader.limits(decode_limits);
-        let img = reader.decode().map_err(|e| TextureError(e.to_string()))?;
-        let rgb = img.to_rgb8();
-        drop(img);
+        let rgb = reader.decode().map_err(|e| TextureError(e.to_string()))?.to_rgb8();
         let (width, height) = rgb.dimensions();
         let pixels = rgb
             .pixels()

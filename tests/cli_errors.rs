@@ -106,7 +106,7 @@ fn unknown_scene_format() {
         &[],
         &[],
         &at(&p, None),
-        "unknown scene format (expected .toml or a mesh file: .obj)",
+        "unknown scene format (expected .toml or a mesh file: .obj, .ply, .gltf, .glb)",
     );
 }
 
@@ -584,7 +584,7 @@ fn memory_limits() {
         &[],
         &[("EMBER_MEMORY_LIMIT", "10M")],
         &at(&textured, Some(1)),
-        "1024x512 image needs ~12.1 MB to load, with the 7.6 kB already loaded, more than the 10.0 MB limit",
+        "1024x512 image needs ~12.2 MB to load, with the 7.6 kB already loaded, more than the 10.0 MB limit",
     );
     // The scene file itself: parsing 2,000 spheres' TOML takes ~48 bytes per byte of it.
     let mut many = String::from("[materials.m]\ntype = \"diffuse\"\n");

@@ -154,7 +154,7 @@ fn every_part_of_a_load_counts_against_one_limit() {
     )
     .unwrap();
     let args = [&["render", textured.to_str().unwrap(), "-o", o][..], &small].concat();
-    refused("texture", &args, "10M", "1024x512 image needs ~12.1 MB to load", &out);
+    refused("texture", &args, "10M", "1024x512 image needs ~12.2 MB to load", &out);
     let args = ["render", textured.to_str().unwrap(), "-o", o, "--width", "16384", "--height", "16384"];
     refused("film", &args, "2G", "image 16384x16384 needs ~31.1 GB of film memory", &out);
 }

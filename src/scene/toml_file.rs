@@ -2,9 +2,7 @@
 //! values become ember's geometry, materials, lights and camera; the meshes it names come
 //! through the mesh-file door (`mesh_file`).
 
-use super::format::{
-    self, BackgroundSection, ColorSource, LightSection, MAX_COORDINATE, MaterialSection, ScaleSpec, SceneFile,
-};
+use super::format::{self, BackgroundSection, ColorSource, LightSection, MaterialSection, ScaleSpec, SceneFile};
 use super::{CameraSpec, MaterialBinding, Scene, SceneError, mesh_file};
 use crate::geometry::{Cylinder, Geometry, Sphere, TriMesh};
 use crate::light::{Background, Light, PointLight};
@@ -133,43 +131,10 @@ pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<S
                 e
             }
         })?;
-        scene.warnings.extend(loaded.warnings.iter().cloned());
         let transform = mesh_transform(&ctx, m)?;
         let over = m.material.as_ref().map(|n| lookup(&ctx, n)).transpose()?;
-        let first = scene.materials.len() as u32;
-        scene.materials.extend(loaded.materials);
-        for om in loaded.meshes {
-            let mut mesh = om.mesh;
-            mesh.transform(transform);
-            if let Some(far) =
-                mesh.positions.iter().flat_map(|p| p.to_array()).find(|c| c.is_finite() && c.abs() > MAX_COORDINATE)
-            {
-                return Err(ctx.err_at(
-                    m.file.span(),
-                    format!(
-                        "mesh {}: after the scene's scale/rotate/translate a coordinate is {far:e}, beyond ±{MAX_COORDINATE:e}",
-                        mesh_path.display()
-                    ),
-                ));
-            }
-            // A transform can collapse triangles too (a tiny scale underflows to zero area).
-            let dropped = mesh.remove_degenerate();
-            if !dropped.is_empty() {
-                let warning =
-                    mesh_file::obj::degenerate_warning(&mesh_path, &mesh.name, &dropped, mesh.triangle_count());
-                scene.warnings.push(format!("{warning}, after the scene's scale/rotate/translate"));
-                if mesh.triangle_count() == 0 {
-                    continue;
-                }
-            }
-            if m.smooth && mesh.normals.is_empty() {
-                mesh.compute_vertex_normals();
-            }
-            let id = over
-                .unwrap_or_else(|| om.material.map(|i| first + i as u32).unwrap_or_else(|| scene.default_material()));
-            scene.geometry.push(Geometry::Mesh(Arc::new(mesh)));
-            scene.bindings.push(MaterialBinding::Uniform(id));
-        }
+        mesh_file::add_to_scene(&mut scene, &mesh_path, loaded, Some(transform), over, m.smooth)
+            .map_err(|e| ctx.err_at(m.file.span(), format!("mesh {}: {e}", mesh_path.display())))?;
     }
     for q in &file.quads {
         let id = lookup(&ctx, &q.material)?;

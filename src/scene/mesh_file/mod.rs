@@ -1,19 +1,28 @@
 //! Mesh files: the one door through which meshes enter a scene, whatever their format. A
 //! format is a file here that reads its files into a [`MeshFile`] of ember's own types (no
 //! format library's types leave its file); [`load`] picks it by extension. A mesh file is
-//! rendered on its own ([`scene_of`]) or named by a scene file's `[[meshes]]`.
+//! rendered on its own ([`scene_of`]) or named by a scene file's `[[meshes]]`
+//! (`scene.rs`). Adding a format: its file and a line in [`FORMATS`].
 //!
-//! Formats: `obj` (Wavefront OBJ with MTL materials).
+//! Every format follows the loaders' rules: errors name the file and where in it (line, JSON
+//! path or element), memory is counted in the load's [`LoadBudget`] before the big
+//! allocations, only regular files are opened, and triangles that cannot be hit are dropped
+//! with a warning.
 
+mod gltf;
 pub mod obj;
+mod ply;
+mod scene;
+
+pub(in crate::scene) use scene::add_to_scene;
+pub use scene::{VERTEX_COLOURS_WARNING, scene_of};
 
 use crate::geometry::{Geometry, TriMesh};
-use crate::light::{Background, Light, PointLight};
+use crate::light::PointLight;
 use crate::material::Material;
 use crate::memory::LoadBudget;
 use crate::scene::format::MAX_COORDINATE;
-use crate::scene::{CameraSpec, MaterialBinding, Scene, SceneError};
-use crate::settings::RenderSettings;
+use crate::scene::{CameraSpec, SceneError};
 use glam::Vec3;
 use std::path::Path;
 use std::sync::Arc;
@@ -52,12 +61,16 @@ impl MeshFile {
     }
 }
 
-/// The format of a mesh file, by its (case-insensitive) extension.
-fn format_of(path: &Path) -> Option<fn(&Path, &LoadBudget) -> Result<MeshFile, SceneError>> {
-    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("obj") => Some(obj::load),
-        _ => None,
-    }
+/// A format's loader.
+type Loader = fn(&Path, &LoadBudget) -> Result<MeshFile, SceneError>;
+
+/// The formats ember reads: their extensions (lower case) and loaders.
+const FORMATS: [(&[&str], Loader); 3] = [(&["obj"], obj::load), (&["ply"], ply::load), (&["gltf", "glb"], gltf::load)];
+
+/// The loader of a mesh file, by its (case-insensitive) extension.
+fn format_of(path: &Path) -> Option<Loader> {
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    FORMATS.iter().find(|(exts, _)| exts.contains(&ext.as_str())).map(|(_, load)| *load)
 }
 
 /// Whether `path` names a mesh file of a format ember reads.
@@ -65,9 +78,9 @@ pub fn is_mesh_file(path: &Path) -> bool {
     format_of(path).is_some()
 }
 
-/// The extensions of the formats ember reads, for messages: `.obj`.
-pub fn extensions() -> &'static str {
-    ".obj"
+/// The extensions of the formats ember reads, for messages: `.obj, .ply, .gltf, .glb`.
+pub fn extensions() -> String {
+    FORMATS.iter().flat_map(|(exts, _)| exts.iter()).map(|e| format!(".{e}")).collect::<Vec<_>>().join(", ")
 }
 
 /// Loads the mesh file `path`, in the format its extension names, within `budget`. Every finite vertex
@@ -100,32 +113,12 @@ pub fn load(path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
     Ok(file)
 }
 
-/// A mesh file rendered on its own: its materials (or a light grey), its camera or one that
-/// frames it, its lights, and, when nothing in it emits, a sky.
-pub fn scene_of(path: &Path, budget: &LoadBudget) -> Result<Scene, SceneError> {
-    budget
-        .keep_film(None, None, RenderSettings::default().size())
-        .map_err(|e| SceneError::new(path, None, e.to_string()))?;
-    let file = load(path, budget)?;
-    let mut scene = Scene::empty(path);
-    scene.warnings = file.warnings;
-    let first = scene.materials.len() as u32;
-    scene.materials.extend(file.materials);
-    for m in file.meshes {
-        let id = m.material.map(|i| first + i as u32).unwrap_or_else(|| scene.default_material());
-        scene.geometry.push(Geometry::Mesh(Arc::new(m.mesh)));
-        scene.bindings.push(MaterialBinding::Uniform(id));
+/// `mesh` without the triangles that cannot be hit (a warning names them), or `None` when
+/// none is left.
+fn keep_hittable(path: &Path, mut mesh: TriMesh, warnings: &mut Vec<String>) -> Option<TriMesh> {
+    let dropped = mesh.remove_degenerate();
+    if !dropped.is_empty() {
+        warnings.push(obj::degenerate_warning(path, &mesh.name, &dropped, mesh.triangle_count()));
     }
-    scene.camera = file.camera;
-    scene.lights.extend(file.point_lights.into_iter().map(Light::Point));
-    // Only materials in use count: Embree's cornell_box.obj defines an emissive "light"
-    // material but its light face is commented out.
-    if !scene.effects().lit {
-        scene.set_background(Background::Gradient {
-            zenith: Vec3::new(0.9, 0.95, 1.0),
-            horizon: Vec3::splat(0.8),
-            ground: Vec3::splat(0.25),
-        });
-    }
-    Ok(scene)
+    (mesh.triangle_count() > 0).then_some(mesh)
 }

@@ -15,7 +15,7 @@ const REFERENCE_FACTOR: u32 = 16;
 
 #[derive(Args, Debug)]
 pub struct ConvergeArgs {
-    /// Scene file (.toml) or mesh (.obj). Its [render] size, spp and depth are not used.
+    /// Scene file (.toml) or mesh (.obj, .ply, .gltf, .glb). Its [render] size, spp and depth are not used.
     pub scene: PathBuf,
     /// Reference image (.exr, linear) to measure against, e.g. DIR/reference.exr of an
     /// earlier run [rendered: NEE+MIS at full depth, --reference-spp samples].

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 #[derive(Args, Debug)]
 pub struct InfoArgs {
-    /// Scene file (.toml) or mesh (.obj).
+    /// Scene file (.toml) or mesh (.obj, .ply, .gltf, .glb).
     pub scene: PathBuf,
 }
 

@@ -20,7 +20,7 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Render a scene (.toml) or a mesh (.obj) to an image (.png or .exr).
+    /// Render a scene (.toml) or a mesh (.obj, .ply, .gltf, .glb) to an image (.png or .exr).
     Render(render::RenderArgs),
     /// Print primitive counts, bounds and BVH build time of a scene or mesh.
     Info(info::InfoArgs),

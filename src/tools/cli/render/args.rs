@@ -11,7 +11,7 @@ use std::time::Duration;
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (.toml) or mesh (.obj).
+    /// Scene file (.toml) or mesh (.obj, .ply, .gltf, .glb).
     pub scene: PathBuf,
     /// Output image: .png (8-bit sRGB) or .exr (linear float).
     #[arg(short, long)]

@@ -1,0 +1,885 @@
+//! glTF 2.0 (`.gltf` with embedded or external buffers, `.glb`), read with the `gltf` crate
+//! for the JSON, its validation and the GLB container. Buffers, images and accessors are read
+//! here, so that only regular files are opened, every byte range is checked (a bad file is an
+//! error naming its JSON path, never a panic) and memory is checked before it is allocated.
+//!
+//! What is read and how it maps onto ember (also in docs/scene-format.md):
+//! - every mesh primitive of the default scene (or scene 0) with its node's world transform
+//!   (matrix or TRS, composed down the hierarchy; normals by the inverse transpose, winding
+//!   reversed under a mirroring transform): TRIANGLES, and TRIANGLE_STRIP / TRIANGLE_FAN
+//!   converted; POINTS and LINES* skipped with a warning. POSITION, NORMAL, TEXCOORD_0 (v
+//!   flipped: glTF's v runs down the image, ember's up), COLOR_0; indexed or not; sparse
+//!   accessors; any component type the accessor declares (so KHR_mesh_quantization too);
+//! - materials (metallic-roughness): see [`material`];
+//! - the first perspective camera found walking the scene → [`CameraSpec`];
+//! - `KHR_lights_punctual` point lights → [`PointLight`], candela / 683 → W/sr.
+
+use super::{FileMesh, MeshFile};
+use crate::light::PointLight;
+use crate::material::{DiffuseMaterial, GlassMaterial, Material, MaterialKind, MetalMaterial, PlasticMaterial};
+use crate::memory::{self, LoadBudget};
+use crate::scene::{CameraSpec, SceneError, input};
+use crate::texture::{Image, Texture};
+use base64::Engine;
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+use std::borrow::Cow;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Luminous efficacy that defines the candela: 683 lm/W at 540 THz. glTF gives point light
+/// intensity in candela (lm/sr); ember's is radiant intensity (W/sr). Dividing by 683 is the
+/// SI conversion, and it makes Blender's exports round-trip: its glTF exporter (default
+/// "standard" lighting mode) writes a point lamp of P watts as P / 4π · 683 cd, which this
+/// reads back as P / 4π W/sr, the radiant intensity of an isotropic P-watt source.
+pub const CANDELA_PER_WATT_PER_SR: f32 = 683.0;
+
+/// Roughness at and above which a non-metal becomes ember's diffuse material instead of
+/// plastic. glTF's non-metal is a diffuse base under a 4 % (IOR 1.5) GGX coat, which is what
+/// ember's plastic is, so plastic is the faithful mapping; but at roughness ≥ 0.9 (GGX
+/// alpha ≥ 0.81) the coat's lobe spreads over the whole hemisphere and the surface looks
+/// Lambertian, and diffuse lets ember run its cheaper diffuse-only kernel.
+pub const DIFFUSE_ROUGHNESS: f32 = 0.9;
+
+/// Metallic factor at and above which a material is ember's metal (glTF blends metal and
+/// dielectric by this factor; ember picks one).
+pub const METAL_THRESHOLD: f32 = 0.5;
+
+/// Transmission factor above which a material is ember's glass.
+pub const GLASS_THRESHOLD: f32 = 0.5;
+
+/// Extensions whose data is read (the rest are warned about, or refused when required).
+const SUPPORTED: [&str; 5] = [
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_transmission",
+    "KHR_mesh_quantization",
+];
+
+/// Memory per vertex of a world-space mesh while it is built: the accessor values read as
+/// f32 (up to 12 floats, 48 bytes) and the mesh's arrays (position, normal, uv, colour: 44).
+const VERTEX_BYTES: u64 = 92;
+/// Memory per index: read as u32 (4) and kept in triangles (4).
+const INDEX_BYTES: u64 = 8;
+
+pub(super) fn load(path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
+    let len = input::regular_file_len(path)?;
+    // The file's bytes, the copy of a GLB's binary chunk and the JSON document built from it.
+    budget
+        .admit(format!("glTF file of {}", memory::format_bytes(len)), len.saturating_mul(4))
+        .map_err(|e| SceneError::new(path, None, e.to_string()))?;
+    let bytes = input::read(path)?;
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| parse_error(path, e))?;
+    drop(bytes);
+    let gltf::Gltf { document, blob } = gltf;
+    let json = document.into_json();
+    check_position_indices(&json).map_err(|m| SceneError::new(path, None, m))?;
+    let document = gltf::Document::from_json(json).map_err(|e| parse_error(path, e))?;
+    Loader { path, dir: path.parent().map(Path::to_path_buf).unwrap_or_default(), budget, doc: &document }.load(blob)
+}
+
+/// The one reference `gltf-json` 1.4.1's validator follows without checking it (it indexes
+/// the accessors with each primitive's POSITION, and panics on a bad one): checked first.
+fn check_position_indices(json: &gltf::json::Root) -> Result<(), String> {
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let pos = prim.attributes.get(&gltf::json::validation::Checked::Valid(gltf::Semantic::Positions));
+            if let Some(i) = pos.map(|i| i.value()).filter(|&i| i >= json.accessors.len()) {
+                return Err(format!(
+                    "meshes[{m}].primitives[{p}].attributes.POSITION: accessor {i} out of range (the file has {})",
+                    json.accessors.len()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A `gltf` crate error as a located [`SceneError`].
+fn parse_error(path: &Path, e: gltf::Error) -> SceneError {
+    match e {
+        gltf::Error::Deserialize(e) => SceneError::new(path, Some(e.line()), format!("invalid glTF JSON: {e}")),
+        gltf::Error::Validation(errors) => {
+            let (p, first) = &errors[0];
+            let more = match errors.len() {
+                1 => String::new(),
+                n => format!(" (and {} more problems)", n - 1),
+            };
+            let first = first.to_string().to_lowercase();
+            SceneError::new(path, None, format!("{p}: {first}{more}"))
+        }
+        gltf::Error::Binary(e) => SceneError::new(path, None, format!("invalid GLB: {e}")),
+        e => SceneError::new(path, None, e.to_string()),
+    }
+}
+
+struct Loader<'a> {
+    path: &'a Path,
+    dir: PathBuf,
+    budget: &'a LoadBudget,
+    doc: &'a gltf::Document,
+}
+
+/// A mesh placed in the world by a node.
+struct Instance<'a> {
+    mesh: gltf::Mesh<'a>,
+    world: Mat4,
+}
+
+/// Problems of one kind, reported once: how many and the first place.
+#[derive(Default)]
+struct Tally(BTreeMap<String, (usize, String)>);
+
+impl Tally {
+    fn add(&mut self, kind: impl Into<String>, at: impl Into<String>) {
+        let e = self.0.entry(kind.into()).or_insert_with(|| (0, at.into()));
+        e.0 += 1;
+    }
+}
+
+impl<'a> Loader<'a> {
+    fn err(&self, at: impl AsRef<str>, msg: impl AsRef<str>) -> SceneError {
+        SceneError::new(self.path, None, format!("{}: {}", at.as_ref(), msg.as_ref()))
+    }
+
+    fn load(&self, blob: Option<Vec<u8>>) -> Result<MeshFile, SceneError> {
+        let mut warnings = Vec::new();
+        let file = self.path.display();
+        for ext in self.doc.extensions_required() {
+            if !SUPPORTED.contains(&ext) {
+                return Err(SceneError::new(
+                    self.path,
+                    None,
+                    format!("extensionsRequired: {ext} is not supported (supported: {})", SUPPORTED.join(", ")),
+                ));
+            }
+        }
+        for ext in self.doc.extensions_used() {
+            if !SUPPORTED.contains(&ext) {
+                warnings.push(format!("{file}: glTF extension {ext} is not supported; its data is ignored"));
+            }
+        }
+
+        // The scene's nodes, walked depth first: meshes, the first camera, lights.
+        let scene = self.doc.default_scene().or_else(|| self.doc.scenes().next());
+        let roots: Vec<gltf::Node> = match &scene {
+            Some(s) => s.nodes().collect(),
+            None => {
+                warnings.push(format!("{file}: the file defines no scene; using every node without a parent"));
+                let mut child = vec![false; self.doc.nodes().len()];
+                for n in self.doc.nodes() {
+                    for c in n.children() {
+                        child[c.index()] = true;
+                    }
+                }
+                self.doc.nodes().filter(|n| !child[n.index()]).collect()
+            }
+        };
+        let mut instances = Vec::new();
+        let mut camera = None;
+        let mut point_lights = Vec::new();
+        let mut ignored = Tally::default();
+        let mut stack: Vec<(gltf::Node, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
+        // glTF's nodes form trees: a node met twice is a cycle or a node with two parents
+        // (which could also multiply the meshes without bound).
+        let mut seen = vec![false; self.doc.nodes().len()];
+        while let Some((node, parent)) = stack.pop() {
+            let at = format!("nodes[{}]", node.index());
+            if std::mem::replace(&mut seen[node.index()], true) {
+                return Err(self.err(
+                    at,
+                    "the node is met twice in the scene: glTF nodes must form trees (a cycle, or two parents)",
+                ));
+            }
+            let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+            if let Some(mesh) = node.mesh() {
+                instances.push(Instance { mesh, world });
+            }
+            if let Some(cam) = node.camera() {
+                match cam.projection() {
+                    gltf::camera::Projection::Perspective(p) if camera.is_none() => {
+                        camera = self.camera(&at, world, p.yfov(), &mut warnings);
+                    }
+                    gltf::camera::Projection::Perspective(_) => {
+                        ignored.add("more than one camera: the first is used", &at)
+                    }
+                    gltf::camera::Projection::Orthographic(_) => {
+                        ignored.add("orthographic cameras (ember's camera is perspective)", &at)
+                    }
+                }
+            }
+            if let Some(light) = node.light() {
+                let at = format!("{at}.extensions.KHR_lights_punctual");
+                match light.kind() {
+                    gltf::khr_lights_punctual::Kind::Point => {
+                        let intensity = Vec3::from(light.color()) * light.intensity() / CANDELA_PER_WATT_PER_SR;
+                        if !intensity.is_finite() || intensity.min_element() < 0.0 {
+                            return Err(self.err(at, "light colour and intensity must be finite and not negative"));
+                        }
+                        if light.range().is_some() {
+                            ignored.add("light range (ember's point lights reach everywhere)", &at);
+                        }
+                        point_lights.push(PointLight { position: world.transform_point3(Vec3::ZERO), intensity });
+                    }
+                    gltf::khr_lights_punctual::Kind::Directional => ignored.add("directional lights", &at),
+                    gltf::khr_lights_punctual::Kind::Spot { .. } => ignored.add("spot lights", &at),
+                }
+            }
+            if node.skin().is_some() {
+                ignored.add("skins (the mesh is used in its bind pose)", &at);
+            }
+            for c in node.children().collect::<Vec<_>>().into_iter().rev() {
+                stack.push((c, world));
+            }
+        }
+
+        // Memory: the buffers, and every placed mesh's vertices and indices.
+        let buffer_bytes: u64 = self.doc.buffers().map(|b| b.length() as u64).sum();
+        let mut vertices = 0u64;
+        let mut index_count = 0u64;
+        for inst in &instances {
+            for p in inst.mesh.primitives() {
+                let n = p.get(&gltf::Semantic::Positions).map_or(0, |a| a.count() as u64);
+                vertices = vertices.saturating_add(n);
+                index_count = index_count.saturating_add(p.indices().map_or(n, |a| a.count() as u64));
+            }
+        }
+        let need = buffer_bytes
+            .saturating_add(vertices.saturating_mul(VERTEX_BYTES))
+            .saturating_add(index_count.saturating_mul(INDEX_BYTES));
+        self.budget
+            .admit(
+                format!(
+                    "glTF meshes of {vertices} vertices and {index_count} indices ({} of buffers)",
+                    memory::format_bytes(buffer_bytes)
+                ),
+                need,
+            )
+            .map_err(|e| SceneError::new(self.path, None, e.to_string()))?;
+        let buffers = self.buffers(blob)?;
+
+        let materials = self.materials(&buffers, &mut ignored)?;
+        let mut meshes = Vec::new();
+        for inst in &instances {
+            for prim in inst.mesh.primitives() {
+                let at = format!("meshes[{}].primitives[{}]", inst.mesh.index(), prim.index());
+                if let Some(m) =
+                    self.primitive(&at, &inst.mesh, &prim, inst.world, &buffers, &mut ignored, &mut warnings)?
+                {
+                    meshes.push(m);
+                }
+            }
+        }
+        for (kind, (n, first)) in ignored.0 {
+            let times = if n == 1 { String::new() } else { format!(", {n} times") };
+            warnings.push(format!("{file}: {kind} not supported; ignored (at {first}{times})"));
+        }
+        if meshes.is_empty() {
+            return Err(SceneError::new(
+                self.path,
+                None,
+                "no triangles: the scene has no triangle meshes (or only degenerate ones)",
+            ));
+        }
+        Ok(MeshFile { meshes, materials, camera, point_lights, warnings })
+    }
+
+    /// The camera of a node at `world`: at the node's origin, looking down its −Z, up its +Y.
+    fn camera(&self, at: &str, world: Mat4, yfov: f32, warnings: &mut Vec<String>) -> Option<CameraSpec> {
+        let fov = yfov.to_degrees();
+        let position = world.transform_point3(Vec3::ZERO);
+        let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+        let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
+        if !(fov > 0.0 && fov < 180.0 && forward != Vec3::ZERO && position.is_finite() && up.is_finite()) {
+            warnings.push(format!(
+                "{}: {at}: camera ignored (field of view {fov}° or its transform unusable); the scene is framed instead",
+                self.path.display()
+            ));
+            return None;
+        }
+        Some(CameraSpec { position, look_at: position + forward, up, fov, aperture: 0.0, focus_distance: None })
+    }
+
+    /// The bytes of every buffer, by index.
+    fn buffers(&self, blob: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>, SceneError> {
+        let mut blob = blob;
+        let mut out = Vec::new();
+        for b in self.doc.buffers() {
+            let at = format!("buffers[{}]", b.index());
+            let data = match b.source() {
+                gltf::buffer::Source::Bin => blob
+                    .take()
+                    .ok_or_else(|| self.err(&at, "refers to the GLB binary chunk, which the file does not have"))?,
+                gltf::buffer::Source::Uri(uri) => self.uri(&at, uri)?.into_owned(),
+            };
+            if data.len() < b.length() {
+                return Err(
+                    self.err(at, format!("byteLength is {} but the data has only {} bytes", b.length(), data.len()))
+                );
+            }
+            out.push(data);
+        }
+        Ok(out)
+    }
+
+    /// The bytes a URI names: a `data:` URI's, or a file's relative to the glTF file.
+    fn uri(&self, at: &str, uri: &str) -> Result<Cow<'static, [u8]>, SceneError> {
+        if let Some(rest) = uri.strip_prefix("data:") {
+            let (head, payload) = rest.split_once(',').ok_or_else(|| self.err(at, "data URI without a comma"))?;
+            if !head.ends_with(";base64") {
+                return Err(self.err(at, "data URI is not base64"));
+            }
+            let bytes = base64::engine::general_purpose::STANDARD
+                .decode(payload.trim())
+                .map_err(|e| self.err(at, format!("data URI: {e}")))?;
+            return Ok(Cow::Owned(bytes));
+        }
+        if uri.contains("://") {
+            return Err(self.err(at, format!("{uri:?}: only data: URIs and relative file names are read")));
+        }
+        let file = self.dir.join(percent_decode(uri));
+        let len =
+            input::regular_file_len(&file).map_err(|e| self.err(at, format!("{}: {}", file.display(), e.message)))?;
+        self.budget
+            .admit(format!("{} of {}", file.display(), memory::format_bytes(len)), len)
+            .map_err(|e| self.err(at, e.to_string()))?;
+        input::read(&file).map(Cow::Owned).map_err(|e| self.err(at, format!("{}: {}", file.display(), e.message)))
+    }
+
+    /// ember's materials, one per glTF material, in order.
+    ///
+    /// Mapping (metallic-roughness): metallic ≥ [`METAL_THRESHOLD`] → metal (colour = base
+    /// colour, roughness); otherwise plastic, or diffuse at roughness ≥ [`DIFFUSE_ROUGHNESS`];
+    /// `KHR_materials_transmission` above [`GLASS_THRESHOLD`] → glass (IOR from
+    /// `KHR_materials_ior`, default 1.5; tint = base colour factor). Base colour = factor ×
+    /// texture (TEXCOORD_0). Emission = emissive factor × `KHR_materials_emissive_strength`
+    /// (× the emissive texture's mean colour: emission is uniform over a surface in ember).
+    /// Normal, occlusion, metallic-roughness and transmission textures, alpha, and texture
+    /// coordinate sets other than 0 are ignored, with one warning per kind.
+    fn materials(&self, buffers: &[Vec<u8>], ignored: &mut Tally) -> Result<Vec<Material>, SceneError> {
+        let mut images: HashMap<usize, Arc<Image>> = HashMap::new();
+        let mut out = Vec::new();
+        let file_name = self.path.file_name().map_or(String::new(), |f| f.to_string_lossy().into_owned());
+        for m in self.doc.materials() {
+            let i = m.index().unwrap_or(0);
+            let at = format!("materials[{i}]");
+            let pbr = m.pbr_metallic_roughness();
+            let factor = pbr.base_color_factor();
+            let base = Vec3::new(factor[0], factor[1], factor[2]);
+            let roughness = pbr.roughness_factor().clamp(0.0, 1.0);
+            let metallic = pbr.metallic_factor();
+            let mut image =
+                |info: &gltf::texture::Info, slot: &str, ignored: &mut Tally| -> Result<Arc<Image>, SceneError> {
+                    let at = format!("{at}.{slot}");
+                    if info.tex_coord() != 0 {
+                        ignored.add("texture coordinate sets other than TEXCOORD_0 (set 0 is used)", &at);
+                    }
+                    let img = info.texture().source();
+                    if let Some(done) = images.get(&img.index()) {
+                        return Ok(done.clone());
+                    }
+                    let loaded = Arc::new(self.image(&at, &img, buffers)?);
+                    images.insert(img.index(), loaded.clone());
+                    Ok(loaded)
+                };
+            let color = match pbr.base_color_texture() {
+                Some(info) => {
+                    let img = image(&info, "pbrMetallicRoughness.baseColorTexture", ignored)?;
+                    if base == Vec3::ONE {
+                        Texture::Image(img)
+                    } else {
+                        let pixels = img.pixels.iter().map(|p| *p * base).collect();
+                        Texture::Image(Arc::new(Image { width: img.width, height: img.height, pixels }))
+                    }
+                }
+                None => Texture::Constant(base),
+            };
+            let mut emission = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
+            if let Some(info) = m.emissive_texture() {
+                ignored.add(
+                    "emissiveTexture variation (its mean colour scales the emissive factor)",
+                    format!("{at}.emissiveTexture"),
+                );
+                if emission != Vec3::ZERO {
+                    emission *= image(&info, "emissiveTexture", ignored)?.mean();
+                }
+            }
+            if !emission.is_finite() || emission.min_element() < 0.0 {
+                return Err(self.err(format!("{at}.emissiveFactor"), "emission must be finite and not negative"));
+            }
+            if m.normal_texture().is_some() {
+                ignored.add("normalTexture", format!("{at}.normalTexture"));
+            }
+            if m.occlusion_texture().is_some() {
+                ignored.add("occlusionTexture", format!("{at}.occlusionTexture"));
+            }
+            if pbr.metallic_roughness_texture().is_some() {
+                ignored.add(
+                    "metallicRoughnessTexture (the metallic and roughness factors are used)",
+                    format!("{at}.pbrMetallicRoughness.metallicRoughnessTexture"),
+                );
+            }
+            if m.alpha_mode() != gltf::material::AlphaMode::Opaque || factor[3] < 1.0 {
+                ignored.add("alpha (alphaMode, base colour alpha): surfaces are opaque", &at);
+            }
+            let transmission = m.transmission();
+            let kind = match &transmission {
+                Some(t) if t.transmission_factor() > GLASS_THRESHOLD => {
+                    if t.transmission_texture().is_some() {
+                        ignored.add("transmissionTexture", format!("{at}.extensions.KHR_materials_transmission"));
+                    }
+                    if pbr.base_color_texture().is_some() {
+                        ignored.add("baseColorTexture on glass (the base colour factor tints it)", &at);
+                    }
+                    let ior = m.ior().unwrap_or(1.5);
+                    if !(ior.is_finite() && ior > 0.0) {
+                        return Err(self.err(
+                            format!("{at}.extensions.KHR_materials_ior"),
+                            format!("ior must be > 0, found {ior}"),
+                        ));
+                    }
+                    MaterialKind::Glass(GlassMaterial { ior, tint: base.clamp(Vec3::ZERO, Vec3::ONE) })
+                }
+                _ if metallic >= METAL_THRESHOLD => MaterialKind::Metal(MetalMaterial { color, roughness }),
+                _ if roughness >= DIFFUSE_ROUGHNESS => MaterialKind::Diffuse(DiffuseMaterial { color }),
+                _ => MaterialKind::Plastic(PlasticMaterial { color, roughness }),
+            };
+            if matches!(&transmission, Some(t) if t.transmission_factor() > 0.0 && t.transmission_factor() <= GLASS_THRESHOLD)
+            {
+                ignored
+                    .add("partial transmission (≤ 0.5: opaque)", format!("{at}.extensions.KHR_materials_transmission"));
+            }
+            let name = format!("{file_name}:{}", m.name().map_or_else(|| at.clone(), str::to_string));
+            out.push(Material { name, kind, emission });
+        }
+        Ok(out)
+    }
+
+    /// Decodes an image (PNG or JPEG) from a buffer view or a URI.
+    fn image(&self, at: &str, img: &gltf::Image, buffers: &[Vec<u8>]) -> Result<Image, SceneError> {
+        let at = format!("{at}: images[{}]", img.index());
+        let bytes: Cow<[u8]> = match img.source() {
+            gltf::image::Source::View { view, .. } => Cow::Borrowed(self.view_bytes(&at, &view, buffers)?),
+            gltf::image::Source::Uri { uri, .. } => self.uri(&at, uri)?,
+        };
+        Image::from_memory(&bytes, self.budget).map_err(|e| self.err(at, e.to_string()))
+    }
+
+    /// The bytes of a buffer view.
+    fn view_bytes<'b>(
+        &self,
+        at: &str,
+        view: &gltf::buffer::View,
+        buffers: &'b [Vec<u8>],
+    ) -> Result<&'b [u8], SceneError> {
+        let data = &buffers[view.buffer().index()];
+        let end = view.offset().checked_add(view.length());
+        end.and_then(|end| data.get(view.offset()..end)).ok_or_else(|| {
+            self.err(
+                at,
+                format!(
+                    "bufferViews[{}] (bytes {} to {}) is out of range of buffers[{}] ({} bytes)",
+                    view.index(),
+                    view.offset(),
+                    view.offset() as u128 + view.length() as u128,
+                    view.buffer().index(),
+                    data.len()
+                ),
+            )
+        })
+    }
+
+    /// One primitive as a world-space mesh, or `None` (with a warning) if it has none.
+    #[allow(clippy::too_many_arguments)]
+    fn primitive(
+        &self,
+        at: &str,
+        mesh: &gltf::Mesh,
+        prim: &gltf::Primitive,
+        world: Mat4,
+        buffers: &[Vec<u8>],
+        ignored: &mut Tally,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<FileMesh>, SceneError> {
+        match prim.mode() {
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan => {}
+            mode => {
+                ignored.add(format!("primitives of mode {mode:?} (points and lines have no area)"), at);
+                return Ok(None);
+            }
+        }
+        let Some(pos) = prim.get(&gltf::Semantic::Positions) else {
+            ignored.add("primitives without POSITION", at);
+            return Ok(None);
+        };
+        let attr = |name: &str| format!("{at}.attributes.{name}");
+        let positions = self.read(&attr("POSITION"), &pos, &[Dimensions::Vec3], buffers)?;
+        let n = pos.count();
+        let same_count = |a: &gltf::Accessor, name: &str| -> Result<(), SceneError> {
+            if a.count() != n {
+                return Err(
+                    self.err(attr(name), format!("accessor {} has {} entries for {n} positions", a.index(), a.count()))
+                );
+            }
+            Ok(())
+        };
+        let finite = |v: &[f32], name: &str, width: usize| -> Result<(), SceneError> {
+            match v.iter().position(|x| !x.is_finite()) {
+                Some(k) => Err(self.err(attr(name), format!("entry {} is not a finite number", k / width))),
+                None => Ok(()),
+            }
+        };
+        let normals = match prim.get(&gltf::Semantic::Normals) {
+            Some(a) => {
+                same_count(&a, "NORMAL")?;
+                let v = self.read(&attr("NORMAL"), &a, &[Dimensions::Vec3], buffers)?;
+                finite(&v, "NORMAL", 3)?;
+                v
+            }
+            None => Vec::new(),
+        };
+        let uvs = match prim.get(&gltf::Semantic::TexCoords(0)) {
+            Some(a) => {
+                same_count(&a, "TEXCOORD_0")?;
+                let v = self.read(&attr("TEXCOORD_0"), &a, &[Dimensions::Vec2], buffers)?;
+                finite(&v, "TEXCOORD_0", 2)?;
+                v
+            }
+            None => Vec::new(),
+        };
+        let (colors, color_width) = match prim.get(&gltf::Semantic::Colors(0)) {
+            Some(a) => {
+                same_count(&a, "COLOR_0")?;
+                let v = self.read(&attr("COLOR_0"), &a, &[Dimensions::Vec3, Dimensions::Vec4], buffers)?;
+                finite(&v, "COLOR_0", 3)?;
+                let w = if a.dimensions() == Dimensions::Vec4 { 4 } else { 3 };
+                (v, w)
+            }
+            None => (Vec::new(), 3),
+        };
+        let corners: Vec<u32> = match prim.indices() {
+            Some(a) => {
+                let at = format!("{at}.indices");
+                let v = self.read_indices(&at, &a, buffers)?;
+                if let Some((k, i)) = v.iter().enumerate().find(|(_, i)| **i as usize >= n) {
+                    return Err(self.err(
+                        at,
+                        format!(
+                            "index {i} (entry {k} of accessor {}) is out of range: the primitive has {n} vertices",
+                            a.index()
+                        ),
+                    ));
+                }
+                v
+            }
+            None => (0..n as u32).collect(),
+        };
+        let mut triangles: Vec<[u32; 3]> = match prim.mode() {
+            Mode::TriangleStrip => (0..corners.len().saturating_sub(2))
+                .map(|i| {
+                    if i % 2 == 0 {
+                        [corners[i], corners[i + 1], corners[i + 2]]
+                    } else {
+                        [corners[i + 1], corners[i], corners[i + 2]]
+                    }
+                })
+                .collect(),
+            Mode::TriangleFan => {
+                (1..corners.len().saturating_sub(1)).map(|i| [corners[0], corners[i], corners[i + 1]]).collect()
+            }
+            _ => corners.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+        };
+        drop(corners);
+        // A mirroring transform turns the winding around; keep the front faces in front.
+        if Mat3::from_mat4(world).determinant() < 0.0 {
+            for t in &mut triangles {
+                t.swap(1, 2);
+            }
+        }
+        let positions: Vec<Vec3> =
+            positions.chunks_exact(3).map(|p| world.transform_point3(Vec3::new(p[0], p[1], p[2]))).collect();
+        let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+        let normals: Vec<Vec3> = normals
+            .chunks_exact(3)
+            .map(|v| (normal_matrix * Vec3::new(v[0], v[1], v[2])).normalize_or_zero())
+            .collect();
+        // glTF's v runs down from the image's top; ember's (OBJ's) up from its bottom.
+        let uvs: Vec<Vec2> = uvs.chunks_exact(2).map(|v| Vec2::new(v[0], 1.0 - v[1])).collect();
+        let colors: Vec<Vec3> = colors.chunks_exact(color_width).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
+        let name = match mesh.name() {
+            Some(s) => format!("{s}#{}", prim.index()),
+            None => at.to_string(),
+        };
+        let tri = crate::geometry::TriMesh::new(name, positions, triangles, normals, uvs)
+            .map_err(|e| self.err(at, e.to_string()))?;
+        Ok(super::keep_hittable(self.path, tri, warnings).map(|mesh| {
+            self.budget.keep(mesh.heap_bytes() + size_of_val(&colors[..]) as u64);
+            self.budget.keep_primitives(mesh.triangle_count() as u64, 0);
+            FileMesh { mesh, material: prim.material().index(), colors }
+        }))
+    }
+
+    /// An accessor's values as f32 (normalised integers scaled to 0-1 or -1-1), `count ×
+    /// components` of them, after checking its shape and byte ranges.
+    fn read(
+        &self,
+        at: &str,
+        a: &gltf::Accessor,
+        dims: &[Dimensions],
+        buffers: &[Vec<u8>],
+    ) -> Result<Vec<f32>, SceneError> {
+        if !dims.contains(&a.dimensions()) {
+            let want: Vec<String> = dims.iter().map(|d| format!("{d:?}").to_uppercase()).collect();
+            return Err(self.err(
+                at,
+                format!(
+                    "accessor {} is {}, expected {}",
+                    a.index(),
+                    format!("{:?}", a.dimensions()).to_uppercase(),
+                    want.join(" or ")
+                ),
+            ));
+        }
+        if a.data_type() == DataType::U32 && a.normalized() {
+            return Err(self.err(at, format!("accessor {}: normalized UNSIGNED_INT is not allowed", a.index())));
+        }
+        let comps = a.dimensions().multiplicity();
+        let (dt, normalized) = (a.data_type(), a.normalized());
+        let decode = move |b: &[u8]| -> f32 {
+            let raw = match dt {
+                DataType::I8 => b[0] as i8 as f32,
+                DataType::U8 => b[0] as f32,
+                DataType::I16 => i16::from_le_bytes([b[0], b[1]]) as f32,
+                DataType::U16 => u16::from_le_bytes([b[0], b[1]]) as f32,
+                DataType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32,
+                DataType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            };
+            if !normalized {
+                return raw;
+            }
+            match dt {
+                DataType::I8 => (raw / 127.0).max(-1.0),
+                DataType::U8 => raw / 255.0,
+                DataType::I16 => (raw / 32767.0).max(-1.0),
+                DataType::U16 => raw / 65535.0,
+                _ => raw,
+            }
+        };
+        self.elements(at, a, comps, dt.size(), buffers, &decode, 0.0)
+    }
+
+    /// An index accessor's values (SCALAR, unsigned byte, short or int).
+    fn read_indices(&self, at: &str, a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, SceneError> {
+        let dt = a.data_type();
+        if a.dimensions() != Dimensions::Scalar || !matches!(dt, DataType::U8 | DataType::U16 | DataType::U32) {
+            return Err(self.err(
+                at,
+                format!(
+                    "accessor {} is {:?} {:?}; indices must be scalar unsigned byte, short or int",
+                    a.index(),
+                    a.dimensions(),
+                    dt
+                ),
+            ));
+        }
+        let decode = move |b: &[u8]| -> u32 {
+            match dt {
+                DataType::U8 => b[0] as u32,
+                DataType::U16 => u16::from_le_bytes([b[0], b[1]]) as u32,
+                _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            }
+        };
+        self.elements(at, a, 1, dt.size(), buffers, &decode, 0)
+    }
+
+    /// The `count × comps` components of accessor `a` (component size `size`), decoded by
+    /// `decode`: from its buffer view (zeros without one), then its sparse substitutions.
+    #[allow(clippy::too_many_arguments)]
+    fn elements<T: Copy>(
+        &self,
+        at: &str,
+        a: &gltf::Accessor,
+        comps: usize,
+        size: usize,
+        buffers: &[Vec<u8>],
+        decode: &dyn Fn(&[u8]) -> T,
+        zero: T,
+    ) -> Result<Vec<T>, SceneError> {
+        let count = a.count();
+        let elem = comps * size;
+        let mut out = match a.view() {
+            None => vec![zero; count * comps],
+            Some(view) => {
+                let stride = view.stride().unwrap_or(elem);
+                let bytes = self.strided(at, a.index(), &view, a.offset(), count, elem, stride, buffers)?;
+                let mut out = Vec::with_capacity(count * comps);
+                for k in 0..count {
+                    let e = &bytes[k * stride..k * stride + elem];
+                    out.extend(e.chunks_exact(size).map(decode));
+                }
+                out
+            }
+        };
+        if let Some(sparse) = a.sparse() {
+            let n = sparse.count();
+            let iv = sparse.indices();
+            let isize = iv.index_type().size();
+            let ibytes = self.strided(
+                &format!("{at}: sparse indices"),
+                a.index(),
+                &iv.view(),
+                iv.offset(),
+                n,
+                isize,
+                isize,
+                buffers,
+            )?;
+            let vv = sparse.values();
+            let vbytes = self.strided(
+                &format!("{at}: sparse values"),
+                a.index(),
+                &vv.view(),
+                vv.offset(),
+                n,
+                elem,
+                elem,
+                buffers,
+            )?;
+            for k in 0..n {
+                let b = &ibytes[k * isize..(k + 1) * isize];
+                let target = match isize {
+                    1 => b[0] as usize,
+                    2 => u16::from_le_bytes([b[0], b[1]]) as usize,
+                    _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize,
+                };
+                if target >= count {
+                    return Err(self.err(
+                        at,
+                        format!("accessor {}: sparse index {target} is out of range ({count} entries)", a.index()),
+                    ));
+                }
+                for (c, v) in vbytes[k * elem..(k + 1) * elem].chunks_exact(size).map(decode).enumerate() {
+                    out[target * comps + c] = v;
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// The bytes of `count` elements of `elem` bytes, `stride` apart, from `offset` into `view`;
+    /// an error naming the accessor if they do not fit.
+    #[allow(clippy::too_many_arguments)]
+    fn strided<'b>(
+        &self,
+        at: &str,
+        accessor: usize,
+        view: &gltf::buffer::View,
+        offset: usize,
+        count: usize,
+        elem: usize,
+        stride: usize,
+        buffers: &'b [Vec<u8>],
+    ) -> Result<&'b [u8], SceneError> {
+        if stride < elem {
+            return Err(
+                self.err(at, format!("accessor {accessor}: byteStride {stride} is less than the element size {elem}"))
+            );
+        }
+        let data = self.view_bytes(at, view, buffers)?;
+        if count == 0 {
+            return Ok(&data[..0]);
+        }
+        let end = stride.checked_mul(count - 1).and_then(|x| x.checked_add(elem)).and_then(|x| x.checked_add(offset));
+        match end {
+            Some(end) if end <= data.len() => Ok(&data[offset..end]),
+            _ => Err(self.err(
+                at,
+                format!(
+                    "accessor {accessor} out of range: {count} entries of {elem} bytes (stride {stride}) from byte {offset} do not fit in bufferViews[{}] ({} bytes)",
+                    view.index(),
+                    data.len()
+                ),
+            )),
+        }
+    }
+}
+
+/// `%XX` escapes of a URI decoded (glTF URIs are percent-encoded); bad escapes kept as they are.
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        if b[i] == b'%'
+            && i + 2 < b.len()
+            && let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+            continue;
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A glTF file with an embedded buffer: a strip, an indexed fan and a LINES primitive on
+    /// one node; a strip whose positions are a sparse accessor on a mirrored node.
+    #[test]
+    fn strips_fans_sparse_and_mirrors() {
+        let mut buf = Vec::new();
+        for p in [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]] {
+            buf.extend(p.iter().flat_map(|c| c.to_le_bytes()));
+        }
+        buf.extend([0u8, 1, 3, 2]); // fan indices, bytes 48..52
+        buf.extend([3u8, 0, 0, 0]); // sparse index (vertex 3), 52..53, padded
+        buf.extend([2.0f32, 2.0, 0.0].iter().flat_map(|c| c.to_le_bytes())); // its value, 56..68
+        let data = base64::engine::general_purpose::STANDARD.encode(&buf);
+        let json = format!(
+            r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
+            "nodes": [{{"mesh": 0}}, {{"mesh": 1, "scale": [-1, 1, 1]}}],
+            "meshes": [
+              {{"primitives": [{{"attributes": {{"POSITION": 0}}, "mode": 5}},
+                               {{"attributes": {{"POSITION": 0}}, "indices": 1, "mode": 6}},
+                               {{"attributes": {{"POSITION": 0}}, "mode": 1}}]}},
+              {{"primitives": [{{"attributes": {{"POSITION": 2}}, "mode": 5}}]}}],
+            "accessors": [
+              {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+              {{"bufferView": 1, "componentType": 5121, "count": 4, "type": "SCALAR"}},
+              {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [2, 2, 0],
+                "sparse": {{"count": 1, "indices": {{"bufferView": 2, "componentType": 5121}}, "values": {{"bufferView": 3}}}}}}],
+            "bufferViews": [{{"buffer": 0, "byteLength": 48}}, {{"buffer": 0, "byteOffset": 48, "byteLength": 4}},
+              {{"buffer": 0, "byteOffset": 52, "byteLength": 1}}, {{"buffer": 0, "byteOffset": 56, "byteLength": 12}}],
+            "buffers": [{{"byteLength": {}, "uri": "data:application/octet-stream;base64,{data}"}}]}}"#,
+            buf.len()
+        );
+        let path = std::env::temp_dir().join(format!("ember-gltf-unit-{}.gltf", std::process::id()));
+        std::fs::write(&path, json).unwrap();
+        let f = super::super::load(&path, &LoadBudget::unlimited());
+        std::fs::remove_file(&path).unwrap();
+        let f = f.unwrap();
+        let tris: Vec<Vec<[u32; 3]>> = f.meshes.iter().map(|m| m.mesh.indices.clone()).collect();
+        assert_eq!(tris, [vec![[0, 1, 2], [2, 1, 3]], vec![[0, 1, 3], [0, 3, 2]], vec![[0, 2, 1], [2, 3, 1]]]);
+        assert_eq!(f.meshes[2].mesh.positions[3], Vec3::new(-2.0, 2.0, 0.0));
+        assert_eq!(f.meshes[2].mesh.positions[1], Vec3::new(-1.0, 0.0, 0.0));
+        assert!(f.meshes.iter().all(|m| m.material.is_none()));
+        assert_eq!(f.warnings.len(), 1, "{:?}", f.warnings);
+        assert!(f.warnings[0].contains("mode Lines"), "{:?}", f.warnings);
+    }
+
+    #[test]
+    fn percent_escapes_decode() {
+        assert_eq!(percent_decode("a%20b.bin"), "a b.bin");
+        assert_eq!(percent_decode("plain.bin"), "plain.bin");
+        assert_eq!(percent_decode("bad%zz%2"), "bad%zz%2");
+    }
+}
