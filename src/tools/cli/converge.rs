@@ -1,9 +1,10 @@
 use crate::accel::AccelKind;
 use crate::film::Film;
 use crate::output::write_file;
-use crate::tools::report::converge::{Measurement, Study, parse_variants, spp_ladder, time_to_reach, to_csv, write_plots};
 use crate::scene::Scene;
 use crate::scene::format::MAX_IMAGE_SIDE;
+use crate::tools::converge::{Measurement, Study, parse_variants, spp_ladder};
+use crate::tools::report::converge::{time_to_reach_table, to_csv, write_plots};
 use anyhow::Context;
 use clap::Args;
 use std::path::PathBuf;
@@ -143,23 +144,7 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     write_file(&csv, to_csv(&all, study.max_depth, study.repeats).as_bytes())?;
     let plots = write_plots(&args.out, &all, study.max_depth, args.target)?;
 
-    println!(
-        "{:<28} {:>12} {:>12}   time to reach relMSE {}",
-        "variant",
-        format!("relMSE@{largest}"),
-        format!("MAE@{largest}"),
-        args.target
-    );
-    for points in &per_variant {
-        let last = &points[points.len() - 1];
-        println!(
-            "{:<28} {:>12.3e} {:>12.3e}   {}",
-            last.variant.name(),
-            last.error.rel_mse,
-            last.error.mae,
-            time_to_reach(points, args.target)
-        );
-    }
+    print!("{}", time_to_reach_table(&per_variant, largest, args.target));
     let files: Vec<String> = std::iter::once(&csv).chain(&plots).map(|p| p.display().to_string()).collect();
     eprintln!("wrote {}", files.join(", "));
     Ok(())
