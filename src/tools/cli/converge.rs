@@ -3,7 +3,7 @@ use crate::film::Film;
 use crate::output::write_file;
 use crate::scene::Scene;
 use crate::scene::format::MAX_IMAGE_SIDE;
-use crate::tools::converge::{Measurement, Study, parse_variants, spp_ladder};
+use crate::tools::converge::{ConvergencePoint, Study, parse_variants, spp_ladder};
 use crate::tools::report::converge::{time_to_reach_table, to_csv, write_plots};
 use anyhow::Context;
 use clap::Args;
@@ -121,8 +121,8 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
         }
     };
 
-    let mut all: Vec<Measurement> = Vec::new();
-    let mut per_variant: Vec<Vec<Measurement>> = Vec::new();
+    let mut all: Vec<ConvergencePoint> = Vec::new();
+    let mut per_variant: Vec<Vec<ConvergencePoint>> = Vec::new();
     for &v in &variants {
         let points = study.measure(&scene, accel.as_ref(), &reference, v, |_| {})?;
         let secs: f64 = points.iter().map(|m| m.seconds).sum::<f64>() * study.repeats as f64;

@@ -1,7 +1,7 @@
 //! What a study's points say: how fast the error falls (the slope of log error against log
 //! spp) and when a variant first reaches a target relMSE.
 
-use super::study::Measurement;
+use super::study::ConvergencePoint;
 
 /// Where a variant first reaches a target relMSE.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -17,7 +17,7 @@ pub enum Reach {
 /// When the points of one variant (in increasing spp) first reach relMSE ≤ `target`: the
 /// first measured point at or below it and the one before are joined by a straight line in
 /// log(error) against log(spp) and log(seconds).
-pub fn time_to_reach(points: &[Measurement], target: f64) -> Reach {
+pub fn time_to_reach(points: &[ConvergencePoint], target: f64) -> Reach {
     let Some(i) = points.iter().position(|m| m.error.rel_mse <= target) else {
         return Reach::NotReached { max_spp: points.last().map_or(0, |m| m.spp) };
     };
@@ -56,8 +56,8 @@ mod tests {
     use super::*;
     use crate::integrator::Estimator;
 
-    fn point(spp: u32, seconds: f64, rel_mse: f64) -> Measurement {
-        Measurement {
+    fn point(spp: u32, seconds: f64, rel_mse: f64) -> ConvergencePoint {
+        ConvergencePoint {
             variant: Variant::new(Estimator::NeeMis),
             spp,
             seconds,
@@ -81,7 +81,8 @@ mod tests {
     fn time_to_reach_interpolates_in_log_log() {
         // relMSE = 0.16/spp and seconds = 0.01·spp: 1% is reached at 16 spp, 0.16 s, which lies
         // between the measured 8 and 32 spp points.
-        let pts: Vec<Measurement> = [1, 2, 8, 32].iter().map(|&s| point(s, 0.01 * s as f64, 0.16 / s as f64)).collect();
+        let pts: Vec<ConvergencePoint> =
+            [1, 2, 8, 32].iter().map(|&s| point(s, 0.01 * s as f64, 0.16 / s as f64)).collect();
         let Reach::Interpolated { spp, seconds } = time_to_reach(&pts, 0.01) else { panic!() };
         assert!((spp - 16.0).abs() < 1e-9 && (seconds - 0.16).abs() < 1e-12, "{spp} {seconds}");
         assert_eq!(time_to_reach(&pts, 0.5), Reach::AtFirst { spp: 1, seconds: 0.01 });

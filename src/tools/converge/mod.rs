@@ -14,5 +14,5 @@ mod variant;
 
 pub use analysis::{Reach, log_log_slope, time_to_reach};
 pub use metrics::{ImageError, REL_MSE_EPSILON, SizeMismatch, image_error};
-pub use study::{ConvergeError, Measurement, Study, spp_ladder};
+pub use study::{ConvergeError, ConvergencePoint, Study, spp_ladder};
 pub use variant::{DEPTH_GROUP, Variant, parse_variants};

@@ -42,9 +42,10 @@ pub struct Study {
     pub repeats: u32,
 }
 
-/// One measured point: a variant at one spp, averaged over the study's repeats.
+/// One point of a variant's convergence curve: its error and cost at one spp, averaged over
+/// the study's repeats.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Measurement {
+pub struct ConvergencePoint {
     pub variant: Variant,
     pub spp: u32,
     /// Mean render time ([`RenderStats::elapsed`]: the render only, not the BVH build).
@@ -126,20 +127,20 @@ impl Study {
     }
 
     /// Renders `variant` at every rung of the ladder and measures it against `reference`;
-    /// `on_point` sees each measurement as it is made.
+    /// `on_point` sees each point as it is measured.
     pub fn measure(
         &self,
         scene: &Scene,
         accel: &dyn Accel,
         reference: &Film,
         variant: Variant,
-        mut on_point: impl FnMut(&Measurement),
-    ) -> Result<Vec<Measurement>, ConvergeError> {
+        mut on_point: impl FnMut(&ConvergencePoint),
+    ) -> Result<Vec<ConvergencePoint>, ConvergeError> {
         let repeats = self.repeats.max(1);
         let mut out = Vec::with_capacity(self.ladder.len());
         for (rung, &spp) in self.ladder.iter().enumerate() {
             let mut m =
-                Measurement { variant, spp, seconds: 0.0, rays: 0.0, error: ImageError::default(), nonfinite: 0 };
+                ConvergencePoint { variant, spp, seconds: 0.0, rays: 0.0, error: ImageError::default(), nonfinite: 0 };
             for repeat in 0..repeats {
                 let (film, stats) =
                     render(scene, accel, &self.settings(&variant, spp, self.render_seed(rung, repeat)))?;

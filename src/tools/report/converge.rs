@@ -3,16 +3,16 @@
 
 use super::plot::{LineStyle, PlotError, PlotOptions, Series, log_log_plot_with};
 use crate::integrator::Estimator;
-use crate::tools::converge::{Measurement, Reach, Variant, time_to_reach};
+use crate::tools::converge::{ConvergencePoint, Reach, Variant, time_to_reach};
 use std::path::{Path, PathBuf};
 
 /// The CSV header of [`to_csv`].
 pub const CSV_HEADER: &str =
     "variant,estimator,russian_roulette,max_depth,spp,repeats,seconds,rays,rel_mse,mae,nonfinite";
 
-/// The measurements as CSV, one row per point; `full_depth` fills `max_depth` for variants
+/// The points as CSV, one row each; `full_depth` fills `max_depth` for variants
 /// without their own.
-pub fn to_csv(points: &[Measurement], full_depth: u32, repeats: u32) -> String {
+pub fn to_csv(points: &[ConvergencePoint], full_depth: u32, repeats: u32) -> String {
     let mut s = format!("{CSV_HEADER}\n");
     for m in points {
         let v = &m.variant;
@@ -35,7 +35,7 @@ pub fn to_csv(points: &[Measurement], full_depth: u32, repeats: u32) -> String {
 }
 
 /// The points grouped into one series per variant (in order of first appearance).
-fn series(points: &[Measurement], x: impl Fn(&Measurement) -> f64) -> Vec<(Variant, Series)> {
+fn series(points: &[ConvergencePoint], x: impl Fn(&ConvergencePoint) -> f64) -> Vec<(Variant, Series)> {
     let mut out: Vec<(Variant, Series)> = Vec::new();
     for m in points {
         let p = (x(m), m.error.rel_mse);
@@ -93,11 +93,11 @@ fn plot(
 /// Returns the files written.
 pub fn write_plots(
     dir: &Path,
-    points: &[Measurement],
+    points: &[ConvergencePoint],
     full_depth: u32,
     target: f64,
 ) -> Result<Vec<PathBuf>, PlotError> {
-    let (full, depth): (Vec<Measurement>, Vec<Measurement>) =
+    let (full, depth): (Vec<ConvergencePoint>, Vec<ConvergencePoint>) =
         points.iter().cloned().partition(|m| m.variant.max_depth.is_none());
     let mut files = Vec::new();
     let (main, what) = if full.is_empty() {
@@ -105,10 +105,10 @@ pub fn write_plots(
     } else {
         (&full, format!("depth {full_depth}; dashed: no Russian roulette"))
     };
-    let spp = |m: &Measurement| m.spp as f64;
-    let secs = |m: &Measurement| m.seconds;
+    let spp = |m: &ConvergencePoint| m.spp as f64;
+    let secs = |m: &ConvergencePoint| m.seconds;
     for (file, x_label, x) in [
-        ("error_vs_spp.png", "samples per pixel", &spp as &dyn Fn(&Measurement) -> f64),
+        ("error_vs_spp.png", "samples per pixel", &spp as &dyn Fn(&ConvergencePoint) -> f64),
         ("error_vs_time.png", "seconds", &secs),
     ] {
         let path = dir.join(file);
@@ -117,10 +117,10 @@ pub fn write_plots(
     }
     if !full.is_empty() && !depth.is_empty() {
         let base = Variant::new(Estimator::NeeMis);
-        let with_base: Vec<Measurement> =
+        let with_base: Vec<ConvergencePoint> =
             depth.iter().cloned().chain(full.iter().filter(|m| m.variant == base).cloned()).collect();
         for (file, x_label, x) in [
-            ("depth_error_vs_spp.png", "samples per pixel", &spp as &dyn Fn(&Measurement) -> f64),
+            ("depth_error_vs_spp.png", "samples per pixel", &spp as &dyn Fn(&ConvergencePoint) -> f64),
             ("depth_error_vs_time.png", "seconds", &secs),
         ] {
             let path = dir.join(file);
@@ -141,7 +141,7 @@ pub fn write_plots(
 /// The terminal table of a study: one row per variant (its points in `per_variant`, in
 /// increasing spp up to `largest_spp`) with its relMSE and MAE at `largest_spp` and when it
 /// reaches relMSE `target` ([`time_to_reach`]).
-pub fn time_to_reach_table(per_variant: &[Vec<Measurement>], largest_spp: u32, target: f64) -> String {
+pub fn time_to_reach_table(per_variant: &[Vec<ConvergencePoint>], largest_spp: u32, target: f64) -> String {
     let mut s = format!(
         "{:<28} {:>12} {:>12}   time to reach relMSE {}\n",
         "variant",
@@ -176,8 +176,8 @@ mod tests {
     use super::*;
     use crate::tools::converge::ImageError;
 
-    fn point(spp: u32, seconds: f64, rel_mse: f64) -> Measurement {
-        Measurement {
+    fn point(spp: u32, seconds: f64, rel_mse: f64) -> ConvergencePoint {
+        ConvergencePoint {
             variant: Variant::new(Estimator::NeeMis),
             spp,
             seconds,
@@ -201,7 +201,7 @@ mod tests {
 
     #[test]
     fn time_to_reach_table_has_a_row_per_variant() {
-        let points: Vec<Measurement> =
+        let points: Vec<ConvergencePoint> =
             [1, 2, 8, 32].iter().map(|&s| point(s, 0.01 * s as f64, 0.16 / s as f64)).collect();
         let table = time_to_reach_table(&[points.clone(), points[..2].to_vec()], 32, 0.01);
         let lines: Vec<&str> = table.lines().collect();
