@@ -3,11 +3,11 @@
 //! a check of every strategy's answers against the naive loop's.
 
 use super::BenchError;
-use super::check::{Agreement, compare};
 use super::measure::{Answer, Timing, answers, time_answers, time_queries};
 use super::rays::{self, Query, RayKind};
 use super::scenes::{BenchScene, Family};
 use super::strategy::Strategy;
+use super::versus_naive::{AgreementWithNaive, compare_with_naive};
 use crate::accel::{Accel, EmbreeAccel, NaiveAccel};
 use crate::embree::{BuildOptions, Device};
 use crate::geometry::{Geometry, bounds_of};
@@ -92,7 +92,7 @@ pub struct StrategyMeasurement {
     pub naive_rays: usize,
     pub naive_ns_per_ray: f64,
     pub naive_cpu_ns_per_ray: Option<f64>,
-    pub agreement: Agreement,
+    pub agreement: AgreementWithNaive,
 }
 
 impl StrategyMeasurement {
@@ -209,7 +209,7 @@ pub fn run_scene(
             naive_rays: sub.len(),
             naive_ns_per_ray: ns,
             naive_cpu_ns_per_ray: cpu_ns,
-            agreement: Agreement::default(),
+            agreement: AgreementWithNaive::default(),
         });
         reference.insert(*kind, NaiveReference { queries: sub, answers: ans, ns_per_ray: ns, cpu_ns_per_ray: cpu_ns });
     }
@@ -241,11 +241,11 @@ pub fn run_scene(
                     }
                     let (tsub, tref) = &tess_reference[kind];
                     let cand = answers(accel.as_ref(), tsub, kind.closest(), strategy.packets())?;
-                    compare(geometry, tsub, tref, tn, &cand, accel.as_ref())?
+                    compare_with_naive(geometry, tsub, tref, tn, &cand, accel.as_ref())?
                 }
                 _ => {
                     let cand = answers(accel.as_ref(), sub, kind.closest(), strategy.packets())?;
-                    compare(geometry, sub, ref_answers, &naive, &cand, accel.as_ref())?
+                    compare_with_naive(geometry, sub, ref_answers, &naive, &cand, accel.as_ref())?
                 }
             };
             for e in &agreement.examples {

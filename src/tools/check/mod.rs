@@ -8,12 +8,12 @@
 //! `tests/hard_cases.rs` runs each case as a named test; `ember check` runs them all and
 //! prints a table. The list of promises is in `docs/hard-cases.md`.
 
-mod agree;
 mod analytic;
 mod cases;
 mod lab;
 mod pixel;
 mod stage;
+mod versus_f64;
 
 pub use lab::Lab;
 

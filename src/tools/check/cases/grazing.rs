@@ -7,12 +7,12 @@
 //!   every sample is exactly 1, hit or miss, unless a continuation ray hits the surface it
 //!   leaves (then the path ends at the depth limit with 0), so every pixel must be 1;
 //! - the camera's rays on a 96 × 96 grid, through Embree and the naive loop, must agree with
-//!   double precision (see `agree.rs`): grazing rays neither slip through nor hit where there
+//!   double precision (see `versus_f64.rs`): grazing rays neither slip through nor hit where there
 //!   is nothing.
 
-use super::super::agree::{agree, float_steps};
 use super::super::analytic::Solid;
 use super::super::stage::Stage;
+use super::super::versus_f64::{compare_with_f64, float_steps};
 use super::{CheckError, Lab, Verdict, camera_of, one_bounce_furnace};
 use crate::accel::{Accel, NaiveAccel};
 use crate::light::Background;
@@ -89,7 +89,7 @@ impl Setup {
         let (solid, at, size) = self.solid();
         let embree = lab.embree(&scene)?;
         let naive = NaiveAccel::new(&scene.geometry);
-        let a = agree(&[&embree as &dyn Accel, &naive], &[solid], &rays, |r| {
+        let a = compare_with_f64(&[&embree as &dyn Accel, &naive], &[solid], &rays, |r| {
             float_steps(((r.o - at).length() + size) as f64)
         })?;
         lab.add_nonfinite(a.nonfinite);

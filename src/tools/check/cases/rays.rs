@@ -3,12 +3,12 @@
 //! the shapes, some exactly in the planes of box faces or through cylinder rims), against a
 //! sphere, axis-aligned and oblique cylinders and an axis-aligned box mesh, through Embree
 //! and the naive loop. Each answer (shape hit and distance) must match double precision
-//! (`agree.rs`); rays on a surface, along a face, through an edge or tangent are ambiguous
+//! (`versus_f64.rs`); rays on a surface, along a face, through an edge or tangent are ambiguous
 //! and only need finite answers.
 
-use super::super::agree::{agree, float_steps};
 use super::super::analytic::Solid;
 use super::super::stage::box_mesh;
+use super::super::versus_f64::{compare_with_f64, float_steps};
 use super::{CheckError, Lab, Verdict};
 use crate::accel::{Accel, NaiveAccel};
 use crate::geometry::{Cylinder, Geometry, Ray, Sphere};
@@ -56,7 +56,8 @@ pub fn axis_parallel(lab: &Lab) -> Result<Verdict, CheckError> {
             }
         }
     }
-    let a = agree(&[&embree as &dyn Accel, &naive], &solids, &rays, |r| float_steps(r.o.length() as f64 + 5.0))?;
+    let a =
+        compare_with_f64(&[&embree as &dyn Accel, &naive], &solids, &rays, |r| float_steps(r.o.length() as f64 + 5.0))?;
     lab.add_nonfinite(a.nonfinite);
     Ok(Verdict::new(a.worst_t, 1e-5, "max rel |Δt|", a.summary())
         .require(a.wrong == 0, format!("{} wrong hits or misses", a.wrong)))
