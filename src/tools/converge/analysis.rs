@@ -5,7 +5,7 @@ use super::study::ConvergencePoint;
 
 /// Where a variant first reaches a target relMSE.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Reach {
+pub enum TimeToReach {
     /// Already at or below the target at the first (lowest-spp) point.
     AtFirst { spp: u32, seconds: f64 },
     /// Crossed between two measured points; spp and seconds interpolated in log-log.
@@ -17,21 +17,21 @@ pub enum Reach {
 /// When the points of one variant (in increasing spp) first reach relMSE ≤ `target`: the
 /// first measured point at or below it and the one before are joined by a straight line in
 /// log(error) against log(spp) and log(seconds).
-pub fn time_to_reach(points: &[ConvergencePoint], target: f64) -> Reach {
+pub fn time_to_reach(points: &[ConvergencePoint], target: f64) -> TimeToReach {
     let Some(i) = points.iter().position(|m| m.error.rel_mse <= target) else {
-        return Reach::NotReached { max_spp: points.last().map_or(0, |m| m.spp) };
+        return TimeToReach::NotReached { max_spp: points.last().map_or(0, |m| m.spp) };
     };
     let b = &points[i];
     if i == 0 {
-        return Reach::AtFirst { spp: b.spp, seconds: b.seconds };
+        return TimeToReach::AtFirst { spp: b.spp, seconds: b.seconds };
     }
     let a = &points[i - 1];
     if b.error.rel_mse <= 0.0 || a.seconds <= 0.0 || b.seconds <= 0.0 {
-        return Reach::Interpolated { spp: b.spp as f64, seconds: b.seconds };
+        return TimeToReach::Interpolated { spp: b.spp as f64, seconds: b.seconds };
     }
     let f = (target.ln() - a.error.rel_mse.ln()) / (b.error.rel_mse.ln() - a.error.rel_mse.ln());
     let lerp = |x0: f64, x1: f64| (x0.ln() + f * (x1.ln() - x0.ln())).exp();
-    Reach::Interpolated { spp: lerp(a.spp as f64, b.spp as f64), seconds: lerp(a.seconds, b.seconds) }
+    TimeToReach::Interpolated { spp: lerp(a.spp as f64, b.spp as f64), seconds: lerp(a.seconds, b.seconds) }
 }
 
 /// Least-squares slope of ln y against ln x; `None` without two distinct x or with a
@@ -51,7 +51,7 @@ pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::metrics::ImageError;
+    use super::super::metrics::ImageDifference;
     use super::super::variant::Variant;
     use super::*;
     use crate::integrator::Estimator;
@@ -62,7 +62,7 @@ mod tests {
             spp,
             seconds,
             rays: 0.0,
-            error: ImageError { rel_mse, mae: 0.0 },
+            error: ImageDifference { rel_mse, mae: 0.0 },
             nonfinite: 0,
         }
     }
@@ -83,9 +83,9 @@ mod tests {
         // between the measured 8 and 32 spp points.
         let pts: Vec<ConvergencePoint> =
             [1, 2, 8, 32].iter().map(|&s| point(s, 0.01 * s as f64, 0.16 / s as f64)).collect();
-        let Reach::Interpolated { spp, seconds } = time_to_reach(&pts, 0.01) else { panic!() };
+        let TimeToReach::Interpolated { spp, seconds } = time_to_reach(&pts, 0.01) else { panic!() };
         assert!((spp - 16.0).abs() < 1e-9 && (seconds - 0.16).abs() < 1e-12, "{spp} {seconds}");
-        assert_eq!(time_to_reach(&pts, 0.5), Reach::AtFirst { spp: 1, seconds: 0.01 });
-        assert_eq!(time_to_reach(&pts, 0.001), Reach::NotReached { max_spp: 32 });
+        assert_eq!(time_to_reach(&pts, 0.5), TimeToReach::AtFirst { spp: 1, seconds: 0.01 });
+        assert_eq!(time_to_reach(&pts, 0.001), TimeToReach::NotReached { max_spp: 32 });
     }
 }

@@ -7,7 +7,7 @@
 //! reference's would look more accurate than it is). All variants use the same seed at the
 //! same rung (common random numbers), which makes their curves easier to compare.
 
-use super::metrics::{ImageError, SizeMismatch, image_error};
+use super::metrics::{ImageDifference, SizeMismatch, image_difference};
 use super::variant::Variant;
 use crate::accel::Accel;
 use crate::film::Film;
@@ -53,7 +53,7 @@ pub struct ConvergencePoint {
     /// Mean rays traced per render.
     pub rays: f64,
     /// Mean error against the reference.
-    pub error: ImageError,
+    pub error: ImageDifference,
     /// Non-finite samples the renders dropped, in total.
     pub nonfinite: u64,
 }
@@ -139,12 +139,18 @@ impl Study {
         let repeats = self.repeats.max(1);
         let mut out = Vec::with_capacity(self.ladder.len());
         for (rung, &spp) in self.ladder.iter().enumerate() {
-            let mut m =
-                ConvergencePoint { variant, spp, seconds: 0.0, rays: 0.0, error: ImageError::default(), nonfinite: 0 };
+            let mut m = ConvergencePoint {
+                variant,
+                spp,
+                seconds: 0.0,
+                rays: 0.0,
+                error: ImageDifference::default(),
+                nonfinite: 0,
+            };
             for repeat in 0..repeats {
                 let (film, stats) =
                     render(scene, accel, &self.settings(&variant, spp, self.render_seed(rung, repeat)))?;
-                let e = image_error(&film, reference)?;
+                let e = image_difference(&film, reference)?;
                 m.seconds += stats.elapsed.as_secs_f64();
                 m.rays += stats.rays as f64;
                 m.error.rel_mse += e.rel_mse;

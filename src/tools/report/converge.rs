@@ -3,7 +3,7 @@
 
 use super::plot::{LineStyle, PlotError, PlotOptions, Series, log_log_plot_with};
 use crate::integrator::Estimator;
-use crate::tools::converge::{ConvergencePoint, Reach, Variant, time_to_reach};
+use crate::tools::converge::{ConvergencePoint, TimeToReach, Variant, time_to_reach};
 use std::path::{Path, PathBuf};
 
 /// The CSV header of [`to_csv`].
@@ -156,25 +156,25 @@ pub fn time_to_reach_table(per_variant: &[Vec<ConvergencePoint>], largest_spp: u
             last.variant.name(),
             last.error.rel_mse,
             last.error.mae,
-            reach_text(&time_to_reach(points, target))
+            time_to_reach_cell(&time_to_reach(points, target))
         ));
     }
     s
 }
 
 /// A cell of the time-to-reach column.
-fn reach_text(reach: &Reach) -> String {
+fn time_to_reach_cell(reach: &TimeToReach) -> String {
     match *reach {
-        Reach::AtFirst { spp, seconds } => format!("<= {seconds:.3} s (already at {spp} spp)"),
-        Reach::Interpolated { spp, seconds } => format!("{seconds:.3} s (~{spp:.0} spp)"),
-        Reach::NotReached { max_spp } => format!("not reached within {max_spp} spp"),
+        TimeToReach::AtFirst { spp, seconds } => format!("<= {seconds:.3} s (already at {spp} spp)"),
+        TimeToReach::Interpolated { spp, seconds } => format!("{seconds:.3} s (~{spp:.0} spp)"),
+        TimeToReach::NotReached { max_spp } => format!("not reached within {max_spp} spp"),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tools::converge::ImageError;
+    use crate::tools::converge::ImageDifference;
 
     fn point(spp: u32, seconds: f64, rel_mse: f64) -> ConvergencePoint {
         ConvergencePoint {
@@ -182,7 +182,7 @@ mod tests {
             spp,
             seconds,
             rays: 0.0,
-            error: ImageError { rel_mse, mae: 0.0 },
+            error: ImageDifference { rel_mse, mae: 0.0 },
             nonfinite: 0,
         }
     }
