@@ -282,7 +282,9 @@ pub fn run_scene(
     Ok(out)
 }
 
-fn sig(x: f64) -> String {
+/// `x` with three significant digits (more left of the point from 1000 up), in scientific
+/// notation below 0.01; "-" when not finite.
+fn three_significant_digits(x: f64) -> String {
     if !x.is_finite() {
         return "-".into();
     }
@@ -341,13 +343,14 @@ pub fn summary_table(ms: &[StrategyMeasurement]) -> Table {
             scene.to_string(),
             primitives_cell(first),
             strategy.to_string(),
-            first.build.map_or("-".into(), |b| sig(b.as_secs_f64() * 1e3)),
+            first.build.map_or("-".into(), |b| three_significant_digits(b.as_secs_f64() * 1e3)),
         ];
         for k in RayKind::ALL {
             match by(k) {
                 Some(m) => {
-                    cells.push(sig(m.mrays_per_s()));
-                    cells.push(format!("{}×", sig(m.cpu_speedup().unwrap_or_else(|| m.speedup()))));
+                    cells.push(three_significant_digits(m.mrays_per_s()));
+                    cells
+                        .push(format!("{}×", three_significant_digits(m.cpu_speedup().unwrap_or_else(|| m.speedup()))));
                 }
                 None => cells.extend(["-".to_string(), "-".to_string()]),
             }

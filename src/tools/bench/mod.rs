@@ -24,8 +24,8 @@ use crate::accel::AccelError;
 use crate::embree::EmbreeError;
 use crate::integrator::RenderError;
 use crate::output::WriteError;
-use crate::tools::report::PlotError;
 use crate::scene::SceneError;
+use crate::tools::report::PlotError;
 
 /// Why a benchmark could not run or report.
 #[derive(Debug, thiserror::Error)]

@@ -15,8 +15,8 @@ use super::record::{RecordedQuery, RecordingAccel, replay};
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
 use crate::integrator::{RenderSettings, render};
-use crate::tools::report::Table;
 use crate::scene::Scene;
+use crate::tools::report::Table;
 use std::path::Path;
 use std::time::{Duration, Instant};
 

@@ -16,8 +16,8 @@ use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
 use crate::film::Film;
 use crate::integrator::{RenderSettings, render};
-use crate::tools::report::Table;
 use crate::scene::Scene;
+use crate::tools::report::Table;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 

@@ -1,7 +1,7 @@
 //! `ember check`: runs the hard-case suite and prints one table row per case.
 
-use crate::tools::check::{CaseResult, DEFAULT_SEED, Quality, catalog};
 use crate::embree::Device;
+use crate::tools::check::{CaseResult, DEFAULT_SEED, Quality, catalog};
 use clap::Args;
 use std::io::Write;
 use std::process::ExitCode;
@@ -57,7 +57,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let mut failed = Vec::new();
     for case in &cases {
         let r = case.run_seeded(quality, args.seed);
-        println!("{}", row(&r));
+        println!("{}", table_row(&r));
         let _ = std::io::stdout().flush();
         if !r.pass {
             failed.push(r.name);
@@ -79,13 +79,13 @@ fn exit_code(failed: usize) -> u8 {
     if failed == 0 { 0 } else { 1 }
 }
 
-fn row(r: &CaseResult) -> String {
+fn table_row(r: &CaseResult) -> String {
     format!(
         "{:<22} {:<6} {:>10} {:>10}  {:<17} {:>10}  {} ({:.1} s)",
         r.name,
         if r.pass { "pass" } else { "FAIL" },
-        number(r.worst_error),
-        number(r.limit),
+        short_number(r.worst_error),
+        short_number(r.limit),
         r.metric,
         r.nonfinite,
         r.detail,
@@ -93,7 +93,7 @@ fn row(r: &CaseResult) -> String {
     )
 }
 
-fn number(x: f64) -> String {
+fn short_number(x: f64) -> String {
     if x.is_nan() {
         "-".into()
     } else if x == 0.0 {
@@ -118,9 +118,9 @@ mod tests {
 
     #[test]
     fn numbers_are_short() {
-        assert_eq!(number(f64::NAN), "-");
-        assert_eq!(number(0.0), "0");
-        assert_eq!(number(2.475), "2.475");
-        assert_eq!(number(1.19e-7), "1.19e-7");
+        assert_eq!(short_number(f64::NAN), "-");
+        assert_eq!(short_number(0.0), "0");
+        assert_eq!(short_number(2.475), "2.475");
+        assert_eq!(short_number(1.19e-7), "1.19e-7");
     }
 }

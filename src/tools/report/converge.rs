@@ -50,7 +50,7 @@ fn series(points: &[ConvergencePoint], x: impl Fn(&ConvergencePoint) -> f64) -> 
 /// One colour per estimator, dashed without Russian roulette; depth-limited variants shade
 /// from orange (depth 1) to dark blue (depth 10 and beyond), the full-depth line among them
 /// black.
-fn style(v: &Variant, among_depths: bool) -> LineStyle {
+fn line_style(v: &Variant, among_depths: bool) -> LineStyle {
     let color = match (v.max_depth, v.estimator) {
         (Some(d), _) => {
             let t = (d.clamp(1, 10) - 1) as f32 / 9.0;
@@ -74,7 +74,7 @@ fn plot(
     among_depths: bool,
     target: f64,
 ) -> Result<(), PlotError> {
-    let mut styles: Vec<LineStyle> = lines.iter().map(|(v, _)| style(v, among_depths)).collect();
+    let mut styles: Vec<LineStyle> = lines.iter().map(|(v, _)| line_style(v, among_depths)).collect();
     let mut series: Vec<Series> = lines.into_iter().map(|(_, s)| s).collect();
     // A flat grey dashed line at the target, across the x range.
     let xs = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).filter(|&x| x > 0.0 && x.is_finite());
