@@ -14,7 +14,8 @@ const REFERENCE_FACTOR: u32 = 16;
 
 #[derive(Args, Debug)]
 pub struct ConvergeArgs {
-    /// Scene file (.toml) or mesh (.obj). Its [render] size, spp and depth are not used.
+    /// Scene file (.toml) or mesh (.obj). Of its [render] table only the seed is used: size,
+    /// spp, depth and Russian roulette come from the options below.
     pub scene: PathBuf,
     /// Reference image (.exr, linear) to measure against, e.g. DIR/reference.exr of an
     /// earlier run [rendered: NEE+MIS at full depth, --reference-spp samples].
