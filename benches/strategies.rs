@@ -6,12 +6,12 @@
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use ember::accel::Accel;
+use ember::embree::{BuildQuality, Device};
+use ember::geometry::{Aabb, Geometry};
 use ember::tools::bench::measure::pass;
 use ember::tools::bench::rays::{self, Query, RayKind};
 use ember::tools::bench::scenes::{BenchScene, default_scenes_dir};
 use ember::tools::bench::strategy::Strategy;
-use ember::embree::{BuildQuality, Device};
-use ember::geometry::{Aabb, Geometry};
 use std::hint::black_box;
 use std::time::Duration;
 

@@ -13,10 +13,10 @@
 //! REPEATS passes (default 5). `scripts/scaling-counts.sh` runs both for 1k and 1M triangles.
 
 use ember::accel::{Accel, EmbreeAccel};
-use ember::tools::bench::rays::{self, Query};
-use ember::tools::bench::scenes::BenchScene;
 use ember::embree::{BuildOptions, BuildQuality, Device};
 use ember::geometry::bounds_of;
+use ember::tools::bench::rays::{self, Query};
+use ember::tools::bench::scenes::BenchScene;
 use std::time::Instant;
 
 /// Traces every query; returns how many hit (so the work cannot be optimised away).
