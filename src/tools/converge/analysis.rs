@@ -51,21 +51,7 @@ pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::metrics::ImageDifference;
-    use super::super::variant::Variant;
     use super::*;
-    use crate::integrator::Estimator;
-
-    fn point(spp: u32, seconds: f64, rel_mse: f64) -> ConvergencePoint {
-        ConvergencePoint {
-            variant: Variant::new(Estimator::NeeMis),
-            spp,
-            seconds,
-            rays: 0.0,
-            error: ImageDifference { rel_mse, mae: 0.0 },
-            nonfinite: 0,
-        }
-    }
 
     #[test]
     fn slope_of_an_exact_power_law() {
@@ -82,7 +68,7 @@ mod tests {
         // relMSE = 0.16/spp and seconds = 0.01·spp: 1% is reached at 16 spp, 0.16 s, which lies
         // between the measured 8 and 32 spp points.
         let pts: Vec<ConvergencePoint> =
-            [1, 2, 8, 32].iter().map(|&s| point(s, 0.01 * s as f64, 0.16 / s as f64)).collect();
+            [1, 2, 8, 32].iter().map(|&s| ConvergencePoint::nee_mis(s, 0.01 * s as f64, 0.16 / s as f64)).collect();
         let TimeToReach::Interpolated { spp, seconds } = time_to_reach(&pts, 0.01) else { panic!() };
         assert!((spp - 16.0).abs() < 1e-9 && (seconds - 0.16).abs() < 1e-12, "{spp} {seconds}");
         assert_eq!(time_to_reach(&pts, 0.5), TimeToReach::AtFirst { spp: 1, seconds: 0.01 });

@@ -58,6 +58,22 @@ pub struct ConvergencePoint {
     pub nonfinite: u64,
 }
 
+#[cfg(test)]
+impl ConvergencePoint {
+    /// A full-depth NEE+MIS point with relMSE `rel_mse` (and nothing else measured), for the
+    /// tests of what reads points.
+    pub(crate) fn nee_mis(spp: u32, seconds: f64, rel_mse: f64) -> ConvergencePoint {
+        ConvergencePoint {
+            variant: Variant::new(Estimator::NeeMis),
+            spp,
+            seconds,
+            rays: 0.0,
+            error: ImageDifference { rel_mse, mae: 0.0 },
+            nonfinite: 0,
+        }
+    }
+}
+
 /// Why a study could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum ConvergeError {

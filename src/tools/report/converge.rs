@@ -174,24 +174,12 @@ fn time_to_reach_cell(reach: &TimeToReach) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tools::converge::ImageDifference;
-
-    fn point(spp: u32, seconds: f64, rel_mse: f64) -> ConvergencePoint {
-        ConvergencePoint {
-            variant: Variant::new(Estimator::NeeMis),
-            spp,
-            seconds,
-            rays: 0.0,
-            error: ImageDifference { rel_mse, mae: 0.0 },
-            nonfinite: 0,
-        }
-    }
 
     #[test]
     fn csv_has_one_row_per_point() {
-        let mut p = point(4, 0.5, 0.02);
+        let mut p = ConvergencePoint::nee_mis(4, 0.5, 0.02);
         p.variant.max_depth = Some(3);
-        let csv = to_csv(&[point(1, 0.25, 0.125), p], 64, 2);
+        let csv = to_csv(&[ConvergencePoint::nee_mis(1, 0.25, 0.125), p], 64, 2);
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines[0], CSV_HEADER);
         assert_eq!(lines[1], "nee-mis,nee-mis,true,64,1,2,0.250000,0,1.250000e-1,0.000000e0,0");
@@ -202,7 +190,7 @@ mod tests {
     #[test]
     fn time_to_reach_table_has_a_row_per_variant() {
         let points: Vec<ConvergencePoint> =
-            [1, 2, 8, 32].iter().map(|&s| point(s, 0.01 * s as f64, 0.16 / s as f64)).collect();
+            [1, 2, 8, 32].iter().map(|&s| ConvergencePoint::nee_mis(s, 0.01 * s as f64, 0.16 / s as f64)).collect();
         let table = time_to_reach_table(&[points.clone(), points[..2].to_vec()], 32, 0.01);
         let lines: Vec<&str> = table.lines().collect();
         assert_eq!(lines.len(), 3, "{table}");
