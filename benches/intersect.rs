@@ -56,7 +56,7 @@ fn bench(c: &mut Criterion) {
     });
 }
 
-// No HTML plots: plotters is built without system fonts here (see src/report/plot.rs), and
+// No HTML plots: plotters is built without system fonts here (see src/tools/report/plot.rs), and
 // criterion's plot backend would panic looking for one.
 criterion_group! { name = benches; config = Criterion::default().without_plots(); targets = bench }
 criterion_main!(benches);

@@ -9,7 +9,8 @@ use ember::embree::{BuildOptions, Device};
 use ember::film::Film;
 use ember::integrator::Estimator;
 use ember::scene::Scene;
-use ember::tools::report::converge::{CSV_HEADER, Study, Variant, log_log_slope, spp_ladder};
+use ember::tools::converge::{Study, Variant, log_log_slope, spp_ladder};
+use ember::tools::report::converge::CSV_HEADER;
 use std::path::Path;
 use std::process::{Command, Output};
 

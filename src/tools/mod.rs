@@ -3,11 +3,13 @@
 //! - [`cli`]: the `ember` command line;
 //! - [`bench`]: intersection strategies, the path tracer against Embree alone, kernels;
 //! - [`check`]: the hard-case suite;
-//! - [`converge`]: convergence studies (error against samples and seconds);
-//! - [`report`]: tables, CSV, plots and image error metrics — it formats and writes, and
-//!   renders nothing.
+//! - [`converge`]: convergence studies: renders at 1, 2, 4, … spp, their error against a
+//!   reference, its slope and the time to reach a target;
+//! - [`report`]: tables, CSV and plots — it formats and writes, and renders and measures
+//!   nothing.
 
 pub mod bench;
 pub mod check;
 pub mod cli;
+pub mod converge;
 pub mod report;

@@ -23,16 +23,16 @@ pub fn threads_cpu_time() -> Option<Duration> {
     Some(Duration::from_nanos(total))
 }
 
-/// The result of `f` and the CPU time it took (by [`threads_cpu_time`]).
+/// The result of `work` and the CPU time it took (by [`threads_cpu_time`]).
 ///
 /// The kernel brings a thread's count up to date when the thread is descheduled or at a timer
 /// tick (4 ms here), so a reading lags a running thread by up to a tick. Pool workers go to
 /// sleep soon after their work ends: waiting [`SETTLE`] before the second reading lets them,
 /// so the count is exact to within the little spinning they do before sleeping.
-pub fn cpu_of<T>(f: impl FnOnce() -> T) -> (T, Option<Duration>) {
+pub fn cpu_of<T>(work: impl FnOnce() -> T) -> (T, Option<Duration>) {
     std::thread::sleep(SETTLE);
     let before = threads_cpu_time();
-    let r = f();
+    let r = work();
     std::thread::sleep(SETTLE);
     let after = threads_cpu_time();
     (r, before.zip(after).map(|(b, a)| a.saturating_sub(b)))

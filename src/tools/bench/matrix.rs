@@ -3,11 +3,11 @@
 //! a check of every strategy's answers against the naive loop's.
 
 use super::BenchError;
-use super::check::{Agreement, compare};
 use super::measure::{Answer, Timing, answers, time_answers, time_queries};
 use super::rays::{self, Query, RayKind};
 use super::scenes::{BenchScene, Family};
 use super::strategy::Strategy;
+use super::versus_naive::{AgreementWithNaive, compare_with_naive};
 use crate::accel::{Accel, EmbreeAccel, NaiveAccel};
 use crate::embree::{BuildOptions, Device};
 use crate::geometry::{Geometry, bounds_of};
@@ -66,9 +66,10 @@ impl MatrixConfig {
     }
 }
 
-/// One strategy on one workload of one scene.
+/// One strategy on one workload of one scene: its speed, and its answers against the naive
+/// loop's.
 #[derive(Clone, Debug)]
-pub struct Measurement {
+pub struct StrategyMeasurement {
     pub scene: String,
     pub family: Family,
     pub strategy: &'static str,
@@ -91,10 +92,10 @@ pub struct Measurement {
     pub naive_rays: usize,
     pub naive_ns_per_ray: f64,
     pub naive_cpu_ns_per_ray: Option<f64>,
-    pub agreement: Agreement,
+    pub agreement: AgreementWithNaive,
 }
 
-impl Measurement {
+impl StrategyMeasurement {
     pub fn ns_per_ray(&self) -> f64 {
         self.time.as_secs_f64() * 1e9 / self.rays.max(1) as f64
     }
@@ -174,7 +175,7 @@ pub fn run_scene(
     device: &Device,
     cfg: &MatrixConfig,
     log: &mut dyn FnMut(&str),
-) -> Result<Vec<Measurement>, BenchError> {
+) -> Result<Vec<StrategyMeasurement>, BenchError> {
     let start = Instant::now();
     let threads = rayon::current_num_threads();
     let work = Workloads::new(device, &scene.geometry, cfg)?;
@@ -191,7 +192,7 @@ pub fn run_scene(
         let (t, ans) = time_answers(&naive, &sub, kind.closest())?;
         let per_ray = |d: Duration| d.as_secs_f64() * 1e9 / sub.len().max(1) as f64;
         let (ns, cpu_ns) = (per_ray(t.wall), t.cpu.map(per_ray));
-        out.push(Measurement {
+        out.push(StrategyMeasurement {
             scene: scene.name.clone(),
             family: scene.family,
             strategy: Strategy::Naive.name(),
@@ -208,7 +209,7 @@ pub fn run_scene(
             naive_rays: sub.len(),
             naive_ns_per_ray: ns,
             naive_cpu_ns_per_ray: cpu_ns,
-            agreement: Agreement::default(),
+            agreement: AgreementWithNaive::default(),
         });
         reference.insert(*kind, NaiveReference { queries: sub, answers: ans, ns_per_ray: ns, cpu_ns_per_ray: cpu_ns });
     }
@@ -240,17 +241,17 @@ pub fn run_scene(
                     }
                     let (tsub, tref) = &tess_reference[kind];
                     let cand = answers(accel.as_ref(), tsub, kind.closest(), strategy.packets())?;
-                    compare(geometry, tsub, tref, tn, &cand, accel.as_ref())?
+                    compare_with_naive(geometry, tsub, tref, tn, &cand, accel.as_ref())?
                 }
                 _ => {
                     let cand = answers(accel.as_ref(), sub, kind.closest(), strategy.packets())?;
-                    compare(geometry, sub, ref_answers, &naive, &cand, accel.as_ref())?
+                    compare_with_naive(geometry, sub, ref_answers, &naive, &cand, accel.as_ref())?
                 }
             };
             for e in &agreement.examples {
                 log(&format!("  mismatch {} {} {}: {e}", scene.name, strategy.name(), kind));
             }
-            out.push(Measurement {
+            out.push(StrategyMeasurement {
                 scene: scene.name.clone(),
                 family: scene.family,
                 strategy: strategy.name(),
@@ -281,7 +282,9 @@ pub fn run_scene(
     Ok(out)
 }
 
-fn sig(x: f64) -> String {
+/// `x` with three significant digits (more left of the point from 1000 up), in scientific
+/// notation below 0.01; "-" when not finite.
+fn three_significant_digits(x: f64) -> String {
     if !x.is_finite() {
         return "-".into();
     }
@@ -297,7 +300,7 @@ fn sig(x: f64) -> String {
     if x < 0.01 { format!("{x:.2e}") } else { format!("{x:.digits$}") }
 }
 
-fn primitives_cell(m: &Measurement) -> String {
+fn primitives_cell(m: &StrategyMeasurement) -> String {
     if m.shapes > 0 && m.traced_triangles == m.triangles {
         if m.triangles > 0 {
             format!("{} tris + {} shapes", m.triangles, m.shapes)
@@ -311,7 +314,7 @@ fn primitives_cell(m: &Measurement) -> String {
 
 /// The terminal table: one row per scene and strategy, the three workloads side by side.
 /// Mrays/s are from wall time; ×naive from CPU time per ray where it can be read (else wall).
-pub fn summary_table(ms: &[Measurement]) -> Table {
+pub fn summary_table(ms: &[StrategyMeasurement]) -> Table {
     let mut t = Table::new([
         "scene",
         "primitives",
@@ -333,20 +336,21 @@ pub fn summary_table(ms: &[Measurement]) -> Table {
         }
     }
     for (scene, strategy) in keys {
-        let row: Vec<&Measurement> = ms.iter().filter(|m| m.scene == scene && m.strategy == strategy).collect();
+        let row: Vec<&StrategyMeasurement> = ms.iter().filter(|m| m.scene == scene && m.strategy == strategy).collect();
         let by = |k: RayKind| row.iter().find(|m| m.kind == k);
         let first = row[0];
         let mut cells = vec![
             scene.to_string(),
             primitives_cell(first),
             strategy.to_string(),
-            first.build.map_or("-".into(), |b| sig(b.as_secs_f64() * 1e3)),
+            first.build.map_or("-".into(), |b| three_significant_digits(b.as_secs_f64() * 1e3)),
         ];
         for k in RayKind::ALL {
             match by(k) {
                 Some(m) => {
-                    cells.push(sig(m.mrays_per_s()));
-                    cells.push(format!("{}×", sig(m.cpu_speedup().unwrap_or_else(|| m.speedup()))));
+                    cells.push(three_significant_digits(m.mrays_per_s()));
+                    cells
+                        .push(format!("{}×", three_significant_digits(m.cpu_speedup().unwrap_or_else(|| m.speedup()))));
                 }
                 None => cells.extend(["-".to_string(), "-".to_string()]),
             }
@@ -396,7 +400,7 @@ pub const CSV_COLUMNS: [&str; 25] = [
 ];
 
 /// One row per scene, strategy and workload.
-pub fn csv_table(ms: &[Measurement]) -> Table {
+pub fn csv_table(ms: &[StrategyMeasurement]) -> Table {
     let mut t = Table::new(CSV_COLUMNS);
     for m in ms {
         t.push([
@@ -434,12 +438,13 @@ pub fn csv_table(ms: &[Measurement]) -> Table {
 /// workload, over the procedural family (or every triangle scene measured when the run has
 /// no procedural scene). The time is CPU time per ray (all threads) when it could be read for
 /// every point, as for the ×naive column; else wall time per ray.
-pub fn scaling_plot(path: &Path, ms: &[Measurement]) -> Result<(), BenchError> {
+pub fn scaling_plot(path: &Path, ms: &[StrategyMeasurement]) -> Result<(), BenchError> {
     let procedural = ms.iter().any(|m| m.family == Family::Procedural);
-    let keep =
-        |m: &&Measurement| if procedural { m.family == Family::Procedural } else { m.shapes == 0 || m.triangles > 0 };
+    let keep = |m: &&StrategyMeasurement| {
+        if procedural { m.family == Family::Procedural } else { m.shapes == 0 || m.triangles > 0 }
+    };
     let cpu = ms.iter().filter(keep).all(|m| m.cpu.is_some());
-    let per_ray = |m: &Measurement| if cpu { m.cpu_ns_per_ray().unwrap_or(f64::NAN) } else { m.ns_per_ray() };
+    let per_ray = |m: &StrategyMeasurement| if cpu { m.cpu_ns_per_ray().unwrap_or(f64::NAN) } else { m.ns_per_ray() };
     let mut series = Vec::new();
     for strategy in ["naive", "embree-medium"] {
         for kind in RayKind::ALL {

@@ -23,9 +23,9 @@ impl Timing {
     }
 }
 
-/// The median of the finite values of `xs` (NaN if there are none).
-pub fn median(xs: &[f64]) -> f64 {
-    let mut v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
+/// The median of the finite values of `values` (NaN if there are none).
+pub fn median(values: &[f64]) -> f64 {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     if v.is_empty() {
         return f64::NAN;
     }

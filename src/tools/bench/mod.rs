@@ -4,7 +4,6 @@
 //! shared by every strategy of a run; every strategy's answers are checked against the naive
 //! loop's on the rays both trace.
 
-pub mod check;
 pub mod cputime;
 pub mod matrix;
 pub mod measure;
@@ -17,6 +16,7 @@ pub mod scenes;
 pub mod specialize;
 pub mod strategy;
 pub mod tessellate;
+pub mod versus_naive;
 
 pub use run::{Options, Section, run};
 

@@ -6,23 +6,24 @@ use crate::sampler::Rng;
 use glam::Vec3;
 use std::f32::consts::FRAC_PI_4;
 
-/// Triangles of a blob with `n` × `n` quads per cube face.
-pub fn blob_triangles(n: u32) -> usize {
-    12 * (n as usize) * (n as usize)
+/// Triangles of a blob with `quads_per_edge` × `quads_per_edge` quads per cube face.
+pub fn blob_triangles(quads_per_edge: u32) -> usize {
+    let n = quads_per_edge as usize;
+    12 * n * n
 }
 
-/// The face resolution whose blob has the triangle count closest to `target`.
+/// The quads per cube-face edge of the blob whose triangle count is closest to `target`.
 pub fn blob_resolution(target: usize) -> u32 {
     ((target as f64 / 12.0).sqrt().round() as u32).max(1)
 }
 
-/// A closed, bumpy sphere of radius about 1 around the origin: a cube with `n` × `n` quads
-/// per face (12 n² triangles), projected onto the sphere with the equal-angle map and
-/// displaced radially by a smooth product of sines (±12%). Seam vertices are repeated per
-/// face but computed from identical cube points, so the surface has no cracks; triangles wind
-/// counter-clockwise seen from outside.
-pub fn blob(n: u32) -> TriMesh {
-    let n = n.max(1);
+/// A closed, bumpy sphere of radius about 1 around the origin: a cube with n × n quads per
+/// face, n = `quads_per_edge` (12 n² triangles), projected onto the sphere with the
+/// equal-angle map and displaced radially by a smooth product of sines (±12%). Seam vertices
+/// are repeated per face but computed from identical cube points, so the surface has no
+/// cracks; triangles wind counter-clockwise seen from outside.
+pub fn blob(quads_per_edge: u32) -> TriMesh {
+    let n = quads_per_edge.max(1);
     // (axis, U, V) with U × V = axis: faces wind outward.
     let faces = [
         (Vec3::X, Vec3::Y, Vec3::Z),

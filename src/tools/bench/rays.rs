@@ -107,13 +107,13 @@ pub fn occlusion(accel: &dyn Accel, bounds: &Aabb, camera: &[Query], seed: u64) 
     Ok(out)
 }
 
-/// Every `len / n`-th query (at most `n`, at least one if any): a subsample spread over the
+/// Every `len / count`-th query (at most `count`, at least one if any): a subsample spread over the
 /// whole set, the same for every strategy.
-pub fn subsample(queries: &[Query], n: usize) -> Vec<Query> {
-    if queries.is_empty() || n == 0 {
+pub fn subsample(queries: &[Query], count: usize) -> Vec<Query> {
+    if queries.is_empty() || count == 0 {
         return Vec::new();
     }
-    let step = queries.len().div_ceil(n.min(queries.len()));
+    let step = queries.len().div_ceil(count.min(queries.len()));
     queries.iter().step_by(step).copied().collect()
 }
 

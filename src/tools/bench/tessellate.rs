@@ -41,7 +41,7 @@ fn sphere_grid(segments: u32) -> (u32, u32) {
 /// meridians (at least 3) and `segments / 2` bands (at least 2); the polar bands are fans.
 pub fn tessellate_spheres(spheres: &[Sphere], segments: u32) -> Tessellation {
     let (s, r) = sphere_grid(segments);
-    let mut out = Builder::default();
+    let mut out = MeshBuilder::default();
     for (k, sp) in spheres.iter().enumerate() {
         let first = out.positions.len() as u32;
         // Vertex 0: south pole, then rings 1..r-1 of s vertices each, then the north pole.
@@ -79,7 +79,7 @@ pub fn tessellate_spheres(spheres: &[Sphere], segments: u32) -> Tessellation {
 /// two, each cap as a fan around its centre.
 pub fn tessellate_cylinders(cylinders: &[Cylinder], segments: u32) -> Tessellation {
     let s = segments.max(3);
-    let mut out = Builder::default();
+    let mut out = MeshBuilder::default();
     for (k, cy) in cylinders.iter().enumerate() {
         let axis = cy.p1 - cy.p0;
         let a = axis.normalize_or_zero();
@@ -125,14 +125,14 @@ pub fn tessellate_cylinders(cylinders: &[Cylinder], segments: u32) -> Tessellati
 }
 
 #[derive(Default)]
-struct Builder {
+struct MeshBuilder {
     positions: Vec<Vec3>,
     normals: Vec<Vec3>,
     indices: Vec<[u32; 3]>,
     source: Vec<u32>,
 }
 
-impl Builder {
+impl MeshBuilder {
     fn vertex(&mut self, p: Vec3, n: Vec3) {
         self.positions.push(p);
         self.normals.push(n);

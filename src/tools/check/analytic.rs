@@ -29,21 +29,24 @@ pub enum Solid {
     },
 }
 
-/// A reference hit: distance (in units of the direction), point, unit outward normal.
+/// A reference hit.
 #[derive(Clone, Copy, Debug)]
-pub struct RefHit {
+pub struct ReferenceHit {
+    /// Distance along the ray, in units of its direction's length (as [`crate::geometry::Hit`]'s).
     pub t: f64,
-    pub p: DVec3,
-    pub n: DVec3,
+    pub point: DVec3,
+    /// Unit outward normal.
+    pub normal: DVec3,
 }
 
 impl Solid {
-    /// The closest hit with t > tmin.
-    pub fn hit(&self, o: DVec3, d: DVec3, tmin: f64) -> Option<RefHit> {
-        let best = |ts: &mut Vec<(f64, DVec3)>| -> Option<RefHit> {
+    /// The closest hit of the ray `origin + t · direction` with t > tmin.
+    pub fn hit(&self, origin: DVec3, direction: DVec3, tmin: f64) -> Option<ReferenceHit> {
+        let (o, d) = (origin, direction);
+        let best = |ts: &mut Vec<(f64, DVec3)>| -> Option<ReferenceHit> {
             ts.retain(|(t, _)| *t > tmin && t.is_finite());
             ts.sort_by(|a, b| a.0.total_cmp(&b.0));
-            ts.first().map(|&(t, n)| RefHit { t, p: o + t * d, n })
+            ts.first().map(|&(t, normal)| ReferenceHit { t, point: o + t * d, normal })
         };
         match *self {
             Solid::Quad { corner, e1, e2 } => {
@@ -143,27 +146,27 @@ impl Solid {
     }
 }
 
-/// The closest hit among `solids`: (index, hit).
-pub fn first_hit(solids: &[Solid], o: DVec3, d: DVec3) -> Option<(usize, RefHit)> {
+/// The closest hit among `solids` of the ray `origin + t · direction`, t > 0: (index, hit).
+pub fn first_hit(solids: &[Solid], origin: DVec3, direction: DVec3) -> Option<(usize, ReferenceHit)> {
     solids
         .iter()
         .enumerate()
-        .filter_map(|(i, s)| s.hit(o, d, 0.0).map(|h| (i, h)))
+        .filter_map(|(i, s)| s.hit(origin, direction, 0.0).map(|h| (i, h)))
         .min_by(|a, b| a.1.t.total_cmp(&b.1.t))
 }
 
-/// Whether the segment from `p` (on solid `from`) to `q` is blocked by another solid.
-pub fn blocked(solids: &[Solid], from: usize, p: DVec3, q: DVec3) -> bool {
-    let d = q - p;
-    solids.iter().enumerate().any(|(i, s)| i != from && s.hit(p, d, 0.0).is_some_and(|h| h.t < 1.0))
+/// Whether the segment from `start` (on solid `from`) to `end` is blocked by another solid.
+pub fn blocked(solids: &[Solid], from: usize, start: DVec3, end: DVec3) -> bool {
+    let d = end - start;
+    solids.iter().enumerate().any(|(i, s)| i != from && s.hit(start, d, 0.0).is_some_and(|h| h.t < 1.0))
 }
 
-/// Radiance leaving a diffuse point `p` (normal `n`, seen from `eye`) lit by a point light of
-/// intensity `intensity` at `light`: albedo/π · I cosθ / r² when the light is on the side
+/// Radiance leaving a diffuse `point` (with `normal`, seen from `eye`) lit by a point light
+/// of intensity `intensity` at `light`: albedo/π · I cosθ / r² when the light is on the side
 /// the point is seen from, else 0 (visibility is the caller's).
-pub fn diffuse_point_light(albedo: f64, p: DVec3, n: DVec3, eye: DVec3, light: DVec3, intensity: f64) -> f64 {
-    let n = if n.dot(eye - p) < 0.0 { -n } else { n };
-    let l = light - p;
+pub fn diffuse_point_light(albedo: f64, point: DVec3, normal: DVec3, eye: DVec3, light: DVec3, intensity: f64) -> f64 {
+    let n = if normal.dot(eye - point) < 0.0 { -normal } else { normal };
+    let l = light - point;
     let r2 = l.length_squared();
     let cos = n.dot(l) / r2.sqrt();
     if cos <= 0.0 { 0.0 } else { albedo / std::f64::consts::PI * intensity * cos / r2 }

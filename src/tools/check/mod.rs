@@ -8,14 +8,14 @@
 //! `tests/hard_cases.rs` runs each case as a named test; `ember check` runs them all and
 //! prints a table. The list of promises is in `docs/hard-cases.md`.
 
-mod agree;
 mod analytic;
+mod case_run;
 mod cases;
-mod lab;
 mod pixel;
-mod stage;
+mod scenes;
+mod versus_f64;
 
-pub use lab::Lab;
+pub use case_run::CaseRun;
 
 use crate::accel::AccelError;
 use crate::embree::EmbreeError;
@@ -88,7 +88,7 @@ pub struct Case {
     pub name: &'static str,
     /// The promise, one line.
     pub promise: &'static str,
-    run: fn(&Lab) -> Result<Verdict, CheckError>,
+    check: fn(&CaseRun) -> Result<Verdict, CheckError>,
 }
 
 /// The outcome of running a case.
@@ -117,9 +117,9 @@ impl Case {
     pub fn run_seeded(&self, quality: Quality, seed: u64) -> CaseResult {
         let start = Instant::now();
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            let lab = Lab::new(quality, seed)?;
-            let v = (self.run)(&lab)?;
-            Ok::<_, CheckError>((v, lab.nonfinite()))
+            let run = CaseRun::new(quality, seed)?;
+            let v = (self.check)(&run)?;
+            Ok::<_, CheckError>((v, run.nonfinite()))
         }));
         let elapsed = start.elapsed();
         let failed = |detail: String| CaseResult {

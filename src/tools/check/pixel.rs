@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 /// One pixel's reference: mean over the pixel, standard deviation and range inside it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PixelRef {
+pub struct PixelReference {
     pub mean: f64,
     pub sd: f64,
     pub range: f64,
@@ -26,13 +26,13 @@ pub struct Reference {
     pub height: u32,
     /// Sub-pixel grid size per axis.
     pub grid: u32,
-    pub pixels: Vec<PixelRef>,
+    pub pixels: Vec<PixelReference>,
 }
 
 impl Reference {
-    /// `f(film)` is the closed-form value at film position `film` in [0, 1]² (x right, y
+    /// `value(film)` is the closed-form value at film position `film` in [0, 1]² (x right, y
     /// down), the same convention as [`crate::camera::Camera::ray`].
-    pub fn new(width: u32, height: u32, grid: u32, f: impl Fn(Vec2) -> f64 + Sync) -> Reference {
+    pub fn new(width: u32, height: u32, grid: u32, value: impl Fn(Vec2) -> f64 + Sync) -> Reference {
         let at = |x: u32, y: u32, fx: f32, fy: f32| {
             Vec2::new((x as f32 + fx) / width as f32, (y as f32 + fy) / height as f32)
         };
@@ -43,7 +43,7 @@ impl Reference {
                 let (mut sum, mut sum2, mut lo, mut hi) = (0.0, 0.0, f64::INFINITY, f64::NEG_INFINITY);
                 for j in 0..grid {
                     for k in 0..grid {
-                        let v = f(at(x, y, (k as f32 + 0.5) / grid as f32, (j as f32 + 0.5) / grid as f32));
+                        let v = value(at(x, y, (k as f32 + 0.5) / grid as f32, (j as f32 + 0.5) / grid as f32));
                         sum += v;
                         sum2 += v * v;
                         lo = lo.min(v);
@@ -56,22 +56,22 @@ impl Reference {
                 for k in 0..=m {
                     let s = k as f32 / m as f32;
                     for (fx, fy) in [(s, 0.0), (s, 1.0), (0.0, s), (1.0, s)] {
-                        let v = f(at(x, y, fx, fy));
+                        let v = value(at(x, y, fx, fy));
                         lo = lo.min(v);
                         hi = hi.max(v);
                     }
                 }
                 let n = (grid * grid) as f64;
                 let mean = sum / n;
-                PixelRef { mean, sd: (sum2 / n - mean * mean).max(0.0).sqrt(), range: hi - lo }
+                PixelReference { mean, sd: (sum2 / n - mean * mean).max(0.0).sqrt(), range: hi - lo }
             })
             .collect();
         Reference { width, height, grid, pixels }
     }
 
-    /// Whether the pixel's value is the same over its whole area (no edge inside it).
-    pub fn is_flat(&self, i: usize) -> bool {
-        self.pixels[i].range <= 1e-9 * self.pixels[i].mean.abs()
+    /// Whether pixel `index`'s value is the same over its whole area (no edge inside it).
+    pub fn is_flat(&self, index: usize) -> bool {
+        self.pixels[index].range <= 1e-9 * self.pixels[index].mean.abs()
     }
 }
 
@@ -94,7 +94,7 @@ impl Comparison {
 }
 
 /// Compares the grey value (mean of the channels) of each pixel of `film`, rendered with
-/// `spp` samples per pixel, with `r`. A pixel is off when
+/// `spp` samples per pixel, with `reference`. A pixel is off when
 /// |got − mean| > rel·mean + jitter + range/grid + 1e-5·mean (float rounding),
 /// i.e. by more than `rel` beyond the jitter noise and the grid's own error. `jitter` is
 /// Bernstein's bound √(2 sd'² L / spp) + range·L / (3 spp), L = ln(2/δ): the mean of `spp`
@@ -106,25 +106,25 @@ impl Comparison {
 /// 3 of 40 seeds had a pixel off in `glass-ior-1` or `inside-glass-tir` (one of them 12 of 16
 /// jittered positions in the escaping quarter of a pixel, which the render then counted
 /// exactly). Pixels without an edge have no jitter noise and keep the full sensitivity.
-pub fn compare(film: &Film, r: &Reference, spp: u32, rel: f64, delta: f64) -> Comparison {
-    assert_eq!((film.width, film.height), (r.width, r.height), "reference size");
+pub fn compare(film: &Film, reference: &Reference, spp: u32, rel: f64, delta: f64) -> Comparison {
+    assert_eq!((film.width, film.height), (reference.width, reference.height), "reference size");
     let (mut off, mut worst_flat, mut worst_ratio) = (0, 0.0f64, 0.0f64);
     let l = (2.0 / delta).ln();
     let n = spp as f64;
-    for (i, (p, e)) in film.pixels.iter().zip(&r.pixels).enumerate() {
+    for (i, (p, e)) in film.pixels.iter().zip(&reference.pixels).enumerate() {
         let got = grey(*p);
         let err = (got - e.mean).abs();
         // An edge can hide between grid points in up to about 1/grid of the pixel: the jitter
         // spread is at least that of a pixel split 1/grid : (grid − 1)/grid.
-        let q = 1.0 / r.grid as f64;
+        let q = 1.0 / reference.grid as f64;
         let sd = e.sd.max(e.range * (q * (1.0 - q)).sqrt());
         let jitter = (2.0 * sd * sd * l / n).sqrt() + e.range * l / (3.0 * n);
-        let allow = rel * e.mean + jitter + e.range / r.grid as f64 + 1e-5 * e.mean + 1e-30;
+        let allow = rel * e.mean + jitter + e.range / reference.grid as f64 + 1e-5 * e.mean + 1e-30;
         if !(err <= allow) {
             off += 1;
         }
         worst_ratio = worst_ratio.max(if err.is_nan() { f64::INFINITY } else { err / allow });
-        if r.is_flat(i) {
+        if reference.is_flat(i) {
             let rel_err = if e.mean > 0.0 { err / e.mean } else { err };
             worst_flat = worst_flat.max(if rel_err.is_nan() { f64::INFINITY } else { rel_err });
         }
@@ -147,9 +147,9 @@ pub fn blocks(width: u32, height: u32, side: u32) -> impl Iterator<Item = ((u32,
     })
 }
 
-/// Grey value of a pixel.
-pub fn grey(p: glam::Vec3) -> f64 {
-    (p.x as f64 + p.y as f64 + p.z as f64) / 3.0
+/// Grey value of a pixel: the mean of its channels.
+pub fn grey(pixel: glam::Vec3) -> f64 {
+    (pixel.x as f64 + pixel.y as f64 + pixel.z as f64) / 3.0
 }
 
 #[cfg(test)]

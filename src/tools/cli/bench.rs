@@ -13,7 +13,7 @@ pub struct BenchArgs {
     /// Folder for bench.csv, scaling.png, render.csv and specialize.csv (created if missing).
     #[arg(long, default_value = "bench-results")]
     pub out: PathBuf,
-    /// A smoke run of about ten seconds: small scenes, few rays, tiny renders.
+    /// A smoke run of about 20 s (on 2 cores): small scenes, few rays, tiny renders.
     #[arg(long)]
     pub quick: bool,
     /// Run only the render section: path tracer vs Embree alone, 1 vs 2 threads.

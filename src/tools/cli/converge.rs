@@ -3,9 +3,8 @@ use crate::atomic_write::write_file;
 use crate::film::Film;
 use crate::scene::Scene;
 use crate::scene::format::MAX_IMAGE_SIDE;
-use crate::tools::report::converge::{
-    Measurement, Study, parse_variants, spp_ladder, time_to_reach, to_csv, write_plots,
-};
+use crate::tools::converge::{ConvergencePoint, Study, parse_variants, spp_ladder};
+use crate::tools::report::converge::{time_to_reach_table, to_csv, write_plots};
 use anyhow::Context;
 use clap::Args;
 use std::path::PathBuf;
@@ -15,7 +14,8 @@ const REFERENCE_FACTOR: u32 = 16;
 
 #[derive(Args, Debug)]
 pub struct ConvergeArgs {
-    /// Scene file (.toml) or mesh (.obj, .ply, .gltf, .glb). Its [render] size, spp and depth are not used.
+    /// Scene file (.toml) or mesh (.obj). Of its [render] table only the seed is used: size,
+    /// spp, depth and Russian roulette come from the options below.
     pub scene: PathBuf,
     /// Reference image (.exr, linear) to measure against, e.g. DIR/reference.exr of an
     /// earlier run [rendered: NEE+MIS at full depth, --reference-spp samples].
@@ -122,8 +122,8 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
         }
     };
 
-    let mut all: Vec<Measurement> = Vec::new();
-    let mut per_variant: Vec<Vec<Measurement>> = Vec::new();
+    let mut all: Vec<ConvergencePoint> = Vec::new();
+    let mut per_variant: Vec<Vec<ConvergencePoint>> = Vec::new();
     for &v in &variants {
         let points = study.measure(&scene, accel.as_ref(), &reference, v, |_| {})?;
         let secs: f64 = points.iter().map(|m| m.seconds).sum::<f64>() * study.repeats as f64;
@@ -145,23 +145,7 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     write_file(&csv, to_csv(&all, study.max_depth, study.repeats).as_bytes())?;
     let plots = write_plots(&args.out, &all, study.max_depth, args.target)?;
 
-    println!(
-        "{:<28} {:>12} {:>12}   time to reach relMSE {}",
-        "variant",
-        format!("relMSE@{largest}"),
-        format!("MAE@{largest}"),
-        args.target
-    );
-    for points in &per_variant {
-        let last = &points[points.len() - 1];
-        println!(
-            "{:<28} {:>12.3e} {:>12.3e}   {}",
-            last.variant.name(),
-            last.error.rel_mse,
-            last.error.mae,
-            time_to_reach(points, args.target)
-        );
-    }
+    print!("{}", time_to_reach_table(&per_variant, largest, args.target));
     let files: Vec<String> = std::iter::once(&csv).chain(&plots).map(|p| p.display().to_string()).collect();
     eprintln!("wrote {}", files.join(", "));
     Ok(())

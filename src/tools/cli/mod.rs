@@ -22,12 +22,15 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene (.toml) or a mesh (.obj, .ply, .gltf, .glb) to an image (.png or .exr).
     Render(render::RenderArgs),
-    /// Print primitive counts, bounds and BVH build time of a scene or mesh.
+    /// Print a scene's or mesh's primitive counts, bounds and effects, the kernel, path depth,
+    /// Russian roulette and light choice a render would use, and the BVH build time.
     Info(info::InfoArgs),
-    /// Measure intersection strategies, the path tracer against Embree alone, and kernels.
+    /// Measure intersection strategies and the path tracer against Embree alone (with
+    /// --specialize: the specialised kernels against the general one).
     Bench(bench::BenchArgs),
     /// Measure error against a high-spp reference at 1, 2, 4, … spp for several estimator
-    /// variants: converge.csv, error_vs_spp.png, error_vs_time.png, time to reach a target.
+    /// variants: converge.csv, plots of error against spp and against time, and a table of the
+    /// time each variant takes to reach a target relMSE.
     Converge(converge::ConvergeArgs),
     /// Run the hard-case suite (numerical robustness) and print a table; exit code 1 if a
     /// case fails.

@@ -1,11 +1,9 @@
-//! Reports: tables and plots of measurements (benchmarks, convergence). Everything here
-//! writes files atomically (see [`crate::atomic_write`]).
+//! Reports: tables and plots of measurements (benchmarks, convergence). It formats and
+//! writes, and measures nothing; every file is written atomically (see [`crate::output`]).
 
 pub mod converge;
-pub mod metrics;
 mod plot;
 mod table;
 
-pub use metrics::{ImageError, REL_MSE_EPSILON, image_error};
 pub use plot::{LineStyle, PlotError, PlotOptions, Series, log_log_plot, log_log_plot_with};
 pub use table::Table;

@@ -7,8 +7,8 @@
 //! triangles' bounds, so even the light choice, which depends on the scene's bounds, is
 //! unchanged).
 
-use super::super::stage::Stage;
-use super::{CheckError, Lab, Verdict};
+use super::super::scenes::CaseSceneBuilder;
+use super::{CaseRun, CheckError, Verdict};
 use crate::film::Film;
 use crate::geometry::TriMesh;
 use crate::light::Background;
@@ -44,13 +44,13 @@ f 12 1 2
 ";
 
 fn scene(mesh: TriMesh) -> Scene {
-    let mut st = Stage::new("degenerate");
-    let m = st.diffuse(0.6);
-    st.mesh(mesh, m);
-    st.point_light(Vec3::new(2.0, 5.0, 3.0), 40.0);
-    st.background(Background::Constant(Vec3::splat(0.3)));
-    st.camera(Vec3::new(3.0, 4.0, 5.0), Vec3::new(0.3, 0.5, 0.3), Vec3::Y, 45.0);
-    st.build()
+    let mut builder = CaseSceneBuilder::new("degenerate");
+    let m = builder.diffuse(0.6);
+    builder.mesh(mesh, m);
+    builder.point_light(Vec3::new(2.0, 5.0, 3.0), 40.0);
+    builder.background(Background::Constant(Vec3::splat(0.3)));
+    builder.camera(Vec3::new(3.0, 4.0, 5.0), Vec3::new(0.3, 0.5, 0.3), Vec3::Y, 45.0);
+    builder.build()
 }
 
 /// Largest relative difference between two images (0 when bit-identical).
@@ -65,7 +65,7 @@ fn max_rel(a: &Film, b: &Film) -> f64 {
         .fold(0.0, f64::max)
 }
 
-pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
+pub fn check(run: &CaseRun) -> Result<Verdict, CheckError> {
     let path = Path::new("degenerate.obj (built in)");
     let no_mtl = |_: &std::path::Path| Err(std::io::Error::other("no MTL files here"));
     let obj = parse_obj(OBJ.as_bytes(), path, &no_mtl, &crate::memory::LoadBudget::unlimited())?;
@@ -107,13 +107,13 @@ pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
         .map_err(|e| CheckError::Other(e.to_string()))?;
     let flagged = (0..raw.triangle_count()).filter(|&i| raw.is_degenerate(i)).collect::<Vec<_>>();
 
-    let (w, h, spp) = lab.pick((24, 24, 4), (48, 48, 8));
-    let s = crate::integrator::RenderSettings { max_depth: 3, ..lab.settings(w, h, spp) };
-    let reference = lab.render(&scene(good.clone()), &s)?;
-    let reference_naive = lab.render_naive(&scene(good), &s)?;
-    let as_loaded = lab.render(&scene(loaded.clone()), &s)?;
-    let raw_embree = lab.render(&scene(raw.clone()), &s)?;
-    let raw_naive = lab.render_naive(&scene(raw), &s)?;
+    let (w, h, spp) = run.by_quality((24, 24, 4), (48, 48, 8));
+    let s = crate::integrator::RenderSettings { max_depth: 3, ..run.settings(w, h, spp) };
+    let reference = run.render(&scene(good.clone()), &s)?;
+    let reference_naive = run.render_naive(&scene(good), &s)?;
+    let as_loaded = run.render(&scene(loaded.clone()), &s)?;
+    let raw_embree = run.render(&scene(raw.clone()), &s)?;
+    let raw_naive = run.render_naive(&scene(raw), &s)?;
     let worst = max_rel(&as_loaded, &reference)
         .max(max_rel(&raw_embree, &reference))
         .max(max_rel(&raw_naive, &reference_naive));

@@ -9,8 +9,8 @@
 //!   4 standard errors.
 
 use super::super::pixel::grey;
-use super::super::stage::Stage;
-use super::{CheckError, Lab, Verdict, worst_abs};
+use super::super::scenes::CaseSceneBuilder;
+use super::{CaseRun, CheckError, Verdict, worst_abs};
 use crate::integrator::RenderSettings;
 use crate::material::{DiffuseMaterial, MaterialKind};
 use crate::scene::Scene;
@@ -18,11 +18,11 @@ use crate::texture::Texture;
 use glam::Vec3;
 
 /// The enclosure check for `scene` (camera already inside).
-pub(super) fn enclosure(lab: &Lab, scene: &Scene) -> Result<Verdict, CheckError> {
-    let (w, h, spp) = lab.pick((24, 24, 4), (48, 48, 16));
-    let exact = lab.render(scene, &lab.bsdf_settings(w, h, spp, 40))?;
+pub(super) fn enclosure(run: &CaseRun, scene: &Scene) -> Result<Verdict, CheckError> {
+    let (w, h, spp) = run.by_quality((24, 24, 4), (48, 48, 16));
+    let exact = run.render(scene, &run.bsdf_settings(w, h, spp, 40))?;
     let worst = worst_abs(&exact, 1.0);
-    let noisy = lab.render(scene, &RenderSettings { max_depth: 40, ..lab.settings(w, h, spp) })?;
+    let noisy = run.render(scene, &RenderSettings { max_depth: 40, ..run.settings(w, h, spp) })?;
     let vals: Vec<f64> = noisy.pixels.iter().map(|p| grey(*p)).collect();
     let n = vals.len() as f64;
     let mean = vals.iter().sum::<f64>() / n;
@@ -36,22 +36,25 @@ pub(super) fn enclosure(lab: &Lab, scene: &Scene) -> Result<Verdict, CheckError>
     .require((mean - 1.0).abs() <= 4.0 * se + 1e-4, format!("NEE+MIS mean {mean:.4} is not 1 within 4 × {se:.4}")))
 }
 
-fn glowing(st: &mut Stage) -> u32 {
-    st.material(MaterialKind::Diffuse(DiffuseMaterial { color: Texture::Constant(Vec3::splat(0.5)) }), Vec3::splat(0.5))
+fn glowing(builder: &mut CaseSceneBuilder) -> u32 {
+    builder.material(
+        MaterialKind::Diffuse(DiffuseMaterial { color: Texture::Constant(Vec3::splat(0.5)) }),
+        Vec3::splat(0.5),
+    )
 }
 
-pub fn sphere(lab: &Lab) -> Result<Verdict, CheckError> {
-    let mut st = Stage::new("inside-sphere");
-    let m = glowing(&mut st);
-    st.sphere(Vec3::new(0.3, 0.2, -0.1), 2.0, m);
-    st.camera(Vec3::new(0.9, 0.5, 0.4), Vec3::new(0.0, 0.0, -1.0), Vec3::Y, 90.0);
-    enclosure(lab, &st.build())
+pub fn sphere(run: &CaseRun) -> Result<Verdict, CheckError> {
+    let mut builder = CaseSceneBuilder::new("inside-sphere");
+    let m = glowing(&mut builder);
+    builder.sphere(Vec3::new(0.3, 0.2, -0.1), 2.0, m);
+    builder.camera(Vec3::new(0.9, 0.5, 0.4), Vec3::new(0.0, 0.0, -1.0), Vec3::Y, 90.0);
+    enclosure(run, &builder.build())
 }
 
-pub fn cylinder(lab: &Lab) -> Result<Verdict, CheckError> {
-    let mut st = Stage::new("inside-cylinder");
-    let m = glowing(&mut st);
-    st.cylinder(Vec3::new(0.2, -2.0, 0.1), Vec3::new(-0.3, 2.0, 0.4), 1.5, m);
-    st.camera(Vec3::new(0.5, -1.2, 0.3), Vec3::new(-0.5, 1.0, -0.4), Vec3::Z, 100.0);
-    enclosure(lab, &st.build())
+pub fn cylinder(run: &CaseRun) -> Result<Verdict, CheckError> {
+    let mut builder = CaseSceneBuilder::new("inside-cylinder");
+    let m = glowing(&mut builder);
+    builder.cylinder(Vec3::new(0.2, -2.0, 0.1), Vec3::new(-0.3, 2.0, 0.4), 1.5, m);
+    builder.camera(Vec3::new(0.5, -1.2, 0.3), Vec3::new(-0.5, 1.0, -0.4), Vec3::Z, 100.0);
+    enclosure(run, &builder.build())
 }

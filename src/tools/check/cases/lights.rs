@@ -3,8 +3,8 @@
 
 use super::super::analytic::{Solid, first_hit};
 use super::super::pixel::{Reference, grey};
-use super::super::stage::Stage;
-use super::{CheckError, Lab, Verdict, against_reference, camera_of, primary};
+use super::super::scenes::CaseSceneBuilder;
+use super::{CaseRun, CheckError, Verdict, against_reference, camera_of, primary};
 use crate::film::Film;
 use crate::geometry::TriMesh;
 use crate::integrator::RenderSettings;
@@ -50,24 +50,24 @@ fn off_analytic(mean: &Film, se: &[f64], lit: &Reference) -> (usize, f64) {
 /// - The plane, seen from above at the edge of the bright emitter, must match the form-factor
 ///   irradiance: over 8 seeds, at most 0.5% of pixels off by more than 5 pooled standard
 ///   errors + 1%.
-pub fn dynamic_range(lab: &Lab) -> Result<Verdict, CheckError> {
+pub fn dynamic_range(run: &CaseRun) -> Result<Verdict, CheckError> {
     let (bright, dim) = (1e6f32, 1e-6f32);
     let build = |eye: Vec3, look: Vec3, fov: f32| {
-        let mut st = Stage::new("emitters");
-        let plane = st.diffuse(0.5);
-        let (b, d) = (st.emitter(bright), st.emitter(dim));
-        st.quad(Vec3::new(-6.0, 0.0, -6.0), Vec3::new(0.0, 0.0, 12.0), Vec3::new(12.0, 0.0, 0.0), plane);
-        st.quad(Vec3::new(-1.0, 1.0, -1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0), b);
-        st.quad(Vec3::new(2.0, 1.0, -1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0), d);
-        st.camera(eye, look, Vec3::Z, fov);
-        st.build()
+        let mut builder = CaseSceneBuilder::new("emitters");
+        let plane = builder.diffuse(0.5);
+        let (b, d) = (builder.emitter(bright), builder.emitter(dim));
+        builder.quad(Vec3::new(-6.0, 0.0, -6.0), Vec3::new(0.0, 0.0, 12.0), Vec3::new(12.0, 0.0, 0.0), plane);
+        builder.quad(Vec3::new(-1.0, 1.0, -1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0), b);
+        builder.quad(Vec3::new(2.0, 1.0, -1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0), d);
+        builder.camera(eye, look, Vec3::Z, fov);
+        builder.build()
     };
-    let (w, h, spp, seeds) = lab.pick((24, 24, 8, 4), (48, 48, 16, 8));
-    let s = RenderSettings { max_depth: 1, ..lab.settings(w, h, spp) };
+    let (w, h, spp, seeds) = run.by_quality((24, 24, 8, 4), (48, 48, 16, 8));
+    let s = RenderSettings { max_depth: 1, ..run.settings(w, h, spp) };
 
     // Emitters seen directly.
     let below = build(Vec3::new(1.5, 0.2, 0.0), Vec3::new(1.5, 1.0, 0.0), 150.0);
-    let film = lab.render(&below, &s)?;
+    let film = run.render(&below, &s)?;
     let cam = camera_of(&below, w, h);
     let solids = [
         Solid::Quad {
@@ -94,7 +94,7 @@ pub fn dynamic_range(lab: &Lab) -> Result<Verdict, CheckError> {
 
     // The plane, lit.
     let above = build(Vec3::new(1.0, 0.6, 0.0), Vec3::new(1.0, 0.0, 0.0), 90.0);
-    let (mean, se) = lab.render_seeds(&above, &s, seeds)?;
+    let (mean, se) = run.render_seeds(&above, &s, seeds)?;
     let cam = camera_of(&above, w, h);
     let lit = Reference::new(w, h, 8, |film| {
         let (o, d) = primary(&cam, film);
@@ -123,19 +123,19 @@ pub fn dynamic_range(lab: &Lab) -> Result<Verdict, CheckError> {
 /// as `emitters-1e6-1e-6`, and its mean relative error over the view within 1% + 4 standard
 /// errors of that mean. A choice whose density disagreed with the one MIS weighs against
 /// would show here as a bias.
-pub fn sky_and_area(lab: &Lab) -> Result<Verdict, CheckError> {
+pub fn sky_and_area(run: &CaseRun) -> Result<Verdict, CheckError> {
     let (sky, light) = (1.0f32, 20.0f32);
-    let mut st = Stage::new("sky-and-area-light");
-    let plane = st.diffuse(0.5);
-    let e = st.emitter(light);
-    st.quad(Vec3::new(-6.0, 0.0, -6.0), Vec3::new(0.0, 0.0, 12.0), Vec3::new(12.0, 0.0, 0.0), plane);
-    st.quad(Vec3::new(-1.0, 1.0, -1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0), e);
-    st.background(Background::Constant(Vec3::splat(sky)));
-    st.camera(Vec3::new(1.2, 0.6, 0.0), Vec3::new(1.2, 0.0, 0.0), Vec3::Z, 120.0);
-    let scene = st.build();
-    let (w, h, spp, seeds) = lab.pick((24, 24, 8, 4), (48, 48, 16, 8));
-    let s = RenderSettings { max_depth: 1, ..lab.settings(w, h, spp) };
-    let (mean, se) = lab.render_seeds(&scene, &s, seeds)?;
+    let mut builder = CaseSceneBuilder::new("sky-and-area-light");
+    let plane = builder.diffuse(0.5);
+    let e = builder.emitter(light);
+    builder.quad(Vec3::new(-6.0, 0.0, -6.0), Vec3::new(0.0, 0.0, 12.0), Vec3::new(12.0, 0.0, 0.0), plane);
+    builder.quad(Vec3::new(-1.0, 1.0, -1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0), e);
+    builder.background(Background::Constant(Vec3::splat(sky)));
+    builder.camera(Vec3::new(1.2, 0.6, 0.0), Vec3::new(1.2, 0.0, 0.0), Vec3::Z, 120.0);
+    let scene = builder.build();
+    let (w, h, spp, seeds) = run.by_quality((24, 24, 8, 4), (48, 48, 16, 8));
+    let s = RenderSettings { max_depth: 1, ..run.settings(w, h, spp) };
+    let (mean, se) = run.render_seeds(&scene, &s, seeds)?;
     let cam = camera_of(&scene, w, h);
     let lit = Reference::new(w, h, 8, |film| {
         let (o, d) = primary(&cam, film);
@@ -168,13 +168,13 @@ pub fn sky_and_area(lab: &Lab) -> Result<Verdict, CheckError> {
 /// three collinear corners, one with a repeated corner, and a sphere of radius 0. They must
 /// change nothing: the image must be bit-identical to the render without them (the light
 /// choice gives them probability 0); and with only them as lights the image must be black.
-pub fn zero_area(lab: &Lab) -> Result<Verdict, CheckError> {
+pub fn zero_area(run: &CaseRun) -> Result<Verdict, CheckError> {
     let build = |point_light: bool, zero: bool| {
-        let mut st = Stage::new("zero-area");
-        let m = st.diffuse(0.5);
-        let e = st.emitter(5.0);
-        st.quad(Vec3::new(-4.0, 0.0, -4.0), Vec3::new(0.0, 0.0, 8.0), Vec3::new(8.0, 0.0, 0.0), m);
-        st.sphere(Vec3::new(0.0, 1.0, 0.0), 1.0, m);
+        let mut builder = CaseSceneBuilder::new("zero-area");
+        let m = builder.diffuse(0.5);
+        let e = builder.emitter(5.0);
+        builder.quad(Vec3::new(-4.0, 0.0, -4.0), Vec3::new(0.0, 0.0, 8.0), Vec3::new(8.0, 0.0, 0.0), m);
+        builder.sphere(Vec3::new(0.0, 1.0, 0.0), 1.0, m);
         if zero {
             let mesh = TriMesh::new(
                 "zero",
@@ -189,21 +189,21 @@ pub fn zero_area(lab: &Lab) -> Result<Verdict, CheckError> {
                 vec![],
             )
             .expect("indices in range");
-            st.mesh(mesh, e);
-            st.sphere(Vec3::new(1.0, 3.0, -1.0), 0.0, e);
+            builder.mesh(mesh, e);
+            builder.sphere(Vec3::new(1.0, 3.0, -1.0), 0.0, e);
         }
         if point_light {
-            st.point_light(Vec3::new(2.0, 5.0, 3.0), 40.0);
+            builder.point_light(Vec3::new(2.0, 5.0, 3.0), 40.0);
         }
-        st.camera(Vec3::new(3.0, 3.0, 5.0), Vec3::new(0.0, 0.8, 0.0), Vec3::Y, 50.0);
-        st.build()
+        builder.camera(Vec3::new(3.0, 3.0, 5.0), Vec3::new(0.0, 0.8, 0.0), Vec3::Y, 50.0);
+        builder.build()
     };
-    let (w, h, spp) = lab.pick((24, 24, 4), (48, 48, 16));
-    let s = lab.settings(w, h, spp);
-    let with = lab.render(&build(true, true), &s)?;
-    let without = lab.render(&build(true, false), &s)?;
-    let only = lab.render(&build(false, true), &s)?;
-    let naive_only = lab.render_naive(&build(false, true), &s)?;
+    let (w, h, spp) = run.by_quality((24, 24, 4), (48, 48, 16));
+    let s = run.settings(w, h, spp);
+    let with = run.render(&build(true, true), &s)?;
+    let without = run.render(&build(true, false), &s)?;
+    let only = run.render(&build(false, true), &s)?;
+    let naive_only = run.render_naive(&build(false, true), &s)?;
     let worst = diff(&with, &without);
     let black = only.pixels.iter().chain(&naive_only.pixels).all(|p| *p == Vec3::ZERO);
     Ok(Verdict::new(worst, 0.0, "max |Δpx|", "with vs without zero-area emitters (same seed)")

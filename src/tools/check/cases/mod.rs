@@ -13,15 +13,15 @@ mod roughness;
 mod self_intersection;
 
 use super::pixel::{Reference, grey};
-use super::{Case, CheckError, Lab, Verdict};
+use super::{Case, CaseRun, CheckError, Verdict};
 use crate::camera::Camera;
 use crate::film::Film;
 use crate::scene::Scene;
 use glam::{DVec3, Vec2};
 
 macro_rules! case {
-    ($name:literal, $promise:literal, $run:path) => {
-        Case { name: $name, promise: $promise, run: $run }
+    ($name:literal, $promise:literal, $check:path) => {
+        Case { name: $name, promise: $promise, check: $check }
     };
 }
 
@@ -41,7 +41,7 @@ pub fn all() -> Vec<Case> {
         case!(
             "self-intersection",
             "a plane and a sphere under a point light match the analytic irradiance",
-            self_intersection::run
+            self_intersection::check
         ),
         case!(
             "thin-cylinder",
@@ -57,7 +57,7 @@ pub fn all() -> Vec<Case> {
         case!(
             "degenerate-triangles",
             "zero-area, collinear, repeated-vertex and NaN triangles are skipped with a warning",
-            degenerate::run
+            degenerate::check
         ),
         case!(
             "axis-parallel-rays",
@@ -84,7 +84,7 @@ pub fn all() -> Vec<Case> {
         case!(
             "roughness-0-1",
             "metal and plastic at roughness exactly 0 and 1 stay finite and within energy bounds",
-            roughness::run
+            roughness::check
         ),
         case!(
             "emitters-1e6-1e-6",
@@ -130,8 +130,8 @@ fn worst_abs(film: &Film, value: f64) -> f64 {
 /// uniform sky of radiance 1, rendered with BSDF sampling and a single bounce, is exactly 1
 /// (hit or miss). A continuation ray that hits the surface it leaves ends the path at the
 /// depth limit and gives 0, so any self-intersection shows as a pixel below 1.
-fn one_bounce_furnace(lab: &Lab, scene: &Scene, w: u32, h: u32, spp: u32) -> Result<f64, CheckError> {
-    let film = lab.render(scene, &lab.bsdf_settings(w, h, spp, 1))?;
+fn one_bounce_furnace(run: &CaseRun, scene: &Scene, w: u32, h: u32, spp: u32) -> Result<f64, CheckError> {
+    let film = run.render(scene, &run.bsdf_settings(w, h, spp, 1))?;
     Ok(worst_abs(&film, 1.0))
 }
 

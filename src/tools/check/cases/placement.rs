@@ -7,8 +7,8 @@
 //! scenes are compared with the scene at scale 1 in the same way.
 
 use super::super::pixel::{blocks, grey};
-use super::super::stage::{Stage, map_scene, teapot};
-use super::{CheckError, Lab, Verdict, same_image};
+use super::super::scenes::{CaseSceneBuilder, map_scene, teapot};
+use super::{CaseRun, CheckError, Verdict, same_image};
 use crate::film::Film;
 use crate::integrator::RenderSettings;
 use crate::light::Background;
@@ -19,46 +19,46 @@ use glam::Vec3;
 
 /// The teapot on a checker ground with a sphere and a leaning cylinder, lit by an area
 /// light, a point light and a dim sky: every primitive kind and every light kind.
-pub(super) fn teapot_stage(size: f32) -> Scene {
-    let mut st = Stage::new("teapot");
-    let red = st.material(
+pub(super) fn teapot_scene(size: f32) -> Scene {
+    let mut builder = CaseSceneBuilder::new("teapot");
+    let red = builder.material(
         MaterialKind::Plastic(PlasticMaterial {
             color: Texture::Constant(Vec3::new(0.62, 0.08, 0.05)),
             roughness: 0.25,
         }),
         Vec3::ZERO,
     );
-    let ground = st.material(
+    let ground = builder.material(
         MaterialKind::Diffuse(DiffuseMaterial {
             color: Texture::Checker { a: Vec3::splat(0.75), b: Vec3::splat(0.45), scale: 8.0 },
         }),
         Vec3::ZERO,
     );
-    let grey = st.diffuse(0.6);
-    let light = st.emitter(9.0);
-    st.mesh(teapot(), red);
-    st.quad(Vec3::new(-12.0, 0.0, -12.0), Vec3::new(0.0, 0.0, 24.0), Vec3::new(24.0, 0.0, 0.0), ground);
-    st.sphere(Vec3::new(-4.2, 1.0, 2.0), 1.0, grey);
-    st.cylinder(Vec3::new(3.6, 0.0, 2.4), Vec3::new(4.4, 2.4, 1.2), 0.35, grey);
-    st.quad(Vec3::new(-4.0, 9.0, -2.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 4.0), light);
-    st.point_light(Vec3::new(5.0, 7.0, 6.0), 30.0);
-    st.background(Background::Gradient {
+    let grey = builder.diffuse(0.6);
+    let light = builder.emitter(9.0);
+    builder.mesh(teapot(), red);
+    builder.quad(Vec3::new(-12.0, 0.0, -12.0), Vec3::new(0.0, 0.0, 24.0), Vec3::new(24.0, 0.0, 0.0), ground);
+    builder.sphere(Vec3::new(-4.2, 1.0, 2.0), 1.0, grey);
+    builder.cylinder(Vec3::new(3.6, 0.0, 2.4), Vec3::new(4.4, 2.4, 1.2), 0.35, grey);
+    builder.quad(Vec3::new(-4.0, 9.0, -2.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 4.0), light);
+    builder.point_light(Vec3::new(5.0, 7.0, 6.0), 30.0);
+    builder.background(Background::Gradient {
         zenith: Vec3::new(0.10, 0.12, 0.16),
         horizon: Vec3::new(0.05, 0.05, 0.06),
         ground: Vec3::splat(0.05),
     });
-    st.camera(Vec3::new(7.5, 6.0, 11.0), Vec3::new(0.0, 1.2, 0.0), Vec3::Y, 44.0);
-    let scene = st.build();
+    builder.camera(Vec3::new(7.5, 6.0, 11.0), Vec3::new(0.0, 1.2, 0.0), Vec3::Y, 44.0);
+    let scene = builder.build();
     if size == 1.0 { scene } else { map_scene(&scene, |p| p * size, size) }
 }
 
 /// Same-seed renders of `test` and `reference` (max depth 4). The quick size has enough
 /// samples per 8 × 8 block (2,048 at 32 spp) that the few samples crossing an edge
 /// move a block's mean by well under the 5% limit.
-fn pair(lab: &Lab, test: &Scene, reference: &Scene) -> Result<(Film, Film), CheckError> {
-    let (w, h, spp) = lab.pick((48, 40, 32), (64, 48, 64));
-    let s = RenderSettings { max_depth: 4, ..lab.settings(w, h, spp) };
-    Ok((lab.render(test, &s)?, lab.render(reference, &s)?))
+fn pair(run: &CaseRun, test: &Scene, reference: &Scene) -> Result<(Film, Film), CheckError> {
+    let (w, h, spp) = run.by_quality((48, 40, 32), (64, 48, 64));
+    let s = RenderSettings { max_depth: 4, ..run.settings(w, h, spp) };
+    Ok((run.render(test, &s)?, run.render(reference, &s)?))
 }
 
 /// Whether the image means agree within noise: the mean of the per-pixel differences must be
@@ -96,11 +96,11 @@ const PIXEL_CLAMP: f64 = 0.25;
 /// block up to [`PIXEL_CLAMP`] of the block's level: a crossing sample that found the light
 /// (a whole firefly) then moves a block by at most 0.4%, while a shift of the whole region
 /// counts in full up to 25% (the errors this case has caught were 47–259%).
-fn far(lab: &Lab, d: f32, size: f32) -> Result<Verdict, CheckError> {
-    let base = teapot_stage(size);
+fn far(run: &CaseRun, d: f32, size: f32) -> Result<Verdict, CheckError> {
+    let base = teapot_scene(size);
     let there = map_scene(&base, |p| p + Vec3::splat(d), 1.0);
     let back = map_scene(&there, |p| p - Vec3::splat(d), 1.0);
-    let (a, b) = pair(lab, &there, &back)?;
+    let (a, b) = pair(run, &there, &back)?;
     let (over, _, _) = same_image(&a, &b, 0.1, 0.05);
     let (ok, mean, se) = means_agree(&a, &b);
     let image_mean = b.mean().element_sum() as f64 / 3.0;
@@ -130,15 +130,15 @@ fn far(lab: &Lab, d: f32, size: f32) -> Result<Verdict, CheckError> {
     .require(ok, format!("image means differ by {:.3}%, beyond 4 × {:.3}% + 0.2%", 100.0 * mean, 100.0 * se)))
 }
 
-pub fn far_1e5(lab: &Lab) -> Result<Verdict, CheckError> {
-    far(lab, 1e5, 1.0)
+pub fn far_1e5(run: &CaseRun) -> Result<Verdict, CheckError> {
+    far(run, 1e5, 1.0)
 }
 
 /// At 1e7 the float spacing is 1 unit: the teapot's vertices would land on a 1-unit grid
 /// and hit points could not be placed closer than that, so the scene is 100 times larger
 /// there (the same relative precision as the unit scene at 1e5).
-pub fn far_1e7(lab: &Lab) -> Result<Verdict, CheckError> {
-    far(lab, 1e7, 100.0)
+pub fn far_1e7(run: &CaseRun) -> Result<Verdict, CheckError> {
+    far(run, 1e7, 100.0)
 }
 
 /// The teapot scene scaled by `size` against scale 1, same seed. Floating point is
@@ -146,8 +146,8 @@ pub fn far_1e7(lab: &Lab) -> Result<Verdict, CheckError> {
 /// per pixel: at most 1% of pixels may differ by more than 5% (relative to the pixel, or
 /// to 10% of the image mean for dark pixels), and the image means must agree within noise
 /// ([`means_agree`]).
-fn scaled(lab: &Lab, size: f32) -> Result<Verdict, CheckError> {
-    let (a, b) = pair(lab, &teapot_stage(size), &teapot_stage(1.0))?;
+fn scaled(run: &CaseRun, size: f32) -> Result<Verdict, CheckError> {
+    let (a, b) = pair(run, &teapot_scene(size), &teapot_scene(1.0))?;
     let (over, worst, _) = same_image(&a, &b, 0.1, 0.05);
     let (ok, mean, se) = means_agree(&a, &b);
     Ok(Verdict::new(
@@ -164,10 +164,10 @@ fn scaled(lab: &Lab, size: f32) -> Result<Verdict, CheckError> {
     .require(ok, format!("image means differ by {:.3}%, beyond 4 × {:.3}% + 0.2%", 100.0 * mean, 100.0 * se)))
 }
 
-pub fn scaled_small(lab: &Lab) -> Result<Verdict, CheckError> {
-    scaled(lab, 1e-4)
+pub fn scaled_small(run: &CaseRun) -> Result<Verdict, CheckError> {
+    scaled(run, 1e-4)
 }
 
-pub fn scaled_large(lab: &Lab) -> Result<Verdict, CheckError> {
-    scaled(lab, 1e4)
+pub fn scaled_large(run: &CaseRun) -> Result<Verdict, CheckError> {
+    scaled(run, 1e4)
 }

@@ -3,19 +3,19 @@
 //! the shapes, some exactly in the planes of box faces or through cylinder rims), against a
 //! sphere, axis-aligned and oblique cylinders and an axis-aligned box mesh, through Embree
 //! and the naive loop. Each answer (shape hit and distance) must match double precision
-//! (`agree.rs`); rays on a surface, along a face, through an edge or tangent are ambiguous
+//! (`versus_f64.rs`); rays on a surface, along a face, through an edge or tangent are ambiguous
 //! and only need finite answers.
 
-use super::super::agree::{agree, float_steps};
 use super::super::analytic::Solid;
-use super::super::stage::box_mesh;
-use super::{CheckError, Lab, Verdict};
+use super::super::scenes::box_mesh;
+use super::super::versus_f64::{compare_with_f64, float_steps};
+use super::{CaseRun, CheckError, Verdict};
 use crate::accel::{Accel, NaiveAccel};
 use crate::geometry::{Cylinder, Geometry, Ray, Sphere};
 use glam::Vec3;
 use std::sync::Arc;
 
-pub fn axis_parallel(lab: &Lab) -> Result<Verdict, CheckError> {
+pub fn axis_parallel(run: &CaseRun) -> Result<Verdict, CheckError> {
     let (bmin, bmax) = (Vec3::new(-1.0, -4.5, -1.0), Vec3::new(1.0, -3.5, 1.0));
     let sphere = Sphere::new(Vec3::new(0.25, -0.5, 0.125), 1.5);
     let cylinders = [
@@ -32,7 +32,7 @@ pub fn axis_parallel(lab: &Lab) -> Result<Verdict, CheckError> {
         geometry.push(Geometry::Cylinders(vec![c].into()));
         solids.push(Solid::Cylinder { p0: c.p0.as_dvec3(), p1: c.p1.as_dvec3(), radius: c.radius as f64 });
     }
-    let embree = lab.embree_geometry(&geometry)?;
+    let embree = run.embree_geometry(&geometry)?;
     let naive = NaiveAccel::new(&geometry);
 
     let mut dirs: Vec<Vec3> = Vec::new();
@@ -44,7 +44,7 @@ pub fn axis_parallel(lab: &Lab) -> Result<Verdict, CheckError> {
             dirs.push((a * Vec3::AXES[i] + b * Vec3::AXES[j]).normalize());
         }
     }
-    let step = lab.pick(1.0, 0.5);
+    let step = run.by_quality(1.0, 0.5);
     let n = (10.0 / step) as i32;
     let mut rays = Vec::new();
     for d in &dirs {
@@ -56,8 +56,9 @@ pub fn axis_parallel(lab: &Lab) -> Result<Verdict, CheckError> {
             }
         }
     }
-    let a = agree(&[&embree as &dyn Accel, &naive], &solids, &rays, |r| float_steps(r.o.length() as f64 + 5.0))?;
-    lab.add_nonfinite(a.nonfinite);
+    let a =
+        compare_with_f64(&[&embree as &dyn Accel, &naive], &solids, &rays, |r| float_steps(r.o.length() as f64 + 5.0))?;
+    run.add_nonfinite(a.nonfinite);
     Ok(Verdict::new(a.worst_t, 1e-5, "max rel |Δt|", a.summary())
         .require(a.wrong == 0, format!("{} wrong hits or misses", a.wrong)))
 }

@@ -15,8 +15,8 @@
 //!   centre pixel must hold that within 4 standard errors + 1%.
 
 use super::super::pixel::{blocks, grey};
-use super::super::stage::Stage;
-use super::{CheckError, Lab, Verdict, worst_abs};
+use super::super::scenes::CaseSceneBuilder;
+use super::{CaseRun, CheckError, Verdict, worst_abs};
 use crate::film::Film;
 use crate::integrator::RenderSettings;
 use crate::light::Background;
@@ -26,19 +26,19 @@ use crate::texture::Texture;
 use glam::Vec3;
 
 fn sphere(kind: MaterialKind) -> Scene {
-    let mut st = Stage::new("roughness");
-    let m = st.material(kind, Vec3::ZERO);
-    st.sphere(Vec3::new(0.1, -0.2, 0.3), 1.0, m);
-    st.background(Background::Constant(Vec3::ONE));
-    st.camera(Vec3::new(0.1, -0.2, 4.3), Vec3::new(0.1, -0.2, 0.3), Vec3::Y, 35.0);
-    st.build()
+    let mut builder = CaseSceneBuilder::new("roughness");
+    let m = builder.material(kind, Vec3::ZERO);
+    builder.sphere(Vec3::new(0.1, -0.2, 0.3), 1.0, m);
+    builder.background(Background::Constant(Vec3::ONE));
+    builder.camera(Vec3::new(0.1, -0.2, 4.3), Vec3::new(0.1, -0.2, 0.3), Vec3::Y, 35.0);
+    builder.build()
 }
 
-pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
+pub fn check(run: &CaseRun) -> Result<Verdict, CheckError> {
     let white = || Texture::Constant(Vec3::ONE);
-    let (w, h, spp, seeds) = lab.pick((25, 25, 8, 4), (45, 45, 16, 8));
-    let s = RenderSettings { max_depth: 2, ..lab.settings(w, h, spp) };
-    let mirror = lab.render(&sphere(MaterialKind::Metal(MetalMaterial { color: white(), roughness: 0.0 })), &s)?;
+    let (w, h, spp, seeds) = run.by_quality((25, 25, 8, 4), (45, 45, 16, 8));
+    let s = RenderSettings { max_depth: 2, ..run.settings(w, h, spp) };
+    let mirror = run.render(&sphere(MaterialKind::Metal(MetalMaterial { color: white(), roughness: 0.0 })), &s)?;
     let mirror_err = worst_abs(&mirror, 1.0);
     let mut v = Verdict::new(mirror_err, 1e-4, "max |px − 1|", "metal r=0: every pixel 1");
     let bounded = [
@@ -47,7 +47,7 @@ pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
         ("plastic r=1", MaterialKind::Plastic(PlasticMaterial { color: white(), roughness: 1.0 })),
     ];
     for (i, (name, kind)) in bounded.into_iter().enumerate() {
-        let (mean, se) = lab.render_seeds(&sphere(kind), &s, seeds)?;
+        let (mean, se) = run.render_seeds(&sphere(kind), &s, seeds)?;
         let (worst, (x, y), block_mean) = worst_block_excess(&mean, &se);
         v.detail.push_str(&format!("; {name}: max (block − 1)/(4SE + 1%) = {worst:.2}"));
         v = v.require(worst <= 1.0, format!("{name} gains energy: the 5 × 5 block at ({x}, {y}) = {block_mean:.4}"));

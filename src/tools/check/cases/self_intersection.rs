@@ -8,12 +8,12 @@
 
 use super::super::analytic::{Solid, blocked, diffuse_point_light, first_hit};
 use super::super::pixel::Reference;
-use super::super::stage::Stage;
-use super::{CheckError, Lab, Verdict, against_reference, camera_of, primary};
+use super::super::scenes::CaseSceneBuilder;
+use super::{CaseRun, CheckError, Verdict, against_reference, camera_of, primary};
 use crate::integrator::RenderSettings;
 use glam::{Quat, Vec3};
 
-fn at(lab: &Lab, shift: Vec3) -> Result<Verdict, CheckError> {
+fn at(run: &CaseRun, shift: Vec3) -> Result<Verdict, CheckError> {
     let rot = Quat::from_axis_angle(Vec3::new(-2.0, 1.0, 0.5).normalize(), 0.45);
     let mv = |p: Vec3| rot * p + shift;
     let (albedo, intensity) = (0.5f32, 60.0f32);
@@ -21,16 +21,16 @@ fn at(lab: &Lab, shift: Vec3) -> Result<Verdict, CheckError> {
         (mv(Vec3::new(-6.0, 0.0, -6.0)), rot * Vec3::new(0.0, 0.0, 12.0), rot * Vec3::new(12.0, 0.0, 0.0));
     let (center, radius) = (mv(Vec3::new(0.8, 1.0, -0.3)), 1.0f32);
     let light = mv(Vec3::new(-2.0, 5.0, 3.0));
-    let mut st = Stage::new("self-intersection");
-    let m = st.diffuse(albedo);
-    st.quad(corner, e1, e2, m);
-    st.sphere(center, radius, m);
-    st.point_light(light, intensity);
-    st.camera(mv(Vec3::new(0.0, 4.5, 7.5)), mv(Vec3::new(0.0, 0.5, 0.0)), rot * Vec3::Y, 50.0);
-    let scene = st.build();
+    let mut builder = CaseSceneBuilder::new("self-intersection");
+    let m = builder.diffuse(albedo);
+    builder.quad(corner, e1, e2, m);
+    builder.sphere(center, radius, m);
+    builder.point_light(light, intensity);
+    builder.camera(mv(Vec3::new(0.0, 4.5, 7.5)), mv(Vec3::new(0.0, 0.5, 0.0)), rot * Vec3::Y, 50.0);
+    let scene = builder.build();
 
-    let (w, h, spp) = lab.pick((32, 32, 16), (64, 64, 64));
-    let film = lab.render(&scene, &RenderSettings { max_depth: 1, ..lab.settings(w, h, spp) })?;
+    let (w, h, spp) = run.by_quality((32, 32, 16), (64, 64, 64));
+    let film = run.render(&scene, &RenderSettings { max_depth: 1, ..run.settings(w, h, spp) })?;
     // The reference sees the same f32 shapes, widened to f64.
     let solids = [
         Solid::Quad { corner: corner.as_dvec3(), e1: e1.as_dvec3(), e2: e2.as_dvec3() },
@@ -41,8 +41,8 @@ fn at(lab: &Lab, shift: Vec3) -> Result<Verdict, CheckError> {
     let reference = Reference::new(w, h, 16, |film| {
         let (o, d) = primary(&cam, film);
         match first_hit(&solids, o, d) {
-            Some((i, hit)) if !blocked(&solids, i, hit.p, l) => {
-                diffuse_point_light(albedo as f64, hit.p, hit.n, o, l, intensity as f64)
+            Some((i, hit)) if !blocked(&solids, i, hit.point, l) => {
+                diffuse_point_light(albedo as f64, hit.point, hit.normal, o, l, intensity as f64)
             }
             _ => 0.0,
         }
@@ -50,9 +50,9 @@ fn at(lab: &Lab, shift: Vec3) -> Result<Verdict, CheckError> {
     Ok(against_reference(&film, &reference, spp, 0.05, 0.001))
 }
 
-pub fn run(lab: &Lab) -> Result<Verdict, CheckError> {
-    let origin = at(lab, Vec3::ZERO)?;
-    let away = at(lab, Vec3::new(431.7, -287.3, 702.9))?;
+pub fn check(run: &CaseRun) -> Result<Verdict, CheckError> {
+    let origin = at(run, Vec3::ZERO)?;
+    let away = at(run, Vec3::new(431.7, -287.3, 702.9))?;
     let worst = if origin.error >= away.error { &origin } else { &away };
     Ok(Verdict {
         detail: format!("at the origin: {}; 873 units away: {}", origin.detail, away.detail),

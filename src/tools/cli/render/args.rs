@@ -64,7 +64,7 @@ pub struct RenderArgs {
     /// Run the general kernel instead of the one specialised to the scene's effects.
     #[arg(long)]
     pub no_specialize: bool,
-    /// Estimator: nee-mis (default), nee, bsdf, bsdf-uniform.
+    /// Estimator: nee-mis, nee, bsdf or bsdf-uniform.
     #[arg(long, default_value = "nee-mis")]
     pub estimator: Estimator,
     /// Fail (exit 2, no image written) if any sample was NaN or infinite.

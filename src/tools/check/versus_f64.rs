@@ -1,5 +1,5 @@
 //! Ray by ray: do an accelerator's answers (which shape, at what distance) agree with double
-//! precision?
+//! precision (the f64 shapes of [`super::analytic`])?
 //!
 //! f32 arithmetic decides hit or miss correctly only for rays farther from a silhouette,
 //! edge or face plane than its rounding error. So each ray is also traced, in double
@@ -15,9 +15,9 @@ use crate::accel::{Accel, AccelError};
 use crate::geometry::Ray;
 use glam::DVec3;
 
-/// What the comparison found.
+/// How far the accelerators' answers agree with the f64 reference ([`compare_with_f64`]).
 #[derive(Clone, Debug, Default)]
-pub struct Agreement {
+pub struct AgreementWithF64 {
     pub checked: u64,
     pub ambiguous: u64,
     pub wrong: u64,
@@ -31,7 +31,7 @@ pub struct Agreement {
     pub by_accel: Vec<(&'static str, u64, f64)>,
 }
 
-impl Agreement {
+impl AgreementWithF64 {
     pub fn summary(&self) -> String {
         let each: Vec<String> = self.by_accel.iter().map(|(n, w, t)| format!("{n} {w} wrong, {t:.1e}")).collect();
         format!(
@@ -48,14 +48,17 @@ impl Agreement {
 
 /// Compares `accels` (geometry i is `solids[i]`) on `rays`; `delta(ray)` is the origin
 /// perturbation that covers f32 rounding for that ray.
-pub fn agree(
+pub fn compare_with_f64(
     accels: &[&dyn Accel],
     solids: &[Solid],
     rays: &[Ray],
     delta: impl Fn(&Ray) -> f64,
-) -> Result<Agreement, AccelError> {
+) -> Result<AgreementWithF64, AccelError> {
     let jiggles = [DVec3::new(0.7, 0.5, 0.3).normalize(), DVec3::new(-0.3, 0.8, -0.5).normalize()];
-    let mut a = Agreement { by_accel: accels.iter().map(|x| (x.name(), 0, 0.0)).collect(), ..Agreement::default() };
+    let mut a = AgreementWithF64 {
+        by_accel: accels.iter().map(|x| (x.name(), 0, 0.0)).collect(),
+        ..AgreementWithF64::default()
+    };
     for ray in rays {
         let (o, d) = (ray.o.as_dvec3(), ray.d.as_dvec3());
         let dl = delta(ray);
@@ -155,15 +158,15 @@ mod tests {
         let solids = [Solid::Sphere { center: DVec3::new(0.0, 0.0, -5.0), radius: 1.0 }];
         let rays: Vec<Ray> = (0..41).map(|i| Ray::new(Vec3::new(i as f32 * 0.05 - 1.0, 0.3, 0.0), -Vec3::Z)).collect();
         let naive = NaiveAccel::new(&geometry);
-        let a = agree(&[&naive], &solids, &rays, |_| float_steps(6.0)).unwrap();
+        let a = compare_with_f64(&[&naive], &solids, &rays, |_| float_steps(6.0)).unwrap();
         assert_eq!((a.wrong, a.nonfinite), (0, 0), "{}", a.summary());
         assert!(a.checked >= 39 && a.worst_t < 1e-6, "{}", a.summary());
         let long = Long(NaiveAccel::new(&geometry));
-        let b = agree(&[&long], &solids, &rays, |_| float_steps(6.0)).unwrap();
+        let b = compare_with_f64(&[&long], &solids, &rays, |_| float_steps(6.0)).unwrap();
         assert!(b.worst_t > 0.009, "{}", b.summary());
         // Against the wrong shape: every hit is wrong.
         let elsewhere = [Solid::Sphere { center: DVec3::new(0.0, 0.0, -5.0), radius: 0.5 }];
-        let c = agree(&[&naive], &elsewhere, &rays, |_| float_steps(6.0)).unwrap();
+        let c = compare_with_f64(&[&naive], &elsewhere, &rays, |_| float_steps(6.0)).unwrap();
         assert!(c.wrong > 10, "{}", c.summary());
     }
 }

@@ -18,9 +18,9 @@ use crate::film::Film;
 /// more in absolute rather than relative terms.
 pub const REL_MSE_EPSILON: f64 = 1e-2;
 
-/// The error of an image against a reference.
+/// How far an image is from a reference: a measurement, not a failure.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ImageError {
+pub struct ImageDifference {
     /// Relative mean squared error (see the module documentation).
     pub rel_mse: f64,
     /// Mean absolute error, in radiance units.
@@ -33,7 +33,7 @@ pub struct ImageError {
 pub struct SizeMismatch(pub u32, pub u32, pub u32, pub u32);
 
 /// relMSE and MAE of `image` against `reference` (sums in f64).
-pub fn image_error(image: &Film, reference: &Film) -> Result<ImageError, SizeMismatch> {
+pub fn image_difference(image: &Film, reference: &Film) -> Result<ImageDifference, SizeMismatch> {
     if (image.width, image.height) != (reference.width, reference.height) {
         return Err(SizeMismatch(image.width, image.height, reference.width, reference.height));
     }
@@ -47,7 +47,7 @@ pub fn image_error(image: &Film, reference: &Film) -> Result<ImageError, SizeMis
         }
     }
     let n = (3 * image.pixels.len()).max(1) as f64;
-    Ok(ImageError { rel_mse: rel / n, mae: abs / n })
+    Ok(ImageDifference { rel_mse: rel / n, mae: abs / n })
 }
 
 #[cfg(test)]
@@ -62,7 +62,7 @@ mod tests {
     #[test]
     fn identical_images_have_zero_error() {
         let a = film(&[Vec3::new(0.2, 3.0, 0.0), Vec3::ONE]);
-        assert_eq!(image_error(&a, &a).unwrap(), ImageError { rel_mse: 0.0, mae: 0.0 });
+        assert_eq!(image_difference(&a, &a).unwrap(), ImageDifference { rel_mse: 0.0, mae: 0.0 });
     }
 
     #[test]
@@ -74,7 +74,7 @@ mod tests {
         let e = REL_MSE_EPSILON;
         let rel = (0.01 / (1.0 + e) + 0.09 / e + 0.04 / (4.0 + e) + 0.0 + 0.25 / (0.25 + e) + 0.25 / (0.25 + e)) / 6.0;
         let mae = (0.1 + 0.3 + 0.2 + 0.0 + 0.5 + 0.5) / 6.0;
-        let got = image_error(&x, &r).unwrap();
+        let got = image_difference(&x, &r).unwrap();
         assert!((got.rel_mse - rel).abs() < 1e-6 * rel, "{} vs {rel}", got.rel_mse);
         assert!((got.mae - mae).abs() < 1e-6, "{} vs {mae}", got.mae);
     }
@@ -85,7 +85,7 @@ mod tests {
         for scale in [10.0f32, 1000.0] {
             let r = film(&[Vec3::splat(scale); 4]);
             let x = film(&[Vec3::splat(scale * 1.1); 4]);
-            let got = image_error(&x, &r).unwrap().rel_mse;
+            let got = image_difference(&x, &r).unwrap().rel_mse;
             assert!((got - 0.01).abs() < 1e-4, "scale {scale}: {got}");
         }
     }
@@ -94,6 +94,6 @@ mod tests {
     fn refuses_images_of_different_sizes() {
         let a = film(&[Vec3::ONE; 4]);
         let b = Film::new(2, 2);
-        assert_eq!(image_error(&a, &b).unwrap_err().to_string(), "image is 4x1 but the reference is 2x2");
+        assert_eq!(image_difference(&a, &b).unwrap_err().to_string(), "image is 4x1 but the reference is 2x2");
     }
 }

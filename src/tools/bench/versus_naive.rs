@@ -12,9 +12,9 @@ use super::rays::Query;
 use crate::accel::{Accel, AccelError};
 use crate::geometry::{Geometry, Hit, Ray, WatertightRay};
 
-/// The outcome of a comparison.
+/// How far a strategy's answers agree with the naive loop's ([`compare_with_naive`]).
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Agreement {
+pub struct AgreementWithNaive {
     pub checked: usize,
     pub mismatches: usize,
     /// Mismatches at a triangle edge or a grazing hit.
@@ -30,15 +30,16 @@ const EXAMPLES: usize = 3;
 /// Compares `candidate`'s answers with the reference ones on `queries`. For an occlusion
 /// mismatch, the blocker is found by a closest-hit query on the accelerator that reported it,
 /// to tell whether it is an edge case.
-pub fn compare(
+pub fn compare_with_naive(
     geometry: &[Geometry],
     queries: &[Query],
     reference: &[Answer],
     reference_accel: &dyn Accel,
     candidate: &[Answer],
     candidate_accel: &dyn Accel,
-) -> Result<Agreement, AccelError> {
-    let mut a = Agreement { checked: queries.len().min(reference.len()).min(candidate.len()), ..Default::default() };
+) -> Result<AgreementWithNaive, AccelError> {
+    let mut a =
+        AgreementWithNaive { checked: queries.len().min(reference.len()).min(candidate.len()), ..Default::default() };
     for ((q, r), c) in queries.iter().zip(reference).zip(candidate) {
         let (edge, what) = match (r, c) {
             (Answer::Closest(None), Answer::Closest(None)) => continue,

@@ -12,14 +12,15 @@ use glam::{Vec2, Vec3};
 use std::path::Path;
 use std::sync::{Arc, OnceLock};
 
-/// A scene under construction.
-pub struct Stage {
+/// Builds a hard case's scene in code: materials, shapes, lights, background, camera.
+/// (Not [`crate::embree::SceneBuilder`], which builds an Embree scene.)
+pub struct CaseSceneBuilder {
     scene: Scene,
 }
 
-impl Stage {
-    pub fn new(name: &str) -> Stage {
-        Stage { scene: Scene::empty(format!("check:{name}")) }
+impl CaseSceneBuilder {
+    pub fn new(name: &str) -> CaseSceneBuilder {
+        CaseSceneBuilder { scene: Scene::empty(format!("check:{name}")) }
     }
 
     /// Adds a material; returns its id.

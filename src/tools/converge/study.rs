@@ -1,0 +1,195 @@
+//! Running a study: the spp ladder, the seeds, the renders of the reference and of each
+//! variant at each rung, and the error of each render against the reference.
+//!
+//! Seeds: the reference is rendered with the study's seed itself; the render at rung k,
+//! repeat j uses an unrelated seed derived from it ([`Study::render_seed`]), so no render
+//! shares random numbers with the reference (a render whose samples were a prefix of the
+//! reference's would look more accurate than it is). All variants use the same seed at the
+//! same rung (common random numbers), which makes their curves easier to compare.
+
+use super::metrics::{ImageDifference, SizeMismatch, image_difference};
+use super::variant::Variant;
+use crate::accel::Accel;
+use crate::film::Film;
+use crate::integrator::{Estimator, RenderError, RenderSettings, RenderStats, RrDepth, render};
+use crate::sampler::mix64;
+use crate::scene::Scene;
+use std::path::{Path, PathBuf};
+
+/// 1, 2, 4, … up to `max_spp` (and `max_spp` itself when it is not a power of two).
+pub fn spp_ladder(max_spp: u32) -> Vec<u32> {
+    let mut ladder: Vec<u32> = (0..32).map(|k| 1u32 << k).take_while(|&s| s <= max_spp).collect();
+    if ladder.last() != Some(&max_spp) && max_spp > 0 {
+        ladder.push(max_spp);
+    }
+    ladder
+}
+
+/// What a study renders and how.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Study {
+    pub width: u32,
+    pub height: u32,
+    /// The full depth: that of the reference and of every variant without its own depth.
+    pub max_depth: u32,
+    /// Where Russian roulette starts when a variant has it on (and for the reference).
+    pub rr_depth: u32,
+    pub seed: u64,
+    pub threads: Option<usize>,
+    /// The spp of the measured renders, increasing.
+    pub ladder: Vec<u32>,
+    /// Renders per rung with different seeds; their errors and times are averaged.
+    pub repeats: u32,
+}
+
+/// One point of a variant's convergence curve: its error and cost at one spp, averaged over
+/// the study's repeats.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConvergencePoint {
+    pub variant: Variant,
+    pub spp: u32,
+    /// Mean render time ([`RenderStats::elapsed`]: the render only, not the BVH build).
+    pub seconds: f64,
+    /// Mean rays traced per render.
+    pub rays: f64,
+    /// Mean error against the reference.
+    pub error: ImageDifference,
+    /// Non-finite samples the renders dropped, in total.
+    pub nonfinite: u64,
+}
+
+#[cfg(test)]
+impl ConvergencePoint {
+    /// A full-depth NEE+MIS point with relMSE `rel_mse` (and nothing else measured), for the
+    /// tests of what reads points.
+    pub(crate) fn nee_mis(spp: u32, seconds: f64, rel_mse: f64) -> ConvergencePoint {
+        ConvergencePoint {
+            variant: Variant::new(Estimator::NeeMis),
+            spp,
+            seconds,
+            rays: 0.0,
+            error: ImageDifference { rel_mse, mae: 0.0 },
+            nonfinite: 0,
+        }
+    }
+}
+
+/// Why a study could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum ConvergeError {
+    #[error("{}: reference is {}x{} pixels but the study renders {}x{}", path.display(), found.0, found.1, expected.0, expected.1)]
+    ReferenceSize { path: PathBuf, found: (u32, u32), expected: (u32, u32) },
+    #[error("{}: reference pixel ({x}, {y}) is not finite", path.display())]
+    ReferenceNotFinite { path: PathBuf, x: u32, y: u32 },
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error(transparent)]
+    Size(#[from] SizeMismatch),
+}
+
+impl Study {
+    /// The render settings of `variant` at `spp` with `seed`.
+    pub fn settings(&self, variant: &Variant, spp: u32, seed: u64) -> RenderSettings {
+        RenderSettings {
+            width: self.width,
+            height: self.height,
+            spp,
+            max_depth: variant.max_depth.unwrap_or(self.max_depth),
+            rr_depth: if variant.russian_roulette { RrDepth::After(self.rr_depth) } else { RrDepth::Off },
+            seed,
+            threads: self.threads,
+            estimator: variant.estimator,
+            ..RenderSettings::default()
+        }
+    }
+
+    /// The reference's settings: NEE+MIS at full depth with Russian roulette, the study's seed.
+    pub fn reference_settings(&self, spp: u32) -> RenderSettings {
+        self.settings(&Variant::new(Estimator::NeeMis), spp, self.seed)
+    }
+
+    /// The seed of the render at rung `rung` (index into the ladder), repeat `repeat`.
+    pub fn render_seed(&self, rung: usize, repeat: u32) -> u64 {
+        // "converge" in ASCII: the derived seeds are unrelated to small seeds given by hand.
+        mix64(self.seed ^ 0x636f_6e76_6572_6765).wrapping_add(rung as u64 * self.repeats as u64 + repeat as u64)
+    }
+
+    /// Renders the reference at `spp`.
+    pub fn render_reference(
+        &self,
+        scene: &Scene,
+        accel: &dyn Accel,
+        spp: u32,
+    ) -> Result<(Film, RenderStats), RenderError> {
+        render(scene, accel, &self.reference_settings(spp))
+    }
+
+    /// Refuses a reference (read from `path`) that does not fit the study: another size, or a
+    /// non-finite pixel.
+    pub fn check_reference(&self, path: &Path, reference: &Film) -> Result<(), ConvergeError> {
+        if (reference.width, reference.height) != (self.width, self.height) {
+            return Err(ConvergeError::ReferenceSize {
+                path: path.to_path_buf(),
+                found: (reference.width, reference.height),
+                expected: (self.width, self.height),
+            });
+        }
+        if let Some(i) = reference.pixels.iter().position(|p| !p.is_finite()) {
+            let (x, y) = (i as u32 % reference.width, i as u32 / reference.width);
+            return Err(ConvergeError::ReferenceNotFinite { path: path.to_path_buf(), x, y });
+        }
+        Ok(())
+    }
+
+    /// Renders `variant` at every rung of the ladder and measures it against `reference`;
+    /// `on_point` sees each point as it is measured.
+    pub fn measure(
+        &self,
+        scene: &Scene,
+        accel: &dyn Accel,
+        reference: &Film,
+        variant: Variant,
+        mut on_point: impl FnMut(&ConvergencePoint),
+    ) -> Result<Vec<ConvergencePoint>, ConvergeError> {
+        let repeats = self.repeats.max(1);
+        let mut out = Vec::with_capacity(self.ladder.len());
+        for (rung, &spp) in self.ladder.iter().enumerate() {
+            let mut m = ConvergencePoint {
+                variant,
+                spp,
+                seconds: 0.0,
+                rays: 0.0,
+                error: ImageDifference::default(),
+                nonfinite: 0,
+            };
+            for repeat in 0..repeats {
+                let (film, stats) =
+                    render(scene, accel, &self.settings(&variant, spp, self.render_seed(rung, repeat)))?;
+                let e = image_difference(&film, reference)?;
+                m.seconds += stats.elapsed.as_secs_f64();
+                m.rays += stats.rays as f64;
+                m.error.rel_mse += e.rel_mse;
+                m.error.mae += e.mae;
+                m.nonfinite += stats.nonfinite;
+            }
+            let r = repeats as f64;
+            (m.seconds, m.rays, m.error.rel_mse, m.error.mae) =
+                (m.seconds / r, m.rays / r, m.error.rel_mse / r, m.error.mae / r);
+            on_point(&m);
+            out.push(m);
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ladder_is_powers_of_two_up_to_the_maximum() {
+        assert_eq!(spp_ladder(1), vec![1]);
+        assert_eq!(spp_ladder(16), vec![1, 2, 4, 8, 16]);
+        assert_eq!(spp_ladder(20), vec![1, 2, 4, 8, 16, 20]);
+    }
+}

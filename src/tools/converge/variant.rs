@@ -1,0 +1,115 @@
+//! The estimator variants a study compares, and the syntax that names them
+//! (`ESTIMATOR[/no-rr][/depth=D]` and the groups `estimators`, `no-rr`, `depth`, `all`).
+
+use crate::integrator::Estimator;
+
+/// The depths of the `depth` variant group: each compared to the full-depth reference, so
+/// their curves flatten at the bias of cutting paths short.
+pub const DEPTH_GROUP: std::ops::RangeInclusive<u32> = 1..=10;
+
+/// One way of estimating the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Variant {
+    pub estimator: Estimator,
+    /// Russian roulette on (after the study's `rr_depth` bounces) or off.
+    pub russian_roulette: bool,
+    /// Bounce limit; `None`: the study's full depth (that of the reference).
+    pub max_depth: Option<u32>,
+}
+
+impl Variant {
+    pub const fn new(estimator: Estimator) -> Variant {
+        Variant { estimator, russian_roulette: true, max_depth: None }
+    }
+
+    /// `ESTIMATOR[/no-rr][/depth=D]`, e.g. `nee-mis`, `bsdf/no-rr`, `nee-mis/depth=3`; the
+    /// same syntax is accepted by [`parse_variants`].
+    pub fn name(&self) -> String {
+        let mut s = self.estimator.name().to_string();
+        if !self.russian_roulette {
+            s.push_str("/no-rr");
+        }
+        if let Some(d) = self.max_depth {
+            s.push_str(&format!("/depth={d}"));
+        }
+        s
+    }
+}
+
+impl std::str::FromStr for Variant {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Variant, String> {
+        let mut parts = s.split('/');
+        let estimator: Estimator = parts.next().unwrap_or_default().parse()?;
+        let mut v = Variant::new(estimator);
+        for part in parts {
+            if part == "no-rr" {
+                v.russian_roulette = false;
+            } else if let Some(d) = part.strip_prefix("depth=") {
+                v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
+            } else {
+                return Err(format!("variant {s:?}: unknown option {part:?} (expected no-rr or depth=D)"));
+            }
+        }
+        Ok(v)
+    }
+}
+
+/// Parses a comma-separated list of variants and groups:
+/// - `estimators`: the four estimators at full depth with Russian roulette;
+/// - `no-rr`: the four estimators at full depth without Russian roulette;
+/// - `depth`: NEE+MIS with Russian roulette at each depth of [`DEPTH_GROUP`] below `full_depth`;
+/// - `all`: the three groups;
+/// - or one variant, `ESTIMATOR[/no-rr][/depth=D]` (see [`Variant::name`]).
+///
+/// Duplicates are dropped; the order is kept.
+pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, String> {
+    let mut out: Vec<Variant> = Vec::new();
+    for item in list.split(',').map(str::trim) {
+        let group: Vec<Variant> = match item {
+            "estimators" => Estimator::ALL.into_iter().map(Variant::new).collect(),
+            "no-rr" => {
+                Estimator::ALL.into_iter().map(|e| Variant { russian_roulette: false, ..Variant::new(e) }).collect()
+            }
+            "depth" => DEPTH_GROUP
+                .filter(|&d| d < full_depth)
+                .map(|d| Variant { max_depth: Some(d), ..Variant::new(Estimator::NeeMis) })
+                .collect(),
+            "all" => parse_variants("estimators,no-rr,depth", full_depth)?,
+            "" => return Err("empty variant in the list".into()),
+            spec => vec![spec.parse()?],
+        };
+        for v in group {
+            if !out.contains(&v) {
+                out.push(v);
+            }
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn variant_names_round_trip() {
+        for v in parse_variants("all", 64).unwrap() {
+            assert_eq!(v.name().parse::<Variant>().unwrap(), v);
+        }
+        let v: Variant = "bsdf-uniform/no-rr/depth=3".parse().unwrap();
+        assert_eq!(v, Variant { estimator: Estimator::BsdfUniform, russian_roulette: false, max_depth: Some(3) });
+    }
+
+    #[test]
+    fn groups_expand_and_duplicates_are_dropped() {
+        let all = parse_variants("all", 64).unwrap();
+        assert_eq!(all.len(), 4 + 4 + 10);
+        assert_eq!(parse_variants("nee-mis,estimators,nee-mis", 64).unwrap().len(), 4);
+        // Depths at or beyond the full depth are not in the group.
+        assert_eq!(parse_variants("depth", 4).unwrap().len(), 3);
+        assert!(parse_variants("nee-mis/fast", 64).unwrap_err().contains("unknown option \"fast\""));
+        assert!(parse_variants("mis", 64).unwrap_err().contains("unknown estimator"));
+        assert!(parse_variants("nee,,bsdf", 64).is_err());
+    }
+}
