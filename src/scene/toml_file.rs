@@ -28,6 +28,8 @@ struct SceneFileReader<'a> {
     text: &'a str,
     dir: PathBuf,
     images: HashMap<PathBuf, Arc<Image>>,
+    /// Files read so far, for [`Scene::inputs`].
+    inputs: Vec<PathBuf>,
 }
 
 impl SceneFileReader<'_> {
@@ -46,6 +48,7 @@ impl SceneFileReader<'_> {
         }
         let img = Image::load(&p).map_err(|e| self.err_at(span, format!("texture {}: {e}", p.display())))?;
         let img = Arc::new(img);
+        self.inputs.push(p.clone());
         self.images.insert(p, img.clone());
         Ok(img)
     }
@@ -80,6 +83,7 @@ pub(super) fn from_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
         text,
         dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
         images: HashMap::new(),
+        inputs: vec![path.to_path_buf()],
     };
     let mut scene = Scene::empty(path);
     scene.render = render_defaults(&file.render);
@@ -111,6 +115,7 @@ pub(super) fn from_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
             }
         })?;
         scene.warnings.extend(loaded.warnings.iter().cloned());
+        ctx.inputs.push(mesh_path.clone());
         let transform = mesh_transform(&ctx, m)?;
         let over = m.material.as_ref().map(|n| lookup(&ctx, n)).transpose()?;
         let first = scene.materials.len() as u32;
@@ -236,6 +241,7 @@ pub(super) fn from_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
     if scene.geometry.is_empty() {
         return Err(SceneError::new(path, None, "the scene has no geometry (meshes, quads, spheres or cylinders)"));
     }
+    scene.inputs = ctx.inputs;
     Ok(scene)
 }
 

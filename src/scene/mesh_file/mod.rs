@@ -81,6 +81,7 @@ pub fn scene_of(path: &Path) -> Result<Scene, SceneError> {
     let file = load(path)?;
     let mut scene = Scene::empty(path);
     scene.warnings = file.warnings;
+    scene.inputs.push(path.to_path_buf());
     let first = scene.materials.len() as u32;
     scene.materials.extend(file.materials);
     for m in file.meshes {
