@@ -64,12 +64,12 @@ fn interrupted_and_resumed_renders_equal_the_uninterrupted_one() {
     let full_rays = rays_traced(&done.stderr);
 
     // SIGTERM: the render finishes the pixels in flight, writes its checkpoint, says how to
-    // resume, exits 130 and writes no image.
+    // resume, exits 143 (128 + SIGTERM) and writes no image.
     let out = dir.join("interrupted.exr");
     let ckpt = dir.join("interrupted.exr.checkpoint");
     let run = start_and_signal(&out, &["--threads", "2"], Duration::from_millis(700), "TERM");
     let msg = String::from_utf8_lossy(&run.stderr);
-    assert_eq!(run.status.code(), Some(130), "{msg}");
+    assert_eq!(run.status.code(), Some(143), "{msg}");
     assert!(msg.contains("checkpoint written to") && msg.contains("--resume"), "{msg}");
     assert!(ckpt.exists() && !out.exists());
     let partial = Checkpoint::load(&ckpt).unwrap();

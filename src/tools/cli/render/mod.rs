@@ -20,6 +20,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     ImageFormat::from_path(&args.output)?;
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
     crate::atomic_write::check_writable(&args.output)?;
+    // From here a signal stops the render cleanly (or, before it starts, ends ember without
+    // writing anything).
+    interrupt::install_handler();
     let scene = Scene::load(&args.scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
@@ -46,7 +49,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let plan = RenderPlan::new(&scene, &settings);
     eprintln!("{}", plan.effects);
     eprintln!("{plan}");
-    interrupt::install_handler();
+    if interrupt::STOP.load(std::sync::atomic::Ordering::SeqCst) {
+        return Err(Interrupted {
+            message: "interrupted before rendering started; nothing was written".into(),
+            signal: interrupt::signal(),
+        }
+        .into());
+    }
     let bar = ProgressBar::new("");
     let control = RenderControl {
         stop: Some(&interrupt::STOP),
@@ -60,13 +69,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let stats = result.stats;
     if !result.complete {
         let (_, mean, _) = stats.spp;
-        return Err(Interrupted(format!(
-            "interrupted after {:.1} s with {mean:.1} of {} spp done; checkpoint written to {}\nresume with: {}",
-            (stats.elapsed + stats.earlier_sessions).as_secs_f64(),
-            settings.spp,
-            checkpoint.display(),
-            interrupt::resume_command()
-        ))
+        return Err(Interrupted {
+            message: format!(
+                "interrupted after {:.1} s with {mean:.1} of {} spp done; checkpoint written to {}\nresume with: {}",
+                (stats.elapsed + stats.earlier_sessions).as_secs_f64(),
+                settings.spp,
+                checkpoint.display(),
+                interrupt::resume_command()
+            ),
+            signal: interrupt::signal(),
+        }
         .into());
     }
     let film = result.accum.film();
