@@ -635,6 +635,27 @@ fn damaged_checkpoint() {
         &args,
         &[],
         &at(&ckpt, None),
+        "not a valid ember checkpoint (28 bytes, where a checkpoint of this render has ",
+    );
+    // The right size, one bit flipped.
+    let key = common::cli_checkpoint_key(&scene, 8, 8, 1, 0);
+    let accum = ember::film::Accumulator::new(8, 8);
+    let c = ember::film::Checkpoint {
+        scene: key.scene,
+        settings: key.settings,
+        nonfinite: 0,
+        elapsed: Default::default(),
+        accum,
+    };
+    let mut bytes = c.to_bytes();
+    bytes[200] ^= 1;
+    std::fs::write(&ckpt, bytes).unwrap();
+    expect_render_error(
+        &scene,
+        &out,
+        &args,
+        &[],
+        &at(&ckpt, None),
         "not a valid ember checkpoint (checksum mismatch: truncated or damaged)",
     );
     std::fs::remove_file(&ckpt).unwrap();

@@ -5,7 +5,7 @@ mod accum;
 mod checkpoint;
 
 pub use accum::{Accumulator, PixelState, RELATIVE_ERROR_FLOOR};
-pub use checkpoint::{Checkpoint, CheckpointError, checkpoint_path};
+pub use checkpoint::{Checkpoint, CheckpointError, CheckpointKey, checkpoint_path};
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};

@@ -96,12 +96,11 @@ pub(super) fn run(
     let settings = &plan.settings;
     let (w, h) = (settings.width, settings.height);
     // Hashing the scene reads all of its data: done only when a checkpoint is read or written.
-    let fingerprint = std::sync::OnceLock::new();
-    let fingerprint = || *fingerprint.get_or_init(|| scene.fingerprint());
-    let key = plan.checkpoint_key();
+    let key = std::sync::OnceLock::new();
+    let key = || key.get_or_init(|| plan.checkpoint_key(scene.fingerprint(), &accel.image_key()));
     let (mut accum, prior_elapsed, prior_nonfinite) = match control.resume {
         Some((path, c)) => {
-            c.check_matches(path, fingerprint(), &key)?;
+            c.check_matches(path, key())?;
             (c.accum, c.elapsed, c.nonfinite)
         }
         None => (Accumulator::new(w, h), Duration::ZERO, 0),
@@ -155,9 +154,10 @@ pub(super) fn run(
     let stop_requested = || control.stop.is_some_and(|s| s.load(Ordering::Relaxed));
     let save_checkpoint = |accum: &Accumulator, nonfinite: u64| -> Result<(), RenderError> {
         if let Some((path, _)) = control.checkpoint {
+            let key = key();
             let c = Checkpoint {
-                scene: fingerprint(),
-                settings: key.clone(),
+                scene: key.scene,
+                settings: key.settings.clone(),
                 nonfinite: prior_nonfinite + nonfinite,
                 elapsed: prior_elapsed + start.elapsed(),
                 accum: accum.clone(),

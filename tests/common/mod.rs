@@ -89,3 +89,18 @@ pub fn unit_vector(rng: &mut Rng) -> Vec3 {
     let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
+
+/// The checkpoint key of `ember render SCENE --width W --height H --spp N --seed S` with the
+/// default Embree accelerator: what the command line computes.
+pub fn cli_checkpoint_key(
+    scene: &std::path::Path,
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u64,
+) -> ember::film::CheckpointKey {
+    let scene = Scene::load(scene).unwrap();
+    let settings = RenderSettings { width, height, spp, seed, ..RenderSettings::from_scene(&scene.render) };
+    let accel = ember::accel::AccelKind::Embree.image_key(BuildOptions::default());
+    ember::integrator::RenderPlan::new(&scene, &settings).checkpoint_key(scene.fingerprint(), &accel)
+}

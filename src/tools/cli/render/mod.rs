@@ -30,8 +30,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let settings = args::settings(&args, &scene)?;
     memory_check::check(&args.scene, &scene, args.accel, Some((settings.width, settings.height)), &limit)?;
     let checkpoint = checkpoint_path(&args.output);
+    let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
+    let plan = RenderPlan::new(&scene, &settings);
     let resume = if args.resume {
-        let c = Checkpoint::load(&checkpoint)?;
+        // Checked against this render before anything is read: size, scene, settings,
+        // accelerator, contents.
+        let key = plan.checkpoint_key(scene.fingerprint(), &args.accel.image_key(bvh));
+        let c = Checkpoint::load(&checkpoint, &key)?;
         let (_, mean, _) = c.accum.spp_range();
         eprintln!("resuming from {} ({mean:.1} of {} spp done)", checkpoint.display(), settings.spp);
         Some((checkpoint.as_path(), c))
@@ -44,9 +49,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None
     };
-    let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
     let accel = args.accel.build_with(&scene.geometry, bvh)?;
-    let plan = RenderPlan::new(&scene, &settings);
     eprintln!("{}", plan.effects);
     eprintln!("{plan}");
     if interrupt::STOP.load(std::sync::atomic::Ordering::SeqCst) {
