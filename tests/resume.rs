@@ -2,7 +2,7 @@
 //! checkpoints) and resumed ends in the same image, bit for bit, as an uninterrupted one; a
 //! checkpoint for other settings, another scene or another accelerator is refused, and so is
 //! one whose header or contents could not have come from the render (however its checksum
-//! was made).
+//! was made); a periodic checkpoint that cannot be written is a warning.
 
 mod common;
 
@@ -12,7 +12,7 @@ use ember::film::{Accumulator, Checkpoint, CheckpointError, CheckpointKey, Film}
 use ember::integrator::{RenderControl, RenderError, RenderPlan, RenderSettings, render, render_controlled};
 use ember::scene::Scene;
 use std::io::{BufRead, BufReader};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
@@ -299,5 +299,71 @@ fn resume_refuses_checkpoints_that_lie() {
     std::fs::remove_file(&ckpt).unwrap();
     std::fs::create_dir(&ckpt).unwrap();
     expect_refused(&out, &[], "cannot read checkpoint: is a directory");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_periodic_checkpoint_that_cannot_be_written_is_a_warning() {
+    let dir = common::fresh_dir("resume", "periodic");
+    let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
+    let device = Device::new().unwrap();
+    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+    let settings = RenderSettings { width: 16, height: 12, spp: 4, ..Default::default() };
+    let plan = RenderPlan::new(&scene, &settings);
+    // Its folder does not exist: every write fails (as on a full disk).
+    let ckpt: PathBuf = dir.join("gone").join("x.exr.checkpoint");
+    let control = RenderControl { checkpoint: Some((&ckpt, Some(Duration::ZERO))), ..Default::default() };
+    let r = render_controlled(&scene, &accel, &plan, control).unwrap();
+    assert!(r.complete);
+    assert_eq!(r.accum.film(), render(&scene, &accel, &settings).unwrap().0);
+    assert_eq!(r.warnings.len(), 1, "one warning for all the failures: {:?}", r.warnings);
+    let w = &r.warnings[0];
+    let (failed, tried) = w.split_once(" periodic").unwrap().0.split_once(" of ").unwrap();
+    assert_eq!(failed, tried, "{w}");
+    assert!(failed.parse::<u32>().unwrap() > 0, "{w}");
+    assert!(
+        w.ends_with(&format!(
+            "could not be written; the render went on without them (first failure: {}: cannot write: folder {} does not exist)",
+            ckpt.display(),
+            dir.join("gone").display()
+        )),
+        "{w}"
+    );
+    // The checkpoint written when a render stops is what resuming needs: failing is an error.
+    let stop = AtomicBool::new(true);
+    let control = RenderControl { stop: Some(&stop), checkpoint: Some((&ckpt, None)), ..Default::default() };
+    match render_controlled(&scene, &accel, &plan, control) {
+        Err(RenderError::Checkpoint(CheckpointError::Write(e))) => assert_eq!(e.path, ckpt),
+        other => panic!("expected a write error, got {:?}", other.map(|r| r.complete)),
+    }
+
+    // On the command line: the checkpoint's name becomes a folder while the render runs.
+    let out = dir.join("cli.exr");
+    let ckpt = dir.join("cli.exr.checkpoint");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ember"))
+        .arg("render")
+        .arg(common::scene_path("cornell-area.toml"))
+        .arg("-o")
+        .arg(&out)
+        .args(["--width", "32", "--height", "24", "--spp", "1000", "--checkpoint-every", "0.05s"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut seen = String::new();
+    while !seen.contains("\nkernel:") && stderr.read_line(&mut seen).unwrap() > 0 {}
+    let start = Instant::now();
+    while std::fs::create_dir(&ckpt).is_err() {
+        let _ = std::fs::remove_file(&ckpt);
+        assert!(start.elapsed() < Duration::from_secs(5));
+    }
+    std::io::Read::read_to_string(&mut stderr, &mut seen).unwrap();
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{seen}");
+    assert!(seen.contains("warning: ") && seen.contains(" periodic checkpoints could not be written"), "{seen}");
+    assert_eq!(seen.matches(" periodic checkpoints could not be written").count(), 1, "{seen}");
+    assert!(seen.contains(&format!("(first failure: {}: cannot write: ", ckpt.display())), "{seen}");
+    assert_eq!(Film::load_exr(&out).unwrap().width, 32);
+    assert!(ckpt.is_dir(), "a folder is not the render's to remove");
     std::fs::remove_dir_all(&dir).unwrap();
 }

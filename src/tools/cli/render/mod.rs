@@ -15,6 +15,7 @@ use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
 use crate::memory::MemoryLimit;
 use crate::scene::Scene;
+use std::path::Path;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     ImageFormat::from_path(&args.output)?;
@@ -41,7 +42,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("resuming from {} ({mean:.1} of {} spp done)", checkpoint.display(), settings.spp);
         Some((checkpoint.as_path(), c))
     } else {
-        if checkpoint.exists() {
+        if is_file(&checkpoint) {
             eprintln!(
                 "warning: {} holds an interrupted render; this render starts over (use --resume to continue it)",
                 checkpoint.display()
@@ -69,6 +70,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let result = render_controlled(&scene, accel.as_ref(), &plan, control);
     bar.finish();
     let result = result?;
+    for w in &result.warnings {
+        eprintln!("warning: {w}");
+    }
     let stats = result.stats;
     if !result.complete {
         let (_, mean, _) = stats.spp;
@@ -98,7 +102,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     film.save(&args.output)?;
-    if checkpoint.exists() {
+    // Only a regular file: a folder or a link someone put there is not ours to remove.
+    if is_file(&checkpoint) {
         std::fs::remove_file(&checkpoint)
             .map_err(|e| anyhow::anyhow!("{}: cannot remove finished checkpoint: {e}", checkpoint.display()))?;
     }
@@ -109,4 +114,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     eprintln!("{}", summary::rendered(&stats, &accel_text, &args.output));
     eprintln!("{}", summary::error_estimate(&stats));
     Ok(())
+}
+
+/// Whether `path` is a regular file itself (not a link to one).
+fn is_file(path: &Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file())
 }
