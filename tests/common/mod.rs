@@ -104,3 +104,55 @@ pub fn cli_checkpoint_key(
     let accel = ember::accel::AccelKind::Embree.image_key(BuildOptions::default());
     ember::integrator::RenderPlan::new(&scene, &settings).checkpoint_key(scene.fingerprint(), &accel)
 }
+
+/// An `ember` process started with stderr piped.
+pub struct Running {
+    pub child: std::process::Child,
+    stderr: std::io::BufReader<std::process::ChildStderr>,
+    /// What it printed to stderr so far.
+    pub seen: String,
+}
+
+impl Running {
+    /// Wraps a started `child` whose stderr was piped (and taken as `stderr`).
+    pub fn from_child(child: std::process::Child, stderr: std::process::ChildStderr) -> Running {
+        Running { child, stderr: std::io::BufReader::new(stderr), seen: String::new() }
+    }
+
+    /// Starts `c` (stderr piped) and waits until it prints a line starting with `kernel:`:
+    /// it is rendering then.
+    pub fn start_rendering(c: &mut Command) -> Running {
+        let mut child = c.stderr(std::process::Stdio::piped()).spawn().unwrap();
+        let stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+        let mut r = Running { child, stderr, seen: String::new() };
+        r.wait_for_line("kernel:");
+        r
+    }
+
+    /// Reads stderr until a line starting with `start` (panics at the end of it).
+    pub fn wait_for_line(&mut self, start: &str) {
+        use std::io::BufRead;
+        loop {
+            let mut line = String::new();
+            let n = self.stderr.read_line(&mut line).unwrap();
+            self.seen.push_str(&line);
+            assert!(n > 0, "no line starting with {start:?} in: {}", self.seen);
+            if line.trim_start_matches('\n').starts_with(start) {
+                return;
+            }
+        }
+    }
+
+    /// Sends `signal` (a name for kill: TERM, INT, KILL).
+    pub fn signal(&self, signal: &str) {
+        let status = Command::new("kill").arg(format!("-{signal}")).arg(self.child.id().to_string()).status().unwrap();
+        assert!(status.success());
+    }
+
+    /// Waits for the process; its exit status and all it printed to stderr.
+    pub fn finish(mut self) -> (std::process::ExitStatus, String) {
+        std::io::Read::read_to_string(&mut self.stderr, &mut self.seen).unwrap();
+        let status = self.child.wait().unwrap();
+        (status, self.seen)
+    }
+}

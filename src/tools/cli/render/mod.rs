@@ -14,6 +14,7 @@ use crate::embree::BuildOptions;
 use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
 use crate::memory::MemoryLimit;
+use crate::output_lock::OutputLock;
 use crate::scene::Scene;
 use std::path::Path;
 
@@ -31,6 +32,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let settings = args::settings(&args, &scene)?;
     memory_check::check(&args.scene, &scene, args.accel, Some((settings.width, settings.height)), &limit)?;
     let checkpoint = checkpoint_path(&args.output);
+    // Held until this function returns, whichever way; removes OUT.lock then.
+    let _lock = OutputLock::acquire(&args.output)?;
     let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
     let plan = RenderPlan::new(&scene, &settings);
     let resume = if args.resume {
