@@ -14,8 +14,9 @@ use crate::embree::BuildOptions;
 use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
 use crate::memory::MemoryLimit;
-use crate::output_lock::OutputLock;
+use crate::output_lock::{OutputLock, lock_path};
 use crate::scene::Scene;
+use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
@@ -32,6 +33,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let settings = args::settings(&args, &scene)?;
     memory_check::check(&args.scene, &scene, args.accel, Some((settings.width, settings.height)), &limit)?;
     let checkpoint = checkpoint_path(&args.output);
+    refuse_overwriting_inputs(
+        &scene,
+        &[(&args.output, "the image"), (&checkpoint, "the checkpoint"), (&lock_path(&args.output), "the lock file")],
+    )?;
     // Held until this function returns, whichever way; removes OUT.lock then.
     let _lock = OutputLock::acquire(&args.output)?;
     let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
@@ -122,4 +127,21 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 /// Whether `path` is a regular file itself (not a link to one).
 fn is_file(path: &Path) -> bool {
     std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file())
+}
+
+/// Refuses to write any of `outputs` (path, what it would hold) that is a file the scene reads
+/// (the same file, whatever the spelling, links followed): rendering would destroy it.
+fn refuse_overwriting_inputs(scene: &Scene, outputs: &[(&Path, &str)]) -> anyhow::Result<()> {
+    let id = |p: &Path| std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()));
+    for &(out, what) in outputs {
+        let Some(out_id) = id(out) else { continue };
+        if let Some(input) = scene.inputs.iter().find(|i| id(i) == Some(out_id)) {
+            anyhow::bail!(
+                "{}: the scene reads this file ({}); writing {what} of the render there would destroy it: choose another output",
+                out.display(),
+                input.display()
+            );
+        }
+    }
+    Ok(())
 }
