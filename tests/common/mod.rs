@@ -56,6 +56,13 @@ pub fn write_scene(group: &str, name: &str, text: &str) -> PathBuf {
     p
 }
 
+/// A 4 × 4 emitter of radiance 3e38 half a unit above a floor: next-event estimation
+/// overflows f32 (samples become infinite) and so do pixel sums.
+pub const OVERFLOW_SCENE: &str = "[camera]\nposition = [0.0, 0.3, 3.0]\nlook_at = [0.0, 0.0, 0.0]\n\
+    [materials.floor]\ntype = \"diffuse\"\n[materials.hot]\ntype = \"emissive\"\nemission = [3.0e38, 3.0e38, 3.0e38]\n\
+    [[quads]]\ncorner = [-2.0, 0.0, -2.0]\nedge1 = [0.0, 0.0, 4.0]\nedge2 = [4.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
+    [[quads]]\ncorner = [-2.0, 0.5, -2.0]\nedge1 = [4.0, 0.0, 0.0]\nedge2 = [0.0, 0.0, 4.0]\nmaterial = \"hot\"\n";
+
 /// Path of a file in `scenes/`.
 pub fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
