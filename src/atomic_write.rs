@@ -1,8 +1,21 @@
-//! Writing output files atomically: the content goes to a temporary file in the destination's
-//! folder, which is renamed over the destination only once it is complete, so a failed or
-//! interrupted write never leaves a partial file behind.
+//! Writing output files atomically and safely: the content goes to a new temporary file in the
+//! destination's folder, which is renamed over the destination only once it is complete, so a
+//! failed or interrupted write never leaves a partial file behind.
+//!
+//! Temporary files are created exclusively (`O_CREAT | O_EXCL`: never through an existing name
+//! or a symbolic link someone planted) under an unpredictable name, and written through the
+//! handle that created them, never reopened by name. The rename replaces the destination's
+//! directory entry: a symbolic link at the destination is replaced, the file it pointed to is
+//! not touched.
+//!
+//! Every temporary file is registered while it exists ([`register_live`]); a process that has
+//! to exit at once, without running destructors (a second Ctrl-C), removes them with
+//! [`remove_live_files`].
 
+use std::fs::File;
+use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard};
 
 /// Why an output file could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -12,29 +25,101 @@ pub struct WriteError {
     pub reason: String,
 }
 
-/// Calls `write` with a temporary path next to `path`, then renames it to `path`. The
-/// temporary file keeps `path`'s extension (libraries that choose the format by extension
-/// still work). On any error the temporary file is removed and `path` is untouched.
-pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), WriteError> {
+/// Paths to remove if the process exits at once (temporary files, lock files).
+static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn live() -> MutexGuard<'static, Vec<PathBuf>> {
+    LIVE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A path registered with [`register_live`]; dropping this only unregisters it (whoever
+/// created the file removes it).
+#[derive(Debug)]
+pub struct LiveFile(PathBuf);
+
+impl Drop for LiveFile {
+    fn drop(&mut self) {
+        let mut live = live();
+        if let Some(i) = live.iter().position(|p| *p == self.0) {
+            live.swap_remove(i);
+        }
+    }
+}
+
+/// Registers `path` to be removed by [`remove_live_files`] until the returned guard drops.
+pub fn register_live(path: &Path) -> LiveFile {
+    live().push(path.to_path_buf());
+    LiveFile(path.to_path_buf())
+}
+
+/// Removes every registered file, for a process about to exit without running destructors
+/// (`std::process::exit`). The registry stays locked: a write that would rename its
+/// temporary file into place waits (and never happens: the process exits), so no file is
+/// half-renamed while the process ends.
+pub fn remove_live_files() -> MutexGuard<'static, Vec<PathBuf>> {
+    remove_registered(|_| true)
+}
+
+fn remove_registered(which: impl Fn(&Path) -> bool) -> MutexGuard<'static, Vec<PathBuf>> {
+    let live = live();
+    for p in live.iter().filter(|p| which(p)) {
+        let _ = std::fs::remove_file(p);
+    }
+    live
+}
+
+/// The paths registered now (for tests).
+pub fn live_files() -> Vec<PathBuf> {
+    live().clone()
+}
+
+/// A new, empty temporary file beside `path`, created exclusively with an unpredictable name
+/// `.NAME.XXXXXX.tmp.EXT` (the destination's extension last, for tools that go by it), mode
+/// 0666 less the umask like any new file, and registered with [`register_live`].
+fn temporary_beside(path: &Path, dir: &Path, kind: &str) -> std::io::Result<(tempfile::NamedTempFile, LiveFile)> {
+    use std::os::unix::fs::PermissionsExt;
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let suffix = match path.extension() {
+        Some(ext) => format!(".{kind}.{}", ext.to_string_lossy()),
+        None => format!(".{kind}"),
+    };
+    let file = tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(&suffix)
+        .rand_bytes(10)
+        .permissions(std::fs::Permissions::from_mode(0o666))
+        .tempfile_in(dir)?;
+    let guard = register_live(file.path());
+    Ok((file, guard))
+}
+
+/// Calls `write` with a new temporary file beside `path` (see the module documentation), then
+/// flushes it to disk and renames it to `path`. On any error the temporary file is removed
+/// and `path` is untouched.
+pub fn write_atomically(path: &Path, write: impl FnOnce(&mut File) -> Result<(), String>) -> Result<(), WriteError> {
     let err = |reason: String| WriteError { path: path.to_path_buf(), reason };
     let dir = folder_of(path);
     if !dir.is_dir() {
         return Err(err(format!("folder {} does not exist", dir.display())));
     }
-    let name = path.file_name().ok_or_else(|| err("no file name".into()))?.to_string_lossy().into_owned();
-    let tmp = dir.join(format!(".{}.tmp.{name}", std::process::id()));
-    if let Err(reason) = write(&tmp) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(err(reason));
+    if path.file_name().is_none() {
+        return Err(err("no file name".into()));
     }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        err(e.to_string())
-    })
+    // Field order: the file is removed (if not persisted) before it is unregistered.
+    let (mut tmp, registered) = temporary_beside(path, dir, "tmp").map_err(|e| err(e.to_string()))?;
+    write(tmp.as_file_mut()).map_err(err)?;
+    tmp.as_file().sync_all().map_err(|e| err(e.to_string()))?;
+    // Renamed and unregistered under the registry's lock (see `remove_live_files`).
+    let mut live = live();
+    let persisted = tmp.persist(path);
+    live.retain(|p| *p != registered.0);
+    drop(live);
+    persisted.map_err(|e| err(e.error.to_string()))?;
+    Ok(())
 }
 
 /// The folder a file at `path` goes into (`.` for a bare file name).
-fn folder_of(path: &Path) -> &Path {
+pub fn folder_of(path: &Path) -> &Path {
     match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -43,7 +128,8 @@ fn folder_of(path: &Path) -> &Path {
 
 /// Fails early — before a long computation — when a file could not be written at `path`: the
 /// folder is missing or not a folder, `path` is a folder, or the folder does not accept a new
-/// file (a probe file is created and removed). [`write_atomically`] checks again when writing.
+/// file (a probe file is created, as temporary files are, and removed). [`write_atomically`]
+/// checks again when writing.
 pub fn check_writable(path: &Path) -> Result<(), WriteError> {
     let err = |reason: String| WriteError { path: path.to_path_buf(), reason };
     if path.is_dir() {
@@ -56,14 +142,93 @@ pub fn check_writable(path: &Path) -> Result<(), WriteError> {
     if !dir.is_dir() {
         return Err(err(format!("{} is not a folder", dir.display())));
     }
-    let name = path.file_name().ok_or_else(|| err("no file name".into()))?.to_string_lossy().into_owned();
-    let probe = dir.join(format!(".{name}.{}.probe", std::process::id()));
-    std::fs::OpenOptions::new().write(true).create_new(true).open(&probe).map_err(|e| err(e.to_string()))?;
-    let _ = std::fs::remove_file(&probe);
+    if path.file_name().is_none() {
+        return Err(err("no file name".into()));
+    }
+    let probe = temporary_beside(path, dir, "probe").map_err(|e| err(e.to_string()))?;
+    drop(probe);
     Ok(())
 }
 
 /// Writes `contents` to `path` atomically.
 pub fn write_file(path: &Path, contents: &[u8]) -> Result<(), WriteError> {
-    write_atomically(path, |tmp| std::fs::write(tmp, contents).map_err(|e| e.to_string()))
+    write_atomically(path, |f| f.write_all(contents).map_err(|e| e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::symlink;
+
+    fn fresh(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("ember-atomic-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn names(d: &Path) -> Vec<String> {
+        let mut v: Vec<String> =
+            std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn replaces_a_symlink_without_writing_through_it() {
+        let d = fresh("symlink");
+        let victim = d.join("victim");
+        std::fs::write(&victim, "precious").unwrap();
+        let out = d.join("out.png");
+        symlink(&victim, &out).unwrap();
+        write_file(&out, b"image").unwrap();
+        assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
+        assert!(!std::fs::symlink_metadata(&out).unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read(&out).unwrap(), b"image");
+        assert_eq!(names(&d), ["out.png", "victim"]);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn temporary_names_keep_the_extension_and_vanish_on_failure() {
+        let d = fresh("fail");
+        let out = d.join("out.exr");
+        let mut seen = None;
+        let e = write_atomically(&out, |f| {
+            f.write_all(b"partial").unwrap();
+            seen = Some(live_files());
+            Err("encoder failed".into())
+        })
+        .unwrap_err();
+        assert_eq!(e.to_string(), format!("{}: cannot write: encoder failed", out.display()));
+        let seen: Vec<PathBuf> = seen.unwrap().into_iter().filter(|p| p.starts_with(&d)).collect();
+        assert_eq!(seen.len(), 1, "{seen:?}");
+        let name = seen[0].file_name().unwrap().to_string_lossy().into_owned();
+        assert!(name.starts_with(".out.exr.") && name.ends_with(".tmp.exr"), "{name}");
+        assert!(!live_files().contains(&seen[0]), "unregistered");
+        assert!(names(&d).is_empty(), "{:?}", names(&d));
+        // A destination that cannot be replaced (a folder): the temporary file goes too.
+        std::fs::create_dir(&out).unwrap();
+        assert!(write_file(&out, b"x").is_err());
+        assert_eq!(names(&d), ["out.exr"]);
+        check_writable(&d.join("other.png")).unwrap();
+        assert_eq!(names(&d), ["out.exr"]);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_hard_exit_removes_registered_files() {
+        let d = fresh("hard-exit");
+        let (tmp, guard) = temporary_beside(&d.join("x.png"), &d, "tmp").unwrap();
+        let path = tmp.path().to_path_buf();
+        assert!(path.is_file());
+        // What the hard-exit path does (limited to this test's folder: other tests run in
+        // this process); `keep` stands for the destructor that never runs.
+        let (_file, kept) = tmp.keep().unwrap();
+        drop(remove_registered(|p| p.starts_with(&d)));
+        assert!(!kept.exists(), "{} survived", kept.display());
+        drop(guard);
+        assert!(!live_files().contains(&path));
+        std::fs::remove_dir_all(&d).unwrap();
+    }
 }

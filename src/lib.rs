@@ -20,6 +20,7 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod memory;
+pub mod output_lock;
 pub mod sampler;
 pub mod scene;
 pub mod settings;

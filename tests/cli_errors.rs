@@ -679,6 +679,27 @@ fn damaged_checkpoint() {
         &args,
         &[],
         &at(&ckpt, None),
+        "not a valid ember checkpoint (28 bytes, where a checkpoint of this render has ",
+    );
+    // The right size, one bit flipped.
+    let key = common::cli_checkpoint_key(&scene, 8, 8, 1, 0);
+    let accum = ember::film::Accumulator::new(8, 8);
+    let c = ember::film::Checkpoint {
+        scene: key.scene,
+        settings: key.settings,
+        nonfinite: 0,
+        elapsed: Default::default(),
+        accum,
+    };
+    let mut bytes = c.to_bytes();
+    bytes[200] ^= 1;
+    std::fs::write(&ckpt, bytes).unwrap();
+    expect_render_error(
+        &scene,
+        &out,
+        &args,
+        &[],
+        &at(&ckpt, None),
         "not a valid ember checkpoint (checksum mismatch: truncated or damaged)",
     );
     std::fs::remove_file(&ckpt).unwrap();
@@ -713,4 +734,66 @@ fn converge_errors() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).starts_with(&format!("{}unclosed table", at(&bad, Some(1)))), "{}", stderr(&o));
     assert!(!out.exists());
+}
+
+#[test]
+fn output_that_the_scene_reads() {
+    let d = common::fresh_dir("cli-errors", "input-output");
+    let png = |name: &str| {
+        let p = d.join(name);
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50]))
+            .write_to(&mut bytes, image::ImageFormat::Png)
+            .unwrap();
+        std::fs::write(&p, bytes.into_inner()).unwrap();
+        p
+    };
+    let tex = png("tex.png");
+    let env = png("env.png");
+    // Files that a render of o.png would write beside it (image formats go by content).
+    let ckpt_named = png("o.png.checkpoint");
+    let lock_named = png("o.png.lock");
+    std::os::unix::fs::symlink(&tex, d.join("link.png")).unwrap();
+    std::fs::create_dir(d.join("sub")).unwrap();
+    let textured =
+        |file: &str| SPHERE_OK.replace("type = \"diffuse\"", &format!("type = \"diffuse\"\ntexture = \"{file}\""));
+    let scene =
+        write(&d, "scene.toml", format!("[background]\ntype = \"image\"\nfile = \"env.png\"\n{}", textured("tex.png")));
+    let ckpt_scene = write(&d, "ckpt.toml", textured("o.png.checkpoint"));
+    let lock_scene = write(&d, "lock.toml", textured("o.png.lock"));
+    for (scene, out, what, input) in [
+        (&scene, d.join("tex.png"), "the image", &tex),
+        (&scene, d.join("link.png"), "the image", &tex),
+        (&scene, d.join("sub/../tex.png"), "the image", &tex),
+        (&scene, d.join("env.png"), "the image", &env),
+        (&ckpt_scene, d.join("o.png"), "the checkpoint", &ckpt_named),
+        (&lock_scene, d.join("o.png"), "the lock file", &lock_named),
+    ] {
+        let before: Vec<(String, Vec<u8>)> =
+            listing(&d).into_iter().map(|n| (n.clone(), std::fs::read(d.join(&n)).unwrap_or_default())).collect();
+        let o = ember(&["render", s(scene), "-o", s(&out), "--width", "8", "--height", "8", "--spp", "1"]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{}: {e}", out.display());
+        let written = match what {
+            "the image" => out.clone(),
+            "the checkpoint" => ember::film::checkpoint_path(&out),
+            _ => ember::output_lock::lock_path(&out),
+        };
+        assert_eq!(
+            e.trim(),
+            format!(
+                "error: {}: the scene reads this file ({}); writing {what} of the render there would destroy it: \
+                 choose another output",
+                written.display(),
+                input.display()
+            )
+        );
+        let after: Vec<(String, Vec<u8>)> =
+            listing(&d).into_iter().map(|n| (n.clone(), std::fs::read(d.join(&n)).unwrap_or_default())).collect();
+        assert_eq!(after, before, "{}: files changed", out.display());
+    }
+    // Another name is fine.
+    let o =
+        ember(&["render", s(&scene), "-o", s(&d.join("render.png")), "--width", "8", "--height", "8", "--spp", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
 }

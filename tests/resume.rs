@@ -1,19 +1,21 @@
 //! Interrupt and resume: a render stopped by SIGTERM (or killed outright, after periodic
 //! checkpoints) and resumed ends in the same image, bit for bit, as an uninterrupted one; a
-//! checkpoint for other settings or another scene is refused.
+//! checkpoint for other settings, another scene or another accelerator is refused, and so is
+//! one whose header or contents could not have come from the render (however its checksum
+//! was made); a periodic checkpoint that cannot be written is a warning.
 
 mod common;
 
-use ember::accel::EmbreeAccel;
+use ember::accel::{Accel, AccelKind, EmbreeAccel};
 use ember::embree::{BuildOptions, Device};
-use ember::film::{Checkpoint, CheckpointError, Film};
+use ember::film::{Accumulator, Checkpoint, CheckpointError, CheckpointKey, Film};
 use ember::integrator::{RenderControl, RenderError, RenderPlan, RenderSettings, render, render_controlled};
 use ember::scene::Scene;
 use std::io::{BufRead, BufReader};
-use std::path::Path;
-use std::process::{Command, Stdio};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
 use std::sync::atomic::AtomicBool;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// The ray count an `ember render` summary line reports.
 fn rays_traced(stderr: &[u8]) -> u64 {
@@ -30,6 +32,20 @@ fn ember(out: &Path, extra: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_ember"));
     c.arg("render").arg(common::scene_path("cornell-area.toml")).arg("-o").arg(out).args(ARGS).args(extra);
     c
+}
+
+/// The checkpoint key of `ember render cornell-area.toml --width W --height H --spp N
+/// --seed S` with the default Embree accelerator (or `accel`).
+fn cli_key(width: u32, height: u32, spp: u32, seed: u64, accel: Option<&str>) -> CheckpointKey {
+    let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
+    let settings = RenderSettings { width, height, spp, seed, ..RenderSettings::from_scene(&scene.render) };
+    let accel = accel.map_or_else(|| AccelKind::Embree.image_key(BuildOptions::default()), str::to_string);
+    RenderPlan::new(&scene, &settings).checkpoint_key(scene.fingerprint(), &accel)
+}
+
+/// The key of a render with [`ARGS`].
+fn args_key() -> CheckpointKey {
+    cli_key(32, 24, 3000, 5, None)
 }
 
 /// Starts a render, waits until it is rendering, waits `after`, sends `signal` (via kill).
@@ -64,15 +80,15 @@ fn interrupted_and_resumed_renders_equal_the_uninterrupted_one() {
     let full_rays = rays_traced(&done.stderr);
 
     // SIGTERM: the render finishes the pixels in flight, writes its checkpoint, says how to
-    // resume, exits 130 and writes no image.
+    // resume, exits 143 (128 + SIGTERM) and writes no image.
     let out = dir.join("interrupted.exr");
     let ckpt = dir.join("interrupted.exr.checkpoint");
     let run = start_and_signal(&out, &["--threads", "2"], Duration::from_millis(700), "TERM");
     let msg = String::from_utf8_lossy(&run.stderr);
-    assert_eq!(run.status.code(), Some(130), "{msg}");
+    assert_eq!(run.status.code(), Some(143), "{msg}");
     assert!(msg.contains("checkpoint written to") && msg.contains("--resume"), "{msg}");
     assert!(ckpt.exists() && !out.exists());
-    let partial = Checkpoint::load(&ckpt).unwrap();
+    let partial = Checkpoint::load(&ckpt, &args_key()).unwrap();
     let (min, _, max) = partial.accum.spp_range();
     assert!(min < 3000, "the render finished before the signal: make it longer");
     assert!(partial.accum.samples() > 0, "nothing was rendered before the signal");
@@ -90,7 +106,7 @@ fn interrupted_and_resumed_renders_equal_the_uninterrupted_one() {
     let ckpt = dir.join("crashed.exr.checkpoint");
     let run = start_and_signal(&out, &["--checkpoint-every", "0.2s"], Duration::from_millis(900), "KILL");
     assert_eq!(run.status.code(), None, "killed by a signal");
-    let saved = Checkpoint::load(&ckpt).expect("a periodic checkpoint");
+    let saved = Checkpoint::load(&ckpt, &args_key()).expect("a periodic checkpoint");
     assert!(saved.accum.samples() > 0);
     let resumed = ember(&out, &["--resume"]).output().unwrap();
     assert!(resumed.status.success(), "{}", String::from_utf8_lossy(&resumed.stderr));
@@ -114,8 +130,9 @@ fn resume_refuses_other_settings_and_other_scenes() {
     assert!(!r.complete);
     assert_eq!(r.accum.samples(), 0);
 
+    let key = RenderPlan::new(&scene, &settings).checkpoint_key(scene.fingerprint(), &accel.image_key());
     let resume_with = |scene: &Scene, s: &RenderSettings| {
-        let c = Checkpoint::load(&ckpt).unwrap();
+        let c = Checkpoint::load(&ckpt, &key).unwrap();
         let control = RenderControl { resume: Some((&ckpt, c)), ..Default::default() };
         render_controlled(scene, &accel, &RenderPlan::new(scene, s), control)
     };
@@ -148,5 +165,205 @@ fn resume_refuses_other_settings_and_other_scenes() {
     assert_eq!(run.status.code(), Some(2), "{msg}");
     assert!(msg.contains("cli.exr.checkpoint: no checkpoint to resume from"), "{msg}");
     assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Runs `c` and waits at most 30 s for it (a checkpoint path that blocks a reader must not
+/// hang the test).
+fn output_within(c: &mut Command) -> Output {
+    let mut child = c.stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+    let mut stderr = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = Vec::new();
+        std::io::Read::read_to_end(&mut stderr, &mut s).unwrap();
+        s
+    });
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > Duration::from_secs(30) {
+            child.kill().unwrap();
+            panic!("{c:?} still running after 30 s");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    Output { status, stdout: Vec::new(), stderr: reader.join().unwrap() }
+}
+
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> =
+        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+/// `ember render … -o out --resume extra…` fails at once: exit 2, an error naming the
+/// checkpoint and containing `needle`, no image, the folder (and the checkpoint in it) as it
+/// was.
+fn expect_refused(out: &Path, extra: &[&str], needle: &str) {
+    let ckpt = ember::film::checkpoint_path(out);
+    let dir = out.parent().unwrap();
+    // (Not read through a link, nor from a FIFO or device.)
+    let regular = std::fs::symlink_metadata(&ckpt).is_ok_and(|m| m.is_file());
+    let (before, bytes) = (listing(dir), if regular { std::fs::read(&ckpt).ok() } else { None });
+    let o = output_within(ember(out, extra).arg("--resume"));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{extra:?}: {e}");
+    let line = e.lines().find(|l| l.starts_with("error: ")).unwrap_or("");
+    assert!(line.starts_with(&format!("error: {}: ", ckpt.display())), "{extra:?}: {e}");
+    assert!(line.contains(needle), "{extra:?}: expected {needle:?} in {e}");
+    assert!(!out.exists(), "{extra:?}: an image was written");
+    assert_eq!(listing(dir), before, "{extra:?}");
+    if bytes.is_some() {
+        assert_eq!(std::fs::read(&ckpt).ok(), bytes, "{extra:?}: the checkpoint changed");
+    }
+}
+
+/// `c`'s bytes with the image size in its header replaced, and the checksum recomputed.
+fn with_size(c: &Checkpoint, w: u32, h: u32) -> Vec<u8> {
+    let mut b = c.to_bytes();
+    b.truncate(b.len() - 8);
+    let at = 8 + 8 + 4 + c.settings.len() + 8 + 8;
+    b[at..at + 4].copy_from_slice(&w.to_le_bytes());
+    b[at + 4..at + 8].copy_from_slice(&h.to_le_bytes());
+    let sum = ember::hash::fnv1a(&b);
+    b.extend_from_slice(&sum.to_le_bytes());
+    b
+}
+
+#[test]
+fn resume_refuses_checkpoints_that_lie() {
+    let dir = common::fresh_dir("resume", "lies");
+    let out = dir.join("out.exr");
+    let ckpt = dir.join("out.exr.checkpoint");
+    let key = args_key();
+    let good = Checkpoint {
+        scene: key.scene,
+        settings: key.settings.clone(),
+        nonfinite: 0,
+        elapsed: Duration::from_secs(1),
+        accum: Accumulator::new(32, 24),
+    };
+    good.save(&ckpt).unwrap();
+    assert_eq!(Checkpoint::load(&ckpt, &key).unwrap(), good);
+
+    // Headers that lie about the image size, with a valid checksum: as long as the real
+    // file, or as long as the lie (they panicked, or wrote an image of the wrong size).
+    for (w, h) in [(1u32, 1u32), (1 << 31, 1 << 31), (65536, 1)] {
+        let needle = format!("not a valid ember checkpoint (its image is {w}x{h} but its settings say 32x24)");
+        std::fs::write(&ckpt, with_size(&good, w, h)).unwrap();
+        expect_refused(&out, &[], &needle);
+        if (w as u64) * (h as u64) <= 65536 {
+            Checkpoint { accum: Accumulator::new(w, h), ..good.clone() }.save(&ckpt).unwrap();
+            expect_refused(&out, &[], &needle);
+        }
+    }
+    // Contents no render makes (they were accepted).
+    let with_pixel = |i: usize, edit: &dyn Fn(&mut ember::film::PixelState)| {
+        let mut c = good.clone();
+        edit(&mut c.accum.pixels[i]);
+        c.save(&ckpt).unwrap();
+    };
+    with_pixel(5, &|p| p.sum.x = f64::NAN);
+    expect_refused(&out, &[], "(pixel (5, 0): the sum of its samples is not finite ([NaN, 0, 0]))");
+    with_pixel(33, &|p| p.count = u32::MAX);
+    expect_refused(&out, &[], "(pixel (1, 1): 4294967295 samples, more than the 3000 spp of this render)");
+    with_pixel(0, &|p| {
+        p.count = 1;
+        p.sum_lum_sq = f64::INFINITY
+    });
+    expect_refused(&out, &[], "(pixel (0, 0): the sum of its squared luminances is inf");
+
+    // Another accelerator, or other BVH build options: a different estimator of the image.
+    good.save(&ckpt).unwrap();
+    for (args, needle) in [
+        (&["--accel", "naive"][..], "different settings: accel=embree in the checkpoint, accel=naive now"),
+        (&["--bvh-quality", "high"], "different settings: bvh=medium in the checkpoint, bvh=high now"),
+        (&["--no-robust"], "different settings: robust=on in the checkpoint, robust=off now"),
+    ] {
+        expect_refused(&out, args, needle);
+    }
+    let naive = cli_key(32, 24, 3000, 5, Some(&AccelKind::Naive.image_key(BuildOptions::default())));
+    Checkpoint { settings: naive.settings, ..good.clone() }.save(&ckpt).unwrap();
+    expect_refused(&out, &[], "different settings: accel=naive in the checkpoint, accel=embree now");
+
+    // Not a regular file: refused at once, never read (a FIFO blocked, /dev/zero filled memory).
+    std::fs::remove_file(&ckpt).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", &ckpt).unwrap();
+    expect_refused(&out, &[], "cannot read checkpoint: is not a regular file");
+    std::fs::remove_file(&ckpt).unwrap();
+    assert!(Command::new("mkfifo").arg(&ckpt).status().unwrap().success());
+    expect_refused(&out, &[], "cannot read checkpoint: is not a regular file");
+    std::fs::remove_file(&ckpt).unwrap();
+    std::fs::create_dir(&ckpt).unwrap();
+    expect_refused(&out, &[], "cannot read checkpoint: is a directory");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_periodic_checkpoint_that_cannot_be_written_is_a_warning() {
+    let dir = common::fresh_dir("resume", "periodic");
+    let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
+    let device = Device::new().unwrap();
+    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+    let settings = RenderSettings { width: 16, height: 12, spp: 4, ..Default::default() };
+    let plan = RenderPlan::new(&scene, &settings);
+    // Its folder does not exist: every write fails (as on a full disk).
+    let ckpt: PathBuf = dir.join("gone").join("x.exr.checkpoint");
+    let control = RenderControl { checkpoint: Some((&ckpt, Some(Duration::ZERO))), ..Default::default() };
+    let r = render_controlled(&scene, &accel, &plan, control).unwrap();
+    assert!(r.complete);
+    assert_eq!(r.accum.film(), render(&scene, &accel, &settings).unwrap().0);
+    assert_eq!(r.warnings.len(), 1, "one warning for all the failures: {:?}", r.warnings);
+    let w = &r.warnings[0];
+    let (failed, tried) = w.split_once(" periodic").unwrap().0.split_once(" of ").unwrap();
+    assert_eq!(failed, tried, "{w}");
+    assert!(failed.parse::<u32>().unwrap() > 0, "{w}");
+    assert!(
+        w.ends_with(&format!(
+            "could not be written; the render went on without them (first failure: {}: cannot write: folder {} does not exist)",
+            ckpt.display(),
+            dir.join("gone").display()
+        )),
+        "{w}"
+    );
+    // The checkpoint written when a render stops is what resuming needs: failing is an error.
+    let stop = AtomicBool::new(true);
+    let control = RenderControl { stop: Some(&stop), checkpoint: Some((&ckpt, None)), ..Default::default() };
+    match render_controlled(&scene, &accel, &plan, control) {
+        Err(RenderError::Checkpoint(CheckpointError::Write(e))) => assert_eq!(e.path, ckpt),
+        other => panic!("expected a write error, got {:?}", other.map(|r| r.complete)),
+    }
+
+    // On the command line: the checkpoint's name becomes a folder while the render runs.
+    let out = dir.join("cli.exr");
+    let ckpt = dir.join("cli.exr.checkpoint");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ember"))
+        .arg("render")
+        .arg(common::scene_path("cornell-area.toml"))
+        .arg("-o")
+        .arg(&out)
+        .args(["--width", "32", "--height", "24", "--spp", "1000", "--checkpoint-every", "0.05s"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut seen = String::new();
+    while !seen.contains("\nkernel:") && stderr.read_line(&mut seen).unwrap() > 0 {}
+    let start = Instant::now();
+    while std::fs::create_dir(&ckpt).is_err() {
+        let _ = std::fs::remove_file(&ckpt);
+        assert!(start.elapsed() < Duration::from_secs(5));
+    }
+    std::io::Read::read_to_string(&mut stderr, &mut seen).unwrap();
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{seen}");
+    assert!(seen.contains("warning: ") && seen.contains(" periodic checkpoints could not be written"), "{seen}");
+    assert_eq!(seen.matches(" periodic checkpoints could not be written").count(), 1, "{seen}");
+    assert!(seen.contains(&format!("(first failure: {}: cannot write: ", ckpt.display())), "{seen}");
+    assert_eq!(Film::load_exr(&out).unwrap().width, 32);
+    assert!(ckpt.is_dir(), "a folder is not the render's to remove");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 pub struct EmbreeAccel {
     scene: Scene,
     build_time: Duration,
+    options: BuildOptions,
 }
 
 impl EmbreeAccel {
@@ -28,7 +29,7 @@ impl EmbreeAccel {
             debug_assert_eq!(id as usize, i);
         }
         let scene = b.commit()?;
-        Ok(EmbreeAccel { scene, build_time: start.elapsed() })
+        Ok(EmbreeAccel { scene, build_time: start.elapsed(), options })
     }
 
     /// Time spent registering geometry and building the BVH.
@@ -45,6 +46,10 @@ impl EmbreeAccel {
 impl Accel for EmbreeAccel {
     fn name(&self) -> &'static str {
         "embree"
+    }
+
+    fn image_key(&self) -> String {
+        super::AccelKind::Embree.image_key(self.options)
     }
 
     #[inline(always)]

@@ -28,6 +28,13 @@ pub enum AccelError {
 pub trait Accel: Send + Sync {
     /// A short name for reports ("embree", "naive").
     fn name(&self) -> &'static str;
+    /// What about this accelerator can change the image (hits differ in the last bits between
+    /// strategies and build options), as `key=value` words for checkpoint keys:
+    /// [`AccelKind::image_key`]. A wrapper that queries another accelerator should return
+    /// that one's.
+    fn image_key(&self) -> String {
+        format!("accel={}", self.name())
+    }
     /// The closest hit with `tmin < t < tmax` (Embree: `<=` at both ends), or `None`.
     fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Result<Option<Hit>, AccelError> {
         let hit = self.intersect_deferred(ray, tmin, tmax);
@@ -118,6 +125,24 @@ impl AccelKind {
             }
             AccelKind::Naive => Box::new(NaiveAccel::new(geometry)),
         })
+    }
+}
+
+impl AccelKind {
+    /// What about this accelerator built with `options` can change the image, as `key=value`
+    /// words: `accel=embree bvh=medium robust=on compact=off`, or `accel=naive` (which has no
+    /// build options). [`Accel::image_key`] of what [`AccelKind::build_with`] returns.
+    pub fn image_key(self, options: crate::embree::BuildOptions) -> String {
+        let on = |b: bool| if b { "on" } else { "off" };
+        match self {
+            AccelKind::Embree => format!(
+                "accel=embree bvh={} robust={} compact={}",
+                options.quality,
+                on(options.robust),
+                on(options.compact)
+            ),
+            AccelKind::Naive => "accel=naive".to_string(),
+        }
     }
 }
 

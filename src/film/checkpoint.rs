@@ -2,17 +2,35 @@
 //! resumed and end in the same image, bit for bit, as an uninterrupted render.
 //!
 //! A checkpoint records what it belongs to — a scene fingerprint and a description of the
-//! image-affecting settings as `key=value` words — and resuming against anything else is
-//! refused, naming what differs. The file is binary (little-endian), ends with a checksum, and
-//! is written atomically, so a crash while writing leaves the previous checkpoint intact.
+//! image-affecting settings as `key=value` words — and is only ever read for a given render
+//! ([`CheckpointKey`]): a file that is not a regular file of exactly the size that render's
+//! checkpoint has is refused before anything is read from it, and one whose scene, settings or
+//! image size differ, or whose pixels could not have come from that render (a sum that is not
+//! finite, more samples than the render takes), is refused naming what is wrong. The file is
+//! binary (little-endian), ends with a checksum, and is written atomically, so a crash while
+//! writing leaves the previous checkpoint intact.
+//!
+//! Layout: `EMBERCK\x01`, scene (u64), settings length (u32) and text, non-finite samples
+//! (u64), elapsed nanoseconds (u64), width and height (u32), then per pixel its count (u32)
+//! and sums r, g, b and of squared luminance (f64), and the FNV-1a hash of all that (u64).
 
 use super::accum::{Accumulator, PixelState};
-use crate::hash::fnv1a;
+use crate::hash::Fnv1a;
 use glam::DVec3;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 const MAGIC: &[u8; 8] = b"EMBERCK\x01";
+/// Bytes of a pixel: count (u32) and four f64 sums.
+const PIXEL_BYTES: u64 = 36;
+/// Magic, scene and settings length: what comes before the settings text.
+const PREFIX_BYTES: u64 = 8 + 8 + 4;
+/// Non-finite count, elapsed time, width and height: between the settings and the pixels.
+const FIELDS_BYTES: u64 = 8 + 8 + 4 + 4;
+const CHECKSUM_BYTES: u64 = 8;
+/// The most of a checkpoint of the wrong size that is read, to say what it belongs to.
+const DIAGNOSIS_BYTES: u64 = 64 * 1024;
 
 /// An unfinished render.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,6 +44,30 @@ pub struct Checkpoint {
     /// Render time spent so far.
     pub elapsed: Duration,
     pub accum: Accumulator,
+}
+
+/// The render a checkpoint must belong to (`crate::integrator::RenderPlan::checkpoint_key`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CheckpointKey {
+    /// [`crate::scene::Scene::fingerprint`] of the scene.
+    pub scene: u64,
+    /// Everything else that changes the image, as space-separated `key=value` words.
+    pub settings: String,
+    pub width: u32,
+    pub height: u32,
+    /// The most samples any pixel takes.
+    pub spp: u32,
+}
+
+impl CheckpointKey {
+    /// The size in bytes of a checkpoint of this render.
+    pub fn file_size(&self) -> u64 {
+        PREFIX_BYTES
+            + self.settings.len() as u64
+            + FIELDS_BYTES
+            + self.width as u64 * self.height as u64 * PIXEL_BYTES
+            + CHECKSUM_BYTES
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -51,105 +93,337 @@ pub fn checkpoint_path(output: &Path) -> PathBuf {
     output.with_file_name(name)
 }
 
+/// A writer that hashes what goes through it.
+struct Hashing<W> {
+    inner: W,
+    hash: Fnv1a,
+}
+
+impl<W: Write> Write for Hashing<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hash.write(&buf[..n]);
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
 impl Checkpoint {
-    pub fn save(&self, path: &Path) -> Result<(), CheckpointError> {
-        let mut b = Vec::with_capacity(64 + self.settings.len() + self.accum.pixels.len() * 36);
-        b.extend_from_slice(MAGIC);
-        b.extend_from_slice(&self.scene.to_le_bytes());
-        b.extend_from_slice(&(self.settings.len() as u32).to_le_bytes());
-        b.extend_from_slice(self.settings.as_bytes());
-        b.extend_from_slice(&self.nonfinite.to_le_bytes());
-        b.extend_from_slice(&(self.elapsed.as_nanos() as u64).to_le_bytes());
-        b.extend_from_slice(&self.accum.width.to_le_bytes());
-        b.extend_from_slice(&self.accum.height.to_le_bytes());
-        for p in &self.accum.pixels {
-            b.extend_from_slice(&p.count.to_le_bytes());
-            for x in [p.sum.x, p.sum.y, p.sum.z, p.sum_lum_sq] {
-                b.extend_from_slice(&x.to_le_bytes());
-            }
+    /// The [`CheckpointKey`] this checkpoint answers to.
+    pub fn key(&self, spp: u32) -> CheckpointKey {
+        CheckpointKey {
+            scene: self.scene,
+            settings: self.settings.clone(),
+            width: self.accum.width,
+            height: self.accum.height,
+            spp,
         }
-        let sum = fnv1a(&b);
-        b.extend_from_slice(&sum.to_le_bytes());
-        crate::atomic_write::write_file(path, &b)?;
+    }
+
+    /// The checkpoint's bytes, to `out` (buffered by the caller).
+    pub fn write_to(&self, out: impl Write) -> std::io::Result<()> {
+        let mut w = Hashing { inner: out, hash: Fnv1a::default() };
+        w.write_all(MAGIC)?;
+        w.write_all(&self.scene.to_le_bytes())?;
+        w.write_all(&(self.settings.len() as u32).to_le_bytes())?;
+        w.write_all(self.settings.as_bytes())?;
+        w.write_all(&self.nonfinite.to_le_bytes())?;
+        w.write_all(&(self.elapsed.as_nanos().min(u64::MAX as u128) as u64).to_le_bytes())?;
+        w.write_all(&self.accum.width.to_le_bytes())?;
+        w.write_all(&self.accum.height.to_le_bytes())?;
+        for p in &self.accum.pixels {
+            let mut b = [0u8; PIXEL_BYTES as usize];
+            b[..4].copy_from_slice(&p.count.to_le_bytes());
+            for (i, x) in [p.sum.x, p.sum.y, p.sum.z, p.sum_lum_sq].into_iter().enumerate() {
+                b[4 + 8 * i..12 + 8 * i].copy_from_slice(&x.to_le_bytes());
+            }
+            w.write_all(&b)?;
+        }
+        let sum = w.hash.finish();
+        w.inner.write_all(&sum.to_le_bytes())?;
+        w.flush()
+    }
+
+    /// The checkpoint's bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut b = Vec::new();
+        self.write_to(&mut b).expect("writing to memory does not fail");
+        b
+    }
+
+    /// Writes the checkpoint to `path` atomically.
+    pub fn save(&self, path: &Path) -> Result<(), CheckpointError> {
+        crate::atomic_write::write_atomically(path, |file| {
+            let mut out = std::io::BufWriter::new(file);
+            self.write_to(&mut out).map_err(|e| e.to_string())?;
+            out.into_inner().map(|_| ()).map_err(|e| e.error().to_string())
+        })?;
         Ok(())
     }
 
-    pub fn load(path: &Path) -> Result<Checkpoint, CheckpointError> {
-        let b = std::fs::read(path).map_err(|e| match e.kind() {
-            std::io::ErrorKind::NotFound => CheckpointError::Missing(path.to_path_buf()),
-            _ => CheckpointError::Read(path.to_path_buf(), e.to_string()),
-        })?;
-        let corrupt = |why: &str| CheckpointError::Corrupt(path.to_path_buf(), why.to_string());
-        if b.len() < MAGIC.len() + 8 || &b[..8] != MAGIC {
-            return Err(corrupt("wrong header"));
+    /// Reads the checkpoint at `path` for the render `key`, and checks it belongs to it and
+    /// could have come from it ([`Checkpoint::check_matches`]). Only a regular file of exactly
+    /// [`CheckpointKey::file_size`] bytes is read (a FIFO, a device or a file of another size
+    /// is refused before reading it, save a little of the latter to say what it is for).
+    pub fn load(path: &Path, key: &CheckpointKey) -> Result<Checkpoint, CheckpointError> {
+        use std::os::unix::fs::OpenOptionsExt;
+        let read_err = |e: std::io::Error| CheckpointError::Read(path.to_path_buf(), e.to_string());
+        // Non-blocking: opening a FIFO must not wait for a writer (regular files ignore it).
+        let file =
+            std::fs::OpenOptions::new().read(true).custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY).open(path).map_err(
+                |e| match e.kind() {
+                    std::io::ErrorKind::NotFound => CheckpointError::Missing(path.to_path_buf()),
+                    _ => read_err(e),
+                },
+            )?;
+        let meta = file.metadata().map_err(read_err)?;
+        if meta.is_dir() {
+            return Err(CheckpointError::Read(path.to_path_buf(), "is a directory".into()));
         }
-        let (body, tail) = b.split_at(b.len() - 8);
-        if fnv1a(body) != u64::from_le_bytes(tail.try_into().unwrap_or_default()) {
-            return Err(corrupt("checksum mismatch: truncated or damaged"));
+        if !meta.is_file() {
+            return Err(CheckpointError::Read(
+                path.to_path_buf(),
+                "is not a regular file (a FIFO, socket or device?)".into(),
+            ));
         }
-        let mut r = Reader { b: body, at: 8 };
-        let scene = r.u64().ok_or_else(|| corrupt("truncated"))?;
-        let len = r.u32().ok_or_else(|| corrupt("truncated"))? as usize;
-        let settings = String::from_utf8(r.take(len).ok_or_else(|| corrupt("truncated"))?.to_vec())
-            .map_err(|_| corrupt("settings are not text"))?;
-        let nonfinite = r.u64().ok_or_else(|| corrupt("truncated"))?;
-        let elapsed = Duration::from_nanos(r.u64().ok_or_else(|| corrupt("truncated"))?);
-        let (w, h) = (r.u32().ok_or_else(|| corrupt("truncated"))?, r.u32().ok_or_else(|| corrupt("truncated"))?);
-        let n = w as usize * h as usize;
-        if r.b.len() - r.at != n * 36 {
-            return Err(corrupt("pixel data does not match the image size"));
+        let len = meta.len();
+        let mut reader = std::io::BufReader::with_capacity(1 << 16, file);
+        if len != key.file_size() {
+            let mut head = Vec::new();
+            (&mut reader).take(len.min(DIAGNOSIS_BYTES)).read_to_end(&mut head).map_err(read_err)?;
+            return Err(wrong_size(path, &head, len, key));
         }
-        let mut accum = Accumulator::new(w, h);
-        for p in &mut accum.pixels {
-            let count = r.u32().ok_or_else(|| corrupt("truncated"))?;
-            let mut f = [0.0f64; 4];
-            for x in &mut f {
-                *x = f64::from_bits(r.u64().ok_or_else(|| corrupt("truncated"))?);
-            }
-            *p = PixelState { sum: DVec3::new(f[0], f[1], f[2]), sum_lum_sq: f[3], count };
-        }
-        Ok(Checkpoint { scene, settings, nonfinite, elapsed, accum })
+        Self::read_checked(&mut reader, path, key)
     }
 
-    /// Checks that this checkpoint belongs to `scene` rendered with `settings`; the error
-    /// names every setting that differs.
-    pub fn check_matches(&self, path: &Path, scene: u64, settings: &str) -> Result<(), CheckpointError> {
-        if self.scene != scene {
+    /// [`Checkpoint::load`] from the bytes of a file (`path` names it in messages).
+    pub fn from_bytes(bytes: &[u8], path: &Path, key: &CheckpointKey) -> Result<Checkpoint, CheckpointError> {
+        let len = bytes.len() as u64;
+        if len != key.file_size() {
+            let head = &bytes[..len.min(DIAGNOSIS_BYTES) as usize];
+            return Err(wrong_size(path, head, len, key));
+        }
+        Self::read_checked(&mut &bytes[..], path, key)
+    }
+
+    /// Parses exactly `key.file_size()` bytes from `r`, then checks the checkpoint.
+    fn read_checked(r: &mut dyn Read, path: &Path, key: &CheckpointKey) -> Result<Checkpoint, CheckpointError> {
+        let corrupt = |why: String| CheckpointError::Corrupt(path.to_path_buf(), why);
+        let io = |e: std::io::Error| match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => corrupt("truncated while reading".into()),
+            _ => CheckpointError::Read(path.to_path_buf(), e.to_string()),
+        };
+        let mut hash = Fnv1a::default();
+        let mut take = |n: usize| -> Result<Vec<u8>, CheckpointError> {
+            let mut b = vec![0u8; n];
+            r.read_exact(&mut b).map_err(io)?;
+            hash.write(&b);
+            Ok(b)
+        };
+        // The file has the expected size, so the settings length is at most that.
+        let prefix = take(PREFIX_BYTES as usize)?;
+        let settings_len = u32::from_le_bytes(prefix[16..20].try_into().unwrap()) as u64;
+        let rest = key.file_size() - PREFIX_BYTES - FIELDS_BYTES - CHECKSUM_BYTES;
+        if settings_len > rest {
+            return Err(corrupt(format!("settings of {settings_len} bytes in a file that has {rest} left")));
+        }
+        let mut header_bytes = prefix;
+        header_bytes.extend(take(settings_len as usize)?);
+        header_bytes.extend(take(FIELDS_BYTES as usize)?);
+        let header = Header::parse(&header_bytes).map_err(|why| corrupt(why.into()))?;
+        if (header.width, header.height) != (key.width, key.height) || header.settings.len() != key.settings.len() {
+            // Same size, other layout: say what the header claims.
+            return Err(header.mismatch(path, key).unwrap_or_else(|| corrupt("damaged header".into())));
+        }
+        let mut accum = Accumulator::new(header.width, header.height);
+        let mut chunk = vec![0u8; 4096 * PIXEL_BYTES as usize];
+        for pixels in accum.pixels.chunks_mut(4096) {
+            let bytes = &mut chunk[..pixels.len() * PIXEL_BYTES as usize];
+            r.read_exact(bytes).map_err(io)?;
+            hash.write(bytes);
+            for (p, b) in pixels.iter_mut().zip(bytes.chunks_exact(PIXEL_BYTES as usize)) {
+                let f = |i: usize| f64::from_le_bytes(b[4 + 8 * i..12 + 8 * i].try_into().unwrap());
+                *p = PixelState {
+                    count: u32::from_le_bytes(b[..4].try_into().unwrap()),
+                    sum: DVec3::new(f(0), f(1), f(2)),
+                    sum_lum_sq: f(3),
+                };
+            }
+        }
+        let mut tail = [0u8; CHECKSUM_BYTES as usize];
+        r.read_exact(&mut tail).map_err(io)?;
+        if hash.finish() != u64::from_le_bytes(tail) {
+            return Err(corrupt("checksum mismatch: truncated or damaged".into()));
+        }
+        let c = Checkpoint {
+            scene: header.scene,
+            settings: header.settings,
+            nonfinite: header.nonfinite,
+            elapsed: header.elapsed,
+            accum,
+        };
+        c.check_matches(path, key)?;
+        Ok(c)
+    }
+
+    /// Checks that this checkpoint belongs to the render `key` (scene, settings, image size;
+    /// the error names every setting that differs) and that its contents could have come from
+    /// it: every sum finite, the sums of squares not negative, no pixel with more than
+    /// `key.spp` samples, none without samples but with sums, no more non-finite samples than
+    /// samples.
+    pub fn check_matches(&self, path: &Path, key: &CheckpointKey) -> Result<(), CheckpointError> {
+        if self.scene != key.scene {
             return Err(CheckpointError::OtherScene(path.to_path_buf()));
         }
-        if self.settings != settings {
-            let mine: Vec<&str> = self.settings.split_whitespace().collect();
-            let diffs: Vec<String> = settings
-                .split_whitespace()
-                .filter(|w| !mine.contains(w))
-                .map(|w| {
-                    let key = w.split('=').next().unwrap_or(w);
-                    let was = mine.iter().find(|m| m.split('=').next() == Some(key)).copied().unwrap_or("(absent)");
-                    format!("{was} in the checkpoint, {w} now")
-                })
-                .collect();
-            return Err(CheckpointError::OtherSettings(path.to_path_buf(), diffs.join("; ")));
+        if self.settings != key.settings {
+            return Err(CheckpointError::OtherSettings(
+                path.to_path_buf(),
+                settings_diff(&self.settings, &key.settings),
+            ));
+        }
+        let corrupt = |why: String| CheckpointError::Corrupt(path.to_path_buf(), why);
+        let a = &self.accum;
+        if (a.width, a.height) != (key.width, key.height) {
+            return Err(corrupt(format!(
+                "its image is {}x{} but its settings say {}x{}",
+                a.width, a.height, key.width, key.height
+            )));
+        }
+        if a.pixels.len() as u64 != a.width as u64 * a.height as u64 {
+            return Err(corrupt(format!("{} pixels for a {}x{} image", a.pixels.len(), a.width, a.height)));
+        }
+        let mut samples = 0u64;
+        for (i, p) in a.pixels.iter().enumerate() {
+            let at = || format!("pixel ({}, {})", i % a.width as usize, i / a.width as usize);
+            if p.count > key.spp {
+                return Err(corrupt(format!(
+                    "{}: {} samples, more than the {} spp of this render",
+                    at(),
+                    p.count,
+                    key.spp
+                )));
+            }
+            if !p.sum.is_finite() {
+                return Err(corrupt(format!("{}: the sum of its samples is not finite ({})", at(), p.sum)));
+            }
+            if !(p.sum_lum_sq.is_finite() && p.sum_lum_sq >= 0.0) {
+                return Err(corrupt(format!(
+                    "{}: the sum of its squared luminances is {} (must be finite and not negative)",
+                    at(),
+                    p.sum_lum_sq
+                )));
+            }
+            if p.count == 0 && (p.sum != DVec3::ZERO || p.sum_lum_sq != 0.0) {
+                return Err(corrupt(format!("{}: no samples, but sums that are not zero", at())));
+            }
+            samples += p.count as u64;
+        }
+        if self.nonfinite > samples {
+            return Err(corrupt(format!("{} non-finite samples of {samples} samples in all", self.nonfinite)));
         }
         Ok(())
     }
 }
 
-struct Reader<'a> {
-    b: &'a [u8],
-    at: usize,
+/// `spp=16 in the checkpoint, spp=32 now; …` for every word of `now` that `was` lacks, and
+/// every key of `was` that `now` lacks.
+fn settings_diff(was: &str, now: &str) -> String {
+    let key_of = |w: &str| w.split('=').next().unwrap_or(w).to_string();
+    let mine: Vec<&str> = was.split_whitespace().collect();
+    let theirs: Vec<&str> = now.split_whitespace().collect();
+    let mut diffs: Vec<String> = theirs
+        .iter()
+        .filter(|w| !mine.contains(w))
+        .map(|w| {
+            let key = key_of(w);
+            let old = mine.iter().find(|m| key_of(m) == key).copied().unwrap_or("(absent)");
+            format!("{old} in the checkpoint, {w} now")
+        })
+        .collect();
+    for m in &mine {
+        if !theirs.iter().any(|w| key_of(w) == key_of(m)) {
+            diffs.push(format!("{m} in the checkpoint, (absent) now"));
+        }
+    }
+    if diffs.is_empty() {
+        diffs.push(format!("{was:?} in the checkpoint, {now:?} now"));
+    }
+    diffs.join("; ")
 }
 
-impl Reader<'_> {
-    fn take(&mut self, n: usize) -> Option<&[u8]> {
-        let s = self.b.get(self.at..self.at.checked_add(n)?)?;
-        self.at += n;
-        Some(s)
+/// What comes before the pixels.
+struct Header {
+    scene: u64,
+    settings: String,
+    nonfinite: u64,
+    elapsed: Duration,
+    width: u32,
+    height: u32,
+}
+
+impl Header {
+    /// Parses the header at the start of `b` (which may go on with pixels).
+    fn parse(b: &[u8]) -> Result<Header, &'static str> {
+        if b.len() < MAGIC.len() || &b[..MAGIC.len()] != MAGIC {
+            return Err("wrong header");
+        }
+        let mut at = MAGIC.len();
+        let mut take = |n: usize| -> Result<&[u8], &'static str> {
+            let s = b.get(at..at.checked_add(n).ok_or("truncated")?).ok_or("truncated")?;
+            at += n;
+            Ok(s)
+        };
+        let scene = u64::from_le_bytes(take(8)?.try_into().unwrap());
+        let len = u32::from_le_bytes(take(4)?.try_into().unwrap()) as usize;
+        let settings = std::str::from_utf8(take(len)?).map_err(|_| "settings are not text")?.to_string();
+        let nonfinite = u64::from_le_bytes(take(8)?.try_into().unwrap());
+        let elapsed = Duration::from_nanos(u64::from_le_bytes(take(8)?.try_into().unwrap()));
+        let width = u32::from_le_bytes(take(4)?.try_into().unwrap());
+        let height = u32::from_le_bytes(take(4)?.try_into().unwrap());
+        Ok(Header { scene, settings, nonfinite, elapsed, width, height })
     }
-    fn u32(&mut self) -> Option<u32> {
-        self.take(4).map(|s| u32::from_le_bytes(s.try_into().unwrap_or_default()))
+
+    /// How this header differs from the render `key`, if it does.
+    fn mismatch(&self, path: &Path, key: &CheckpointKey) -> Option<CheckpointError> {
+        if self.scene != key.scene {
+            return Some(CheckpointError::OtherScene(path.to_path_buf()));
+        }
+        if self.settings != key.settings {
+            return Some(CheckpointError::OtherSettings(
+                path.to_path_buf(),
+                settings_diff(&self.settings, &key.settings),
+            ));
+        }
+        if (self.width, self.height) != (key.width, key.height) {
+            return Some(CheckpointError::Corrupt(
+                path.to_path_buf(),
+                format!(
+                    "its image is {}x{} but its settings say {}x{}",
+                    self.width, self.height, key.width, key.height
+                ),
+            ));
+        }
+        None
     }
-    fn u64(&mut self) -> Option<u64> {
-        self.take(8).map(|s| u64::from_le_bytes(s.try_into().unwrap_or_default()))
+}
+
+/// The error for a checkpoint of `len` bytes, not the `key.file_size()` of the render: what
+/// its header (the start of it is `head`) says, when that explains it.
+fn wrong_size(path: &Path, head: &[u8], len: u64, key: &CheckpointKey) -> CheckpointError {
+    let corrupt = |why: String| CheckpointError::Corrupt(path.to_path_buf(), why);
+    match Header::parse(head) {
+        Err("wrong header") => corrupt("wrong header".into()),
+        Ok(h) => h.mismatch(path, key).unwrap_or_else(|| {
+            corrupt(format!(
+                "{len} bytes, where a checkpoint of this {}x{} render has {}: truncated or damaged",
+                key.width,
+                key.height,
+                key.file_size()
+            ))
+        }),
+        Err(_) => corrupt(format!("{len} bytes, where a checkpoint of this render has {}: truncated", key.file_size())),
     }
 }
 
@@ -174,6 +448,24 @@ mod tests {
         }
     }
 
+    fn key() -> CheckpointKey {
+        sample().key(16)
+    }
+
+    /// `c`'s bytes with its checksum recomputed after `edit`, as a forger would.
+    fn forged(c: &Checkpoint, edit: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
+        let mut b = c.to_bytes();
+        b.truncate(b.len() - 8);
+        edit(&mut b);
+        let sum = crate::hash::fnv1a(&b);
+        b.extend_from_slice(&sum.to_le_bytes());
+        b
+    }
+
+    fn refused(bytes: &[u8]) -> String {
+        Checkpoint::from_bytes(bytes, Path::new("x.checkpoint"), &key()).unwrap_err().to_string()
+    }
+
     #[test]
     fn round_trips_exactly_and_detects_damage() {
         let dir = std::env::temp_dir().join(format!("ember-ckpt-{}", std::process::id()));
@@ -181,14 +473,17 @@ mod tests {
         let path = dir.join("x.png.checkpoint");
         let c = sample();
         c.save(&path).unwrap();
-        assert_eq!(Checkpoint::load(&path).unwrap(), c);
+        assert_eq!(std::fs::metadata(&path).unwrap().len(), key().file_size());
+        assert_eq!(Checkpoint::load(&path, &key()).unwrap(), c);
         let mut bytes = std::fs::read(&path).unwrap();
-        bytes[40] ^= 1;
+        bytes[60] ^= 1;
         std::fs::write(&path, &bytes).unwrap();
-        assert!(matches!(Checkpoint::load(&path), Err(CheckpointError::Corrupt(..))));
+        let e = Checkpoint::load(&path, &key()).unwrap_err();
+        assert!(e.to_string().ends_with("(checksum mismatch: truncated or damaged)"), "{e}");
         std::fs::write(&path, &bytes[..bytes.len() - 3]).unwrap();
-        assert!(matches!(Checkpoint::load(&path), Err(CheckpointError::Corrupt(..))));
-        assert!(matches!(Checkpoint::load(&dir.join("none")), Err(CheckpointError::Missing(..))));
+        let e = Checkpoint::load(&path, &key()).unwrap_err();
+        assert!(e.to_string().contains("truncated or damaged"), "{e}");
+        assert!(matches!(Checkpoint::load(&dir.join("none"), &key()), Err(CheckpointError::Missing(..))));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -196,10 +491,71 @@ mod tests {
     fn refuses_other_scenes_and_names_changed_settings() {
         let c = sample();
         let p = Path::new("x.checkpoint");
-        assert!(c.check_matches(p, 42, "spp=16 seed=1").is_ok());
-        assert!(matches!(c.check_matches(p, 43, "spp=16 seed=1"), Err(CheckpointError::OtherScene(_))));
-        let e = c.check_matches(p, 42, "spp=32 seed=1").unwrap_err().to_string();
-        assert!(e.contains("spp=16 in the checkpoint, spp=32 now"), "{e}");
+        assert!(c.check_matches(p, &key()).is_ok());
+        let other = CheckpointKey { scene: 43, ..key() };
+        assert!(matches!(c.check_matches(p, &other), Err(CheckpointError::OtherScene(_))));
+        let e = c.check_matches(p, &CheckpointKey { settings: "spp=32 seed=1".into(), ..key() }).unwrap_err();
+        assert!(e.to_string().contains("spp=16 in the checkpoint, spp=32 now"), "{e}");
+        // A longer settings text makes a longer file: the header still says what differs.
+        let now = CheckpointKey { settings: "spp=16 seed=1 accel=naive".into(), ..key() };
+        let e = Checkpoint::from_bytes(&c.to_bytes(), p, &now).unwrap_err().to_string();
+        assert!(e.ends_with("different settings: (absent) in the checkpoint, accel=naive now"), "{e}");
+    }
+
+    #[test]
+    fn refuses_headers_that_lie_about_the_image_size() {
+        for (w, h) in [(1u32, 1u32), (1 << 31, 1 << 31), (65536, 1)] {
+            let bytes = forged(&sample(), |b| {
+                let at = 20 + 13 + 16;
+                b[at..at + 4].copy_from_slice(&w.to_le_bytes());
+                b[at + 4..at + 8].copy_from_slice(&h.to_le_bytes());
+            });
+            assert_eq!(
+                refused(&bytes),
+                format!("x.checkpoint: not a valid ember checkpoint (its image is {w}x{h} but its settings say 3x2)")
+            );
+        }
+    }
+
+    #[test]
+    fn refuses_contents_no_render_makes() {
+        let edit = |f: fn(&mut PixelState)| {
+            let mut c = sample();
+            f(&mut c.accum.pixels[4]);
+            c.to_bytes()
+        };
+        let e = refused(&edit(|p| p.sum.y = f64::NAN));
+        assert!(
+            e.contains("(pixel (1, 1): the sum of its samples is not finite ([") && e.contains(", NaN, 12]"),
+            "{e}"
+        );
+        let e = refused(&edit(|p| p.sum.x = f64::INFINITY));
+        assert!(e.contains("pixel (1, 1): the sum of its samples is not finite"), "{e}");
+        let e = refused(&edit(|p| p.count = u32::MAX));
+        assert!(e.ends_with("(pixel (1, 1): 4294967295 samples, more than the 16 spp of this render)"), "{e}");
+        let e = refused(&edit(|p| p.count = 17));
+        assert!(e.contains("17 samples, more than the 16 spp"), "{e}");
+        let e = refused(&edit(|p| p.sum_lum_sq = -1.0));
+        assert!(e.contains("the sum of its squared luminances is -1 (must be finite and not negative)"), "{e}");
+        let e = refused(&edit(|p| p.sum_lum_sq = f64::NAN));
+        assert!(e.contains("squared luminances is NaN"), "{e}");
+        let e = refused(&edit(|p| p.count = 0));
+        assert!(e.contains("no samples, but sums that are not zero"), "{e}");
+        let mut c = sample();
+        c.nonfinite = 1000;
+        assert!(refused(&c.to_bytes()).contains("1000 non-finite samples of 15 samples in all"));
+        // Bytes that are not a checkpoint, of the right size or not.
+        assert!(refused(&[0u8; 10]).ends_with("(wrong header)"));
+        assert!(refused(&vec![0u8; key().file_size() as usize]).ends_with("(wrong header)"));
+        assert!(refused(b"EMBERCK\x01").contains("truncated"));
+        let huge_len = forged(&sample(), |b| b[16..20].copy_from_slice(&u32::MAX.to_le_bytes()));
+        assert!(
+            refused(&huge_len).contains("settings of 4294967295 bytes in a file that has"),
+            "{}",
+            refused(&huge_len)
+        );
+        // The sample itself is fine.
+        assert_eq!(Checkpoint::from_bytes(&sample().to_bytes(), Path::new("x"), &key()).unwrap(), sample());
     }
 
     #[test]

@@ -5,7 +5,7 @@ mod accum;
 mod checkpoint;
 
 pub use accum::{Accumulator, PixelState, RELATIVE_ERROR_FLOOR};
-pub use checkpoint::{Checkpoint, CheckpointError, checkpoint_path};
+pub use checkpoint::{Checkpoint, CheckpointError, CheckpointKey, checkpoint_path};
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -87,31 +87,32 @@ impl Film {
     /// unless the whole file was written.
     pub fn save(&self, path: &Path) -> Result<(), FilmError> {
         let format = ImageFormat::from_path(path)?;
-        crate::atomic_write::write_atomically(path, |tmp| match format {
-            ImageFormat::Png => image::save_buffer_with_format(
-                tmp,
-                &self.to_rgb8(),
-                self.width,
-                self.height,
-                image::ExtendedColorType::Rgb8,
-                image::ImageFormat::Png,
-            )
-            .map_err(|e| e.to_string()),
-            ImageFormat::Exr => {
-                use exr::prelude::*;
-                let w = self.width as usize;
-                let channels = SpecificChannels::rgb(|Vec2(x, y)| {
-                    let p: Vec3 = self.pixels[y * w + x];
-                    (p.x, p.y, p.z)
-                });
-                // Compressed on this thread: in parallel, blocks are written in the order
-                // their compression finishes, so the same image would give different bytes.
-                Image::from_channels((w, self.height as usize), channels)
-                    .write()
-                    .non_parallel()
-                    .to_file(tmp)
-                    .map_err(|e| e.to_string())
+        crate::atomic_write::write_atomically(path, |file| {
+            let mut out = std::io::BufWriter::new(file);
+            match format {
+                ImageFormat::Png => {
+                    use image::ImageEncoder;
+                    image::codecs::png::PngEncoder::new(&mut out)
+                        .write_image(&self.to_rgb8(), self.width, self.height, image::ExtendedColorType::Rgb8)
+                        .map_err(|e| e.to_string())?
+                }
+                ImageFormat::Exr => {
+                    use exr::prelude::*;
+                    let w = self.width as usize;
+                    let channels = SpecificChannels::rgb(|Vec2(x, y)| {
+                        let p: Vec3 = self.pixels[y * w + x];
+                        (p.x, p.y, p.z)
+                    });
+                    // Compressed on this thread: in parallel, blocks are written in the order
+                    // their compression finishes, so the same image would give different bytes.
+                    Image::from_channels((w, self.height as usize), channels)
+                        .write()
+                        .non_parallel()
+                        .to_buffered(&mut out)
+                        .map_err(|e| e.to_string())?
+                }
             }
+            out.into_inner().map(|_| ()).map_err(|e| e.error().to_string())
         })
         .map_err(|e| FilmError::Write { path: e.path, reason: e.reason })
     }

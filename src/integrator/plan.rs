@@ -10,6 +10,7 @@
 
 use super::kernel::KernelChoice;
 use super::roulette::{auto_start, throughput_depth};
+use crate::film::CheckpointKey;
 use crate::scene::{DepthLimit, Effects, Scene};
 use crate::settings::{RenderSettings, RrDepth};
 use std::fmt;
@@ -57,17 +58,21 @@ impl RenderPlan {
         RenderPlan { settings: settings.clone(), effects, kernel, path_depth, scene_depth, roulette_start }
     }
 
-    /// Everything that changes the image, as `key=value` words: the requests that matter and
-    /// the roulette start in force (thread count and kernel choice do not change the image).
-    /// A checkpoint records this and resumes only against the same words.
-    pub fn checkpoint_key(&self) -> String {
+    /// What a checkpoint of this render must match: the scene's fingerprint
+    /// ([`Scene::fingerprint`]), the image size and spp, and everything else that changes the
+    /// image as `key=value` words — the requests that matter, the roulette start in force and
+    /// the accelerator with its build options (`accel`: [`crate::accel::Accel::image_key`]);
+    /// the thread count and kernel choice do not change the image. A checkpoint records this
+    /// and resumes only against the same.
+    pub fn checkpoint_key(&self, scene_fingerprint: u64, accel: &str) -> CheckpointKey {
         let s = &self.settings;
         let rr = self.roulette_start.map_or("off".to_string(), |d| d.to_string());
         let te = s.target_error.map_or("none".to_string(), |e| e.to_string());
-        format!(
-            "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} target-error={te}",
+        let settings = format!(
+            "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} target-error={te} {accel}",
             s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator
-        )
+        );
+        CheckpointKey { scene: scene_fingerprint, settings, width: s.width, height: s.height, spp: s.spp }
     }
 
     /// Whether anything in the scene emits light; without light every sample is exactly zero
@@ -167,12 +172,13 @@ mod tests {
 
     #[test]
     fn the_checkpoint_key_names_the_roulette_start_in_force() {
-        let key = plan(scattering(0.75), RrDepth::Auto, true).checkpoint_key();
+        let key = plan(scattering(0.75), RrDepth::Auto, true).checkpoint_key(7, "accel=naive");
         assert_eq!(
-            key,
-            "width=640 height=480 spp=64 max-depth=8 rr-depth=3 seed=0 estimator=nee-mis target-error=none"
+            key.settings,
+            "width=640 height=480 spp=64 max-depth=8 rr-depth=3 seed=0 estimator=nee-mis target-error=none accel=naive"
         );
+        assert_eq!((key.scene, key.width, key.height, key.spp), (7, 640, 480, 64));
         // The kernel does not change the image, so it is not in the key.
-        assert_eq!(plan(scattering(0.75), RrDepth::After(3), false).checkpoint_key(), key);
+        assert_eq!(plan(scattering(0.75), RrDepth::After(3), false).checkpoint_key(7, "accel=naive"), key);
     }
 }

@@ -61,6 +61,27 @@ pub struct RenderResult {
     pub stats: RenderStats,
     /// False when the render was stopped before every pixel was done.
     pub complete: bool,
+    /// Problems that did not stop the render, for the user to see: periodic checkpoints that
+    /// could not be written (one line for all of them, with the count).
+    pub warnings: Vec<String>,
+}
+
+/// The periodic checkpoints of a render: when the last was written, and the failures.
+struct Periodic {
+    last: Instant,
+    attempts: u32,
+    failures: u32,
+    first_failure: Option<String>,
+}
+
+impl Periodic {
+    fn warning(&self) -> Option<String> {
+        let first = self.first_failure.as_ref()?;
+        Some(format!(
+            "{} of {} periodic checkpoints could not be written; the render went on without them (first failure: {first})",
+            self.failures, self.attempts
+        ))
+    }
 }
 
 /// How many samples pixel state `p` should have at the end of round `round`, or `None` if it
@@ -96,19 +117,18 @@ pub(super) fn run(
     let settings = &plan.settings;
     let (w, h) = (settings.width, settings.height);
     // Hashing the scene reads all of its data: done only when a checkpoint is read or written.
-    let fingerprint = std::sync::OnceLock::new();
-    let fingerprint = || *fingerprint.get_or_init(|| scene.fingerprint());
-    let key = plan.checkpoint_key();
+    let key = std::sync::OnceLock::new();
+    let key = || key.get_or_init(|| plan.checkpoint_key(scene.fingerprint(), &accel.image_key()));
     let (mut accum, prior_elapsed, prior_nonfinite) = match control.resume {
         Some((path, c)) => {
-            c.check_matches(path, fingerprint(), &key)?;
+            c.check_matches(path, key())?;
             (c.accum, c.elapsed, c.nonfinite)
         }
         None => (Accumulator::new(w, h), Duration::ZERO, 0),
     };
     let camera = scene.camera(w as f32 / h as f32);
     let lights = scene.light_set();
-    let finish = |accum: Accumulator, rays: u64, nonfinite: u64, complete: bool| {
+    let finish = |accum: Accumulator, rays: u64, nonfinite: u64, complete: bool, warnings: Vec<String>| {
         let stats = RenderStats {
             elapsed: start.elapsed(),
             earlier_sessions: prior_elapsed,
@@ -119,7 +139,7 @@ pub(super) fn run(
             spp: accum.spp_range(),
             error_estimate: accum.error_estimate(),
         };
-        RenderResult { accum, stats, complete }
+        RenderResult { accum, stats, complete, warnings }
     };
     if plan.traces_nothing() {
         // Nothing emits: every path carries zero radiance, so none is traced; each pixel's
@@ -129,7 +149,7 @@ pub(super) fn run(
                 p.add(glam::Vec3::ZERO);
             }
         }
-        return Ok(finish(accum, 0, 0, true));
+        return Ok(finish(accum, 0, 0, true, Vec::new()));
     }
     let sample = plan.kernel.sample_fn();
     let normals = FaceNormals::of(scene);
@@ -151,13 +171,14 @@ pub(super) fn run(
     let nonfinite = AtomicU64::new(0);
     let stopped = AtomicBool::new(false);
     let shared = Mutex::new(accum);
-    let last_checkpoint = Mutex::new(Instant::now());
+    let periodic = Mutex::new(Periodic { last: Instant::now(), attempts: 0, failures: 0, first_failure: None });
     let stop_requested = || control.stop.is_some_and(|s| s.load(Ordering::Relaxed));
     let save_checkpoint = |accum: &Accumulator, nonfinite: u64| -> Result<(), RenderError> {
         if let Some((path, _)) = control.checkpoint {
+            let key = key();
             let c = Checkpoint {
-                scene: fingerprint(),
-                settings: key.clone(),
+                scene: key.scene,
+                settings: key.settings.clone(),
                 nonfinite: prior_nonfinite + nonfinite,
                 elapsed: prior_elapsed + start.elapsed(),
                 accum: accum.clone(),
@@ -218,12 +239,18 @@ pub(super) fn run(
                     a.pixels[i] = p;
                     // Counted under the lock, so a checkpoint's count matches its pixels.
                     let total_bad = nonfinite.fetch_add(pixel_bad, Ordering::Relaxed) + pixel_bad;
+                    // A periodic checkpoint that cannot be written (a full disk) does not stop
+                    // the render: it is reported at the end, and tried again after `every`.
                     if let Some((_, Some(every))) = control.checkpoint
-                        && let Ok(mut last) = last_checkpoint.try_lock()
-                        && last.elapsed() >= every
+                        && let Ok(mut p) = periodic.try_lock()
+                        && p.last.elapsed() >= every
                     {
-                        save_checkpoint(&a, total_bad)?;
-                        *last = Instant::now();
+                        p.attempts += 1;
+                        if let Err(e) = save_checkpoint(&a, total_bad) {
+                            p.failures += 1;
+                            p.first_failure.get_or_insert_with(|| e.to_string());
+                        }
+                        p.last = Instant::now();
                     }
                 }
             }
@@ -251,5 +278,7 @@ pub(super) fn run(
     if !complete {
         save_checkpoint(&accum, bad)?;
     }
-    Ok(finish(accum, rays_total.load(Ordering::Relaxed), bad, complete))
+    let periodic = periodic.into_inner().unwrap_or_else(|e| e.into_inner());
+    let warnings = periodic.warning().into_iter().collect();
+    Ok(finish(accum, rays_total.load(Ordering::Relaxed), bad, complete, warnings))
 }

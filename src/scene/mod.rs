@@ -71,6 +71,10 @@ pub struct Scene {
     pub render: RenderDefaults,
     /// Problems that did not stop loading.
     pub warnings: Vec<String>,
+    /// The files the scene was read from, as named (the scene file, meshes, textures), so
+    /// that an output that would overwrite one can be refused. (A mesh's MTL files are not
+    /// listed yet.)
+    pub inputs: Vec<PathBuf>,
 }
 
 impl Scene {
@@ -85,6 +89,7 @@ impl Scene {
             camera: None,
             render: RenderDefaults::default(),
             warnings: Vec::new(),
+            inputs: Vec::new(),
         }
     }
 

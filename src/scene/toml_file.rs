@@ -30,6 +30,8 @@ struct SceneFileReader<'a> {
     text: &'a str,
     dir: PathBuf,
     images: HashMap<PathBuf, Arc<Image>>,
+    /// Files read so far, for [`Scene::inputs`].
+    inputs: Vec<PathBuf>,
 }
 
 impl SceneFileReader<'_> {
@@ -49,6 +51,7 @@ impl SceneFileReader<'_> {
         let img =
             Image::load(&p, self.budget).map_err(|e| self.err_at(span, format!("texture {}: {e}", p.display())))?;
         let img = Arc::new(img);
+        self.inputs.push(p.clone());
         self.images.insert(p, img.clone());
         Ok(img)
     }
@@ -101,6 +104,7 @@ pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<S
         text,
         dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
         images: HashMap::new(),
+        inputs: vec![path.to_path_buf()],
     };
     let mut scene = Scene::empty(path);
     scene.render = render;
@@ -232,6 +236,7 @@ pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<S
     if scene.geometry.is_empty() {
         return Err(SceneError::new(path, None, "the scene has no geometry (meshes, quads, spheres or cylinders)"));
     }
+    scene.inputs.extend(ctx.inputs);
     Ok(scene)
 }
 

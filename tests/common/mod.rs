@@ -56,6 +56,13 @@ pub fn write_scene(group: &str, name: &str, text: &str) -> PathBuf {
     p
 }
 
+/// A 4 × 4 emitter of radiance 3e38 half a unit above a floor: next-event estimation
+/// overflows f32 (samples become infinite) and so do pixel sums.
+pub const OVERFLOW_SCENE: &str = "[camera]\nposition = [0.0, 0.3, 3.0]\nlook_at = [0.0, 0.0, 0.0]\n\
+    [materials.floor]\ntype = \"diffuse\"\n[materials.hot]\ntype = \"emissive\"\nemission = [3.0e38, 3.0e38, 3.0e38]\n\
+    [[quads]]\ncorner = [-2.0, 0.0, -2.0]\nedge1 = [0.0, 0.0, 4.0]\nedge2 = [4.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
+    [[quads]]\ncorner = [-2.0, 0.5, -2.0]\nedge1 = [4.0, 0.0, 0.0]\nedge2 = [0.0, 0.0, 4.0]\nmaterial = \"hot\"\n";
+
 /// Path of a file in `scenes/`.
 pub fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
@@ -89,4 +96,71 @@ pub fn unit_vector(rng: &mut Rng) -> Vec3 {
     let r = (1.0 - z * z).max(0.0).sqrt();
     let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// The checkpoint key of `ember render SCENE --width W --height H --spp N --seed S` with the
+/// default Embree accelerator: what the command line computes.
+pub fn cli_checkpoint_key(
+    scene: &std::path::Path,
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u64,
+) -> ember::film::CheckpointKey {
+    let scene = Scene::load(scene).unwrap();
+    let settings = RenderSettings { width, height, spp, seed, ..RenderSettings::from_scene(&scene.render) };
+    let accel = ember::accel::AccelKind::Embree.image_key(BuildOptions::default());
+    ember::integrator::RenderPlan::new(&scene, &settings).checkpoint_key(scene.fingerprint(), &accel)
+}
+
+/// An `ember` process started with stderr piped.
+pub struct Running {
+    pub child: std::process::Child,
+    stderr: std::io::BufReader<std::process::ChildStderr>,
+    /// What it printed to stderr so far.
+    pub seen: String,
+}
+
+impl Running {
+    /// Wraps a started `child` whose stderr was piped (and taken as `stderr`).
+    pub fn from_child(child: std::process::Child, stderr: std::process::ChildStderr) -> Running {
+        Running { child, stderr: std::io::BufReader::new(stderr), seen: String::new() }
+    }
+
+    /// Starts `c` (stderr piped) and waits until it prints a line starting with `kernel:`:
+    /// it is rendering then.
+    pub fn start_rendering(c: &mut Command) -> Running {
+        let mut child = c.stderr(std::process::Stdio::piped()).spawn().unwrap();
+        let stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+        let mut r = Running { child, stderr, seen: String::new() };
+        r.wait_for_line("kernel:");
+        r
+    }
+
+    /// Reads stderr until a line starting with `start` (panics at the end of it).
+    pub fn wait_for_line(&mut self, start: &str) {
+        use std::io::BufRead;
+        loop {
+            let mut line = String::new();
+            let n = self.stderr.read_line(&mut line).unwrap();
+            self.seen.push_str(&line);
+            assert!(n > 0, "no line starting with {start:?} in: {}", self.seen);
+            if line.trim_start_matches('\n').starts_with(start) {
+                return;
+            }
+        }
+    }
+
+    /// Sends `signal` (a name for kill: TERM, INT, KILL).
+    pub fn signal(&self, signal: &str) {
+        let status = Command::new("kill").arg(format!("-{signal}")).arg(self.child.id().to_string()).status().unwrap();
+        assert!(status.success());
+    }
+
+    /// Waits for the process; its exit status and all it printed to stderr.
+    pub fn finish(mut self) -> (std::process::ExitStatus, String) {
+        std::io::Read::read_to_string(&mut self.stderr, &mut self.seen).unwrap();
+        let status = self.child.wait().unwrap();
+        (status, self.seen)
+    }
 }

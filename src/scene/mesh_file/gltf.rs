@@ -78,7 +78,8 @@ pub(super) fn load(path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneEr
     let json = document.into_json();
     check_position_indices(&json).map_err(|m| SceneError::new(path, None, m))?;
     let document = gltf::Document::from_json(json).map_err(|e| parse_error(path, e))?;
-    Loader { path, dir: path.parent().map(Path::to_path_buf).unwrap_or_default(), budget, doc: &document }.load(blob)
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    Loader { path, dir, budget, doc: &document, inputs: Default::default() }.load(blob)
 }
 
 /// The one reference `gltf-json` 1.4.1's validator follows without checking it (it indexes
@@ -121,6 +122,8 @@ struct Loader<'a> {
     dir: PathBuf,
     budget: &'a LoadBudget,
     doc: &'a gltf::Document,
+    /// The external files read (buffers, images).
+    inputs: std::cell::RefCell<Vec<PathBuf>>,
 }
 
 /// A mesh placed in the world by a node.
@@ -284,7 +287,8 @@ impl<'a> Loader<'a> {
                 "no triangles: the scene has no triangle meshes (or only degenerate ones)",
             ));
         }
-        Ok(MeshFile { meshes, materials, camera, point_lights, warnings })
+        let inputs = self.inputs.take();
+        Ok(MeshFile { meshes, materials, camera, point_lights, warnings, inputs })
     }
 
     /// The camera of a node at `world`: at the node's origin, looking down its −Z, up its +Y.
@@ -346,7 +350,9 @@ impl<'a> Loader<'a> {
         self.budget
             .admit(format!("{} of {}", file.display(), memory::format_bytes(len)), len)
             .map_err(|e| self.err(at, e.to_string()))?;
-        input::read(&file).map(Cow::Owned).map_err(|e| self.err(at, format!("{}: {}", file.display(), e.message)))
+        let bytes = input::read(&file).map_err(|e| self.err(at, format!("{}: {}", file.display(), e.message)))?;
+        self.inputs.borrow_mut().push(file);
+        Ok(Cow::Owned(bytes))
     }
 
     /// ember's materials, one per glTF material, in order.

@@ -24,7 +24,7 @@ use crate::memory::LoadBudget;
 use crate::scene::format::MAX_COORDINATE;
 use crate::scene::{CameraSpec, SceneError};
 use glam::Vec3;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// What a mesh file holds, in ember's own types.
@@ -37,6 +37,8 @@ pub struct MeshFile {
     pub point_lights: Vec<PointLight>,
     /// Problems that did not stop loading, for the user to see.
     pub warnings: Vec<String>,
+    /// The files read: the mesh file and those it names (MTL libraries, buffers, images).
+    pub inputs: Vec<PathBuf>,
 }
 
 /// One mesh of a mesh file.
@@ -90,7 +92,8 @@ pub fn load(path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
     let Some(load) = format_of(path) else {
         return Err(SceneError::new(path, None, format!("not a mesh file (expected {})", extensions())));
     };
-    let file = load(path, budget)?;
+    let mut file = load(path, budget)?;
+    file.inputs.insert(0, path.to_path_buf());
     for m in &file.meshes {
         let far = m
             .mesh

@@ -92,6 +92,7 @@ pub fn parse_obj(
     // Each library is read once: tobj would append its materials again for every repeated
     // `mtllib` (a file repeating it n times made n copies, and n reads).
     let mtl_seen = std::cell::RefCell::new(std::collections::HashSet::new());
+    let mtl_read = std::cell::RefCell::new(Vec::new());
     let mut reader = std::io::BufReader::new(text.as_bytes());
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
         let full = dir.join(mtl);
@@ -107,6 +108,7 @@ pub fn parse_obj(
             }
             tobj::LoadError::OpenFileFailed
         })?;
+        mtl_read.borrow_mut().push(full.clone());
         let mtl_text = String::from_utf8_lossy(&bytes);
         // tobj panics on some malformed lines (`Kd 1 0`) and names none: check them first.
         if let Some((line, problem)) = first_bad_mtl_line(&mtl_text) {
@@ -157,7 +159,8 @@ pub fn parse_obj(
         return Err(SceneError::new(path, None, "no triangles: the file has no faces (or only degenerate ones)"));
     }
     let materials = mtl_materials(path, &materials);
-    Ok(MeshFile { meshes, materials, camera: None, point_lights: Vec::new(), warnings })
+    let inputs = mtl_read.into_inner();
+    Ok(MeshFile { meshes, materials, camera: None, point_lights: Vec::new(), warnings, inputs })
 }
 
 /// ember's materials for the MTL materials of the OBJ file `obj` (see the module

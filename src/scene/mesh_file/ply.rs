@@ -256,7 +256,7 @@ pub(super) fn parse(source: impl Read, len: u64, path: &Path, budget: &LoadBudge
     } else {
         return Err(err(None, "no triangles: every face is degenerate".into()));
     }
-    Ok(MeshFile { meshes, materials: Vec::new(), camera: None, point_lights: Vec::new(), warnings })
+    Ok(MeshFile { meshes, materials: Vec::new(), camera: None, point_lights: Vec::new(), warnings, inputs: Vec::new() })
 }
 
 /// Why an element could not be read.

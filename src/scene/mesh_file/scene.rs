@@ -52,6 +52,7 @@ pub(in crate::scene) fn add_to_scene(
     smooth: bool,
 ) -> Result<(), String> {
     scene.warnings.extend(file.warnings);
+    scene.inputs.extend(file.inputs);
     let first = scene.materials.len() as u32;
     scene.materials.extend(file.materials);
     let placed = if transform.is_some() { ", after the scene's scale/rotate/translate" } else { "" };

@@ -45,6 +45,10 @@ impl Accel for RecordingAccel<'_> {
         "recording"
     }
 
+    fn image_key(&self) -> String {
+        self.inner.image_key()
+    }
+
     fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
         self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: false });
         self.inner.intersect_deferred(ray, tmin, tmax)

@@ -37,7 +37,9 @@ pub enum Command {
     Check(check::CheckArgs),
 }
 
-/// Runs the command line; errors are printed as `error: …` and give exit code 2.
+/// Runs the command line. Exit codes: 0 success; 1 `ember check` found a failing case; 2 bad
+/// input or environment (errors are printed as `error: …`); 128 + the signal's number when a
+/// render was stopped by a signal (130 SIGINT, 143 SIGTERM).
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -51,7 +53,7 @@ pub fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) if e.is::<render::Interrupted>() => {
             eprintln!("{e}");
-            ExitCode::from(130)
+            ExitCode::from(e.downcast_ref::<render::Interrupted>().map_or(130, render::Interrupted::exit_code))
         }
         Err(e) => {
             eprintln!("error: {e:#}");

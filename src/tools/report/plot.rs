@@ -27,6 +27,8 @@ pub enum PlotError {
 }
 
 const FONT_FAMILY: &str = "sans-serif";
+/// Width and height of a plot in pixels.
+const PLOT_SIZE: (u32, u32) = (900, 600);
 const FONT_PATHS: [&str; 2] =
     ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/truetype/freefont/FreeSans.ttf"];
 
@@ -107,8 +109,17 @@ pub fn log_log_plot_with(
     };
     let xr = range(&mut all.iter().map(|p| p.0));
     let yr = range(&mut all.iter().map(|p| p.1));
-    crate::atomic_write::write_atomically(path, |tmp| {
-        draw(tmp, title, x_label, y_label, series, xr, yr, &usable, options).map_err(|e| e.to_string())
+    let (w, h) = PLOT_SIZE;
+    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    draw(&mut rgb, title, x_label, y_label, series, xr, yr, &usable, options)
+        .map_err(|e| crate::atomic_write::WriteError { path: path.to_path_buf(), reason: e.to_string() })?;
+    crate::atomic_write::write_atomically(path, |file| {
+        use image::ImageEncoder;
+        let mut out = std::io::BufWriter::new(file);
+        image::codecs::png::PngEncoder::new(&mut out)
+            .write_image(&rgb, w, h, image::ExtendedColorType::Rgb8)
+            .map_err(|e| e.to_string())?;
+        out.into_inner().map(|_| ()).map_err(|e| e.error().to_string())
     })?;
     Ok(())
 }
@@ -129,7 +140,7 @@ type DrawResult = Result<(), Box<dyn std::error::Error>>;
 
 #[allow(clippy::too_many_arguments)]
 fn draw(
-    path: &Path,
+    rgb: &mut [u8],
     title: &str,
     x_label: &str,
     y_label: &str,
@@ -139,7 +150,7 @@ fn draw(
     usable: &dyn Fn(&(f64, f64)) -> bool,
     options: &PlotOptions,
 ) -> DrawResult {
-    let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
+    let root = BitMapBackend::with_buffer(rgb, PLOT_SIZE).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(title, (FONT_FAMILY, 22))

@@ -13,12 +13,18 @@ use crate::embree::BuildOptions;
 use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
 use crate::memory::{LoadBudget, MemoryLimit};
+use crate::output_lock::{OutputLock, lock_path};
 use crate::scene::Scene;
+use std::os::unix::fs::MetadataExt;
+use std::path::Path;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     ImageFormat::from_path(&args.output)?;
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
     crate::atomic_write::check_writable(&args.output)?;
+    // From here a signal stops the render cleanly (or, before it starts, ends ember without
+    // writing anything).
+    interrupt::install_handler();
     let embree = args.accel == crate::accel::AccelKind::Embree;
     let budget = LoadBudget::for_render(limit, embree, args.width, args.height);
     let scene = Scene::load_within(&args.scene, &budget)?;
@@ -27,13 +33,24 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let settings = args::settings(&args, &scene)?;
     let checkpoint = checkpoint_path(&args.output);
+    refuse_overwriting_inputs(
+        &scene,
+        &[(&args.output, "the image"), (&checkpoint, "the checkpoint"), (&lock_path(&args.output), "the lock file")],
+    )?;
+    // Held until this function returns, whichever way; removes OUT.lock then.
+    let _lock = OutputLock::acquire(&args.output)?;
+    let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
+    let plan = RenderPlan::new(&scene, &settings);
     let resume = if args.resume {
-        let c = Checkpoint::load(&checkpoint)?;
+        // Checked against this render before anything is read: size, scene, settings,
+        // accelerator, contents.
+        let key = plan.checkpoint_key(scene.fingerprint(), &args.accel.image_key(bvh));
+        let c = Checkpoint::load(&checkpoint, &key)?;
         let (_, mean, _) = c.accum.spp_range();
         eprintln!("resuming from {} ({mean:.1} of {} spp done)", checkpoint.display(), settings.spp);
         Some((checkpoint.as_path(), c))
     } else {
-        if checkpoint.exists() {
+        if is_file(&checkpoint) {
             eprintln!(
                 "warning: {} holds an interrupted render; this render starts over (use --resume to continue it)",
                 checkpoint.display()
@@ -41,12 +58,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None
     };
-    let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
     let accel = args.accel.build_with(&scene.geometry, bvh)?;
-    let plan = RenderPlan::new(&scene, &settings);
     eprintln!("{}", plan.effects);
     eprintln!("{plan}");
-    interrupt::install_handler();
+    if interrupt::STOP.load(std::sync::atomic::Ordering::SeqCst) {
+        return Err(Interrupted {
+            message: "interrupted before rendering started; nothing was written".into(),
+            signal: interrupt::signal(),
+        }
+        .into());
+    }
     let bar = ProgressBar::new("");
     let control = RenderControl {
         stop: Some(&interrupt::STOP),
@@ -57,16 +78,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let result = render_controlled(&scene, accel.as_ref(), &plan, control);
     bar.finish();
     let result = result?;
+    for w in &result.warnings {
+        eprintln!("warning: {w}");
+    }
     let stats = result.stats;
     if !result.complete {
         let (_, mean, _) = stats.spp;
-        return Err(Interrupted(format!(
-            "interrupted after {:.1} s with {mean:.1} of {} spp done; checkpoint written to {}\nresume with: {}",
-            (stats.elapsed + stats.earlier_sessions).as_secs_f64(),
-            settings.spp,
-            checkpoint.display(),
-            interrupt::resume_command()
-        ))
+        return Err(Interrupted {
+            message: format!(
+                "interrupted after {:.1} s with {mean:.1} of {} spp done; checkpoint written to {}\nresume with: {}",
+                (stats.elapsed + stats.earlier_sessions).as_secs_f64(),
+                settings.spp,
+                checkpoint.display(),
+                interrupt::resume_command()
+            ),
+            signal: interrupt::signal(),
+        }
         .into());
     }
     let film = result.accum.film();
@@ -83,7 +110,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     film.save(&args.output)?;
-    if checkpoint.exists() {
+    // Only a regular file: a folder or a link someone put there is not ours to remove.
+    if is_file(&checkpoint) {
         std::fs::remove_file(&checkpoint)
             .map_err(|e| anyhow::anyhow!("{}: cannot remove finished checkpoint: {e}", checkpoint.display()))?;
     }
@@ -93,5 +121,27 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     eprintln!("{}", summary::rendered(&stats, &accel_text, &args.output));
     eprintln!("{}", summary::error_estimate(&stats));
+    Ok(())
+}
+
+/// Whether `path` is a regular file itself (not a link to one).
+fn is_file(path: &Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file())
+}
+
+/// Refuses to write any of `outputs` (path, what it would hold) that is a file the scene reads
+/// (the same file, whatever the spelling, links followed): rendering would destroy it.
+fn refuse_overwriting_inputs(scene: &Scene, outputs: &[(&Path, &str)]) -> anyhow::Result<()> {
+    let id = |p: &Path| std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()));
+    for &(out, what) in outputs {
+        let Some(out_id) = id(out) else { continue };
+        if let Some(input) = scene.inputs.iter().find(|i| id(i) == Some(out_id)) {
+            anyhow::bail!(
+                "{}: the scene reads this file ({}); writing {what} of the render there would destroy it: choose another output",
+                out.display(),
+                input.display()
+            );
+        }
+    }
     Ok(())
 }

@@ -1,0 +1,40 @@
+//! The checkpoint loader, fed arbitrary bytes as the checkpoint of a small render. The first
+//! byte chooses the render (bits 1-2) and whether the checksum at the end of the rest is
+//! recomputed first (bit 0), as someone forging a checkpoint would: without that almost every
+//! input would stop at the checksum. Loading must return `Ok` or `Err`, never panic, and what
+//! it accepts must fit the render and write back to the same bytes.
+#![no_main]
+
+use ember::film::{Checkpoint, CheckpointKey};
+use libfuzzer_sys::fuzz_target;
+use std::path::Path;
+
+fn key(choice: u8) -> CheckpointKey {
+    let (width, height, spp) = match choice & 3 {
+        0 | 3 => (3, 2, 16),
+        1 => (1, 1, 1),
+        _ => (2, 3, 1024),
+    };
+    let settings = format!("width={width} height={height} spp={spp} seed=1");
+    CheckpointKey { scene: 42, settings, width, height, spp }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&mode, file)) = data.split_first() else { return };
+    let key = key(mode >> 1);
+    let mut bytes = file.to_vec();
+    if mode & 1 == 1 && bytes.len() >= 8 {
+        let n = bytes.len() - 8;
+        let sum = ember::hash::fnv1a(&bytes[..n]);
+        bytes[n..].copy_from_slice(&sum.to_le_bytes());
+    }
+    if let Ok(c) = Checkpoint::from_bytes(&bytes, Path::new("fuzz.checkpoint"), &key) {
+        let a = &c.accum;
+        assert_eq!((a.width, a.height, a.pixels.len()), (key.width, key.height, (key.width * key.height) as usize));
+        assert_eq!((c.scene, &c.settings), (key.scene, &key.settings));
+        for p in &a.pixels {
+            assert!(p.count <= key.spp && p.sum.is_finite() && p.sum_lum_sq.is_finite() && p.sum_lum_sq >= 0.0);
+        }
+        assert_eq!(c.to_bytes(), bytes);
+    }
+});

@@ -1,0 +1,243 @@
+//! What a render writes, and only that: symbolic links planted at any name ember could write
+//! are never followed, no temporary file is left behind (even when a second signal ends ember
+//! at once), two renders to one output cannot run together, and the exit code says which
+//! signal stopped a render.
+
+mod common;
+
+use common::Running;
+use ember::film::Checkpoint;
+use std::io::Write;
+use std::os::unix::fs::symlink;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> =
+        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+fn is_link(p: &Path) -> bool {
+    std::fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_symlink())
+}
+
+fn is_file(p: &Path) -> bool {
+    std::fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_file())
+}
+
+const PRECIOUS: &str = "precious: must survive every render";
+
+/// The names an attacker who can write `dir` would plant links at for a render of `out` by
+/// process `pid`: the temporary and probe names ember used to choose (for a few pids around
+/// it), the checkpoint, the lock and the output itself.
+fn planted_names(out: &str, pid: u32) -> Vec<String> {
+    let mut names = vec![out.to_string(), format!("{out}.checkpoint"), format!("{out}.lock")];
+    for p in pid.saturating_sub(3)..=pid + 3 {
+        for name in [out.to_string(), format!("{out}.checkpoint")] {
+            names.push(format!(".{p}.tmp.{name}"));
+            names.push(format!(".{name}.{p}.probe"));
+        }
+    }
+    names
+}
+
+/// Runs `ember ARGS` through `sh`, which stops until links are planted at every name for its
+/// process id (`exec` keeps it), then lets it go on; the process, rendering or done. `planted`
+/// gets the names.
+fn spawn_after_planting(
+    dir: &Path,
+    out: &str,
+    victim: &Path,
+    args: &[&str],
+    planted: &mut Vec<String>,
+) -> std::process::Child {
+    let mut child = Command::new("sh")
+        .arg("-c")
+        .arg("read go; exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_ember"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let names = planted_names(out, child.id());
+    for name in &names {
+        let p = dir.join(name);
+        let _ = std::fs::remove_file(&p);
+        symlink(victim, &p).unwrap();
+    }
+    let mut stdin = child.stdin.take().unwrap();
+    stdin.write_all(b"go\n").unwrap();
+    drop(stdin);
+    planted.extend(names);
+    child
+}
+
+/// The victim is as it was, and `dir` holds nothing but the planted links (each still a link
+/// or gone) and `made` (each now a regular file): no temporary file, no lock.
+fn check_aftermath(dir: &Path, victim: &Path, planted: &[String], made: &[&str], what: &str) {
+    assert_eq!(std::fs::read_to_string(victim).unwrap(), PRECIOUS, "{what}: the victim was written through a link");
+    for name in listing(dir) {
+        let p = dir.join(&name);
+        if made.contains(&name.as_str()) {
+            assert!(is_file(&p), "{what}: {name} should be a regular file");
+        } else {
+            assert!(planted.contains(&name), "{what}: {name} was left in the folder");
+            assert!(is_link(&p), "{what}: {name} is no longer a link");
+        }
+    }
+    for name in made {
+        assert!(is_file(&dir.join(name)), "{what}: {name} was not written");
+    }
+}
+
+#[test]
+fn links_planted_at_every_name_ember_could_write_are_never_followed() {
+    let dir = common::fresh_dir("safety", "links");
+    let elsewhere = common::fresh_dir("safety", "victim");
+    let victim = elsewhere.join("victim.png");
+    std::fs::write(&victim, PRECIOUS).unwrap();
+    let out = dir.join("out.png");
+    let out_s = out.to_str().unwrap();
+
+    let mut planted = Vec::new();
+    // A render that succeeds: the image replaces the link at out.png.
+    let spheres = common::scene_path("spheres.toml");
+    let args = ["render", spheres.to_str().unwrap(), "-o", out_s, "--width", "16", "--height", "12", "--spp", "2"];
+    let child = spawn_after_planting(&dir, "out.png", &victim, &args, &mut planted);
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    check_aftermath(&dir, &victim, &planted, &["out.png"], "success");
+    assert_eq!(image::open(&out).unwrap().width(), 16);
+
+    // A render stopped by SIGINT (exit code 130): the checkpoint replaces its link.
+    std::fs::remove_file(&out).unwrap();
+    let scene = common::scene_path("cornell-area.toml");
+    let args = [
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out_s,
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--spp",
+        "3000",
+        "--seed",
+        "0",
+        "--checkpoint-every",
+        "0.05s",
+    ];
+    let mut child = spawn_after_planting(&dir, "out.png", &victim, &args, &mut planted);
+    let stderr = child.stderr.take().unwrap();
+    let mut running = Running::from_child(child, stderr);
+    running.wait_for_line("kernel:");
+    std::thread::sleep(Duration::from_millis(300));
+    running.signal("INT");
+    let (status, seen) = running.finish();
+    assert_eq!(status.code(), Some(130), "{seen}");
+    assert!(seen.contains("checkpoint written to"), "{seen}");
+    check_aftermath(&dir, &victim, &planted, &["out.png.checkpoint"], "interrupted");
+    let key = common::cli_checkpoint_key(&scene, 32, 24, 3000, 0);
+    Checkpoint::load(&dir.join("out.png.checkpoint"), &key).unwrap();
+    std::fs::remove_file(dir.join("out.png.checkpoint")).unwrap();
+
+    // Renders that fail: resuming from a checkpoint that is a link to the victim (the wrong
+    // size: refused unread), and a render that ends in an error (--strict).
+    let args = ["render", spheres.to_str().unwrap(), "-o", out_s, "--width", "16", "--height", "12", "--resume"];
+    let child = spawn_after_planting(&dir, "out.png", &victim, &args, &mut planted);
+    let o = child.wait_with_output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("out.png.checkpoint: not a valid ember checkpoint"), "{e}");
+    check_aftermath(&dir, &victim, &planted, &[], "failed resume");
+    let hot = dir.join("hot.toml");
+    std::fs::write(&hot, common::OVERFLOW_SCENE).unwrap();
+    let args =
+        ["render", hot.to_str().unwrap(), "-o", out_s, "--width", "8", "--height", "8", "--spp", "2", "--strict"];
+    let child = spawn_after_planting(&dir, "out.png", &victim, &args, &mut planted);
+    let o = child.wait_with_output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("--strict allows none"), "{e}");
+    check_aftermath(&dir, &victim, &planted, &["hot.toml"], "failed render");
+    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(&elsewhere).unwrap();
+}
+
+#[test]
+fn a_second_signal_quits_at_once_and_leaves_no_file() {
+    let dir = common::fresh_dir("safety", "hard-exit");
+    let out = dir.join("out.exr");
+    // Two pixels of many samples: a pixel in flight takes seconds to finish.
+    let mut running = Running::start_rendering(
+        Command::new(env!("CARGO_BIN_EXE_ember"))
+            .arg("render")
+            .arg(common::scene_path("cornell-area.toml"))
+            .arg("-o")
+            .arg(&out)
+            .args(["--width", "2", "--height", "1", "--spp", "50000000", "--checkpoint-every", "0.01s"]),
+    );
+    std::thread::sleep(Duration::from_millis(50));
+    running.signal("INT");
+    running.wait_for_line("interrupt: finishing the pixels in flight");
+    assert_eq!(listing(&dir), ["out.exr.lock"], "the lock is held while rendering");
+    running.signal("TERM");
+    let start = Instant::now();
+    let (status, seen) = running.finish();
+    assert!(start.elapsed() < Duration::from_secs(5), "the second signal did not end ember at once");
+    assert_eq!(status.code(), Some(143), "{seen}");
+    assert!(seen.contains("SIGTERM again: quitting without a checkpoint"), "{seen}");
+    assert!(listing(&dir).is_empty(), "left behind: {:?}", listing(&dir));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_second_render_to_the_same_output_is_refused() {
+    let dir = common::fresh_dir("safety", "two-renders");
+    let out = dir.join("out.exr");
+    let ckpt = dir.join("out.exr.checkpoint");
+    let lock = dir.join("out.exr.lock");
+    let scene = common::scene_path("cornell-area.toml");
+    let render = |extra: &[&str]| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_ember"));
+        c.arg("render").arg(&scene).arg("-o").arg(&out);
+        c.args(["--width", "32", "--height", "24", "--spp", "3000", "--seed", "0", "--checkpoint-every", "0.05s"]);
+        c.args(extra);
+        c
+    };
+    let first = Running::start_rendering(&mut render(&[]));
+    let start = Instant::now();
+    while !ckpt.exists() {
+        assert!(start.elapsed() < Duration::from_secs(10), "no periodic checkpoint");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let key = common::cli_checkpoint_key(&scene, 32, 24, 3000, 0);
+    for extra in [&[][..], &["--resume"]] {
+        let o = render(extra).output().unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {e}");
+        assert_eq!(
+            e.trim(),
+            format!(
+                "error: {}: another render is writing this output (it holds the lock {}); wait for it to end or \
+                 choose another output",
+                out.display(),
+                lock.display()
+            )
+        );
+        assert!(lock.exists(), "the second render removed the first one's lock");
+        Checkpoint::load(&ckpt, &key).expect("the first render's checkpoint is intact");
+    }
+    first.signal("TERM");
+    let (status, seen) = first.finish();
+    assert_eq!(status.code(), Some(143), "{seen}");
+    let saved = Checkpoint::load(&ckpt, &key).unwrap();
+    assert!(saved.accum.samples() > 0);
+    assert_eq!(listing(&dir), ["out.exr.checkpoint"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
