@@ -4,6 +4,10 @@
 //! `embree4` without a search path); this script then only locates `libembree4.so`: in
 //! `EMBREE_DIR` if set (link search path plus an rpath, so binaries run without
 //! `LD_LIBRARY_PATH`), else on the standard library path.
+//!
+//! Open Image Denoise (the denoiser, `src/oidn/`) is not linked: it is loaded at run time. This
+//! script only records the folder `scripts/fetch-oidn.sh` fills by default, as
+//! `EMBER_OIDN_DEFAULT_DIR`, where the binaries look for it when `EMBER_OIDN_DIR` is not set.
 
 use std::env;
 use std::path::{Path, PathBuf};
@@ -13,6 +17,7 @@ const APT_HINT: &str = "install it with: sudo apt-get install libembree-dev libc
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=EMBREE3_INCLUDE_DIR");
+    record_oidn_default_dir();
     if env::var_os("CARGO_FEATURE_EMBREE4").is_some() {
         locate_embree4();
         return;
@@ -78,6 +83,20 @@ fn locate_embree4() {
     if !dirs.iter().any(|d| d.join("libembree4.so").exists()) {
         fail(&format!("libembree4.so was not found on the standard library path; {EMBREE4_HINT}"));
     }
+}
+
+/// The default folder of `scripts/fetch-oidn.sh` (same rule as the script: `$XDG_CACHE_HOME`,
+/// else `$HOME/.cache`, then `ember/oidn-2.5.1/lib`), recorded whether or not it exists yet: the
+/// library may be fetched after the build. Empty if neither variable is set.
+fn record_oidn_default_dir() {
+    println!("cargo:rerun-if-env-changed=XDG_CACHE_HOME");
+    println!("cargo:rerun-if-env-changed=HOME");
+    let cache = env::var_os("XDG_CACHE_HOME")
+        .filter(|d| !d.is_empty())
+        .map(PathBuf::from)
+        .or_else(|| env::var_os("HOME").filter(|d| !d.is_empty()).map(|h| PathBuf::from(h).join(".cache")));
+    let dir = cache.map(|c| c.join("ember/oidn-2.5.1/lib").display().to_string()).unwrap_or_default();
+    println!("cargo:rustc-env=EMBER_OIDN_DEFAULT_DIR={dir}");
 }
 
 fn generate(include_dir: &Path, header: &Path) -> Result<bindgen::Bindings, bindgen::BindgenError> {

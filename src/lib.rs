@@ -1,8 +1,8 @@
 //! ember: a physically based path tracer on Intel Embree.
 //!
 //! Data flows one way: scene file → [`scene`] → [`accel`] (Embree or the naive loop) →
-//! integrator → film → image file. Lower modules never import higher ones; the FFI layer
-//! [`embree`] is the only module with unchecked (FFI) code.
+//! integrator → film → image file. Lower modules never import higher ones; the FFI layers
+//! [`embree`] and [`oidn`] (the denoiser) are the only modules with unchecked (FFI) code.
 
 #![deny(unsafe_op_in_unsafe_fn)]
 // `!(x > 0.0)` is written on purpose where NaN must take the "no" branch.
@@ -20,6 +20,7 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod memory;
+pub mod oidn;
 pub mod output_lock;
 pub mod sampler;
 pub mod scene;
