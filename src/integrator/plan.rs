@@ -62,17 +62,22 @@ impl RenderPlan {
     /// ([`Scene::fingerprint`]), the image size and spp, and everything else that changes the
     /// image as `key=value` words — the requests that matter, the roulette start in force and
     /// the accelerator with its build options (`accel`: [`crate::accel::Accel::image_key`]);
-    /// the thread count and kernel choice do not change the image. A checkpoint records this
-    /// and resumes only against the same.
+    /// the thread count and kernel choice do not change the image. A render that takes the
+    /// auxiliary images adds `aux=albedo+normal` (its checkpoint holds their sums too). A
+    /// checkpoint records this and resumes only against the same.
     pub fn checkpoint_key(&self, scene_fingerprint: u64, accel: &str) -> CheckpointKey {
         let s = &self.settings;
         let rr = self.roulette_start.map_or("off".to_string(), |d| d.to_string());
         let te = s.target_error.map_or("none".to_string(), |e| e.to_string());
-        let settings = format!(
+        let mut settings = format!(
             "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} target-error={te} {accel}",
             s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator
         );
-        CheckpointKey { scene: scene_fingerprint, settings, width: s.width, height: s.height, spp: s.spp }
+        // Not an image setting, but the checkpoint holds the auxiliary sums only when taken.
+        if s.aux {
+            settings.push_str(" aux=albedo+normal");
+        }
+        CheckpointKey { scene: scene_fingerprint, settings, width: s.width, height: s.height, spp: s.spp, aux: s.aux }
     }
 
     /// Whether anything in the scene emits light; without light every sample is exactly zero

@@ -220,6 +220,8 @@ pub struct RenderSection {
     pub max_depth: Option<u32>,
     pub rr_depth: Option<RrDepthValue>,
     pub seed: Option<u64>,
+    /// Denoise the image with Open Image Denoise (as `--denoise`).
+    pub denoise: Option<bool>,
 }
 
 #[derive(Debug, Deserialize, Clone)]

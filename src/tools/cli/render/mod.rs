@@ -10,7 +10,7 @@ pub use interrupt::Interrupted;
 
 use super::progress::ProgressBar;
 use crate::embree::BuildOptions;
-use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
+use crate::film::{Checkpoint, ImageFormat, RenderImages, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
 use crate::memory::{LoadBudget, MemoryLimit};
 use crate::output_lock::{OutputLock, lock_path};
@@ -19,7 +19,13 @@ use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    ImageFormat::from_path(&args.output)?;
+    let format = ImageFormat::from_path(&args.output)?;
+    if args.aux && format != ImageFormat::Exr {
+        anyhow::bail!(
+            "{}: --aux writes the albedo, normal and sample count as EXR layers; a PNG cannot hold them (use .exr)",
+            args.output.display()
+        );
+    }
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
     crate::atomic_write::check_writable(&args.output)?;
     // From here a signal stops the render cleanly (or, before it starts, ends ember without
@@ -32,6 +38,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     let settings = args::settings(&args, &scene)?;
+    // The library is loaded before rendering: a render is not spent on a denoise that fails.
+    let denoiser = if args::denoise(&args, &scene) { Some(crate::oidn::Denoiser::new()?) } else { None };
     let checkpoint = checkpoint_path(&args.output);
     refuse_overwriting_inputs(
         &scene,
@@ -109,7 +117,24 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
-    film.save(&args.output)?;
+    let (albedo, normal) = (result.accum.albedo(), result.accum.normal());
+    let counts = result.accum.aux.is_some().then(|| result.accum.sample_counts());
+    let denoised = match &denoiser {
+        Some(d) => {
+            let start = std::time::Instant::now();
+            let image = crate::film::denoise(d, &result.accum, args.denoise_aux)?;
+            Some((image, start.elapsed()))
+        }
+        None => None,
+    };
+    let images = RenderImages {
+        image: &film,
+        denoised: denoised.as_ref().map(|(f, _)| f),
+        albedo: albedo.as_ref(),
+        normal: normal.as_ref(),
+        sample_count: counts.as_deref(),
+    };
+    images.save(&args.output)?;
     // Only a regular file: a folder or a link someone put there is not ours to remove.
     if is_file(&checkpoint) {
         std::fs::remove_file(&checkpoint)
@@ -120,6 +145,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         crate::accel::AccelKind::Naive => "naive accel".to_string(),
     };
     eprintln!("{}", summary::rendered(&stats, &accel_text, &args.output));
+    if let (Some((_, took)), Some(d)) = (&denoised, &denoiser) {
+        eprintln!("{}", summary::denoised(*took, d, args.denoise_aux, format));
+    }
     eprintln!("{}", summary::error_estimate(&stats));
     Ok(())
 }
