@@ -6,12 +6,19 @@
 //! shares random numbers with the reference (a render whose samples were a prefix of the
 //! reference's would look more accurate than it is). All variants use the same seed at the
 //! same rung (common random numbers), which makes their curves easier to compare.
+//!
+//! A denoised variant renders as its noisy twin does (taking the auxiliary images changes no
+//! random number, so its noisy image is the twin's, bit for bit), then denoises; its time is
+//! the render's plus the denoiser's.
 
 use super::metrics::{ImageDifference, SizeMismatch, image_difference};
 use super::variant::Variant;
 use crate::accel::Accel;
-use crate::film::Film;
-use crate::integrator::{Estimator, RenderError, RenderSettings, RenderStats, RrDepth, render};
+use crate::film::{Accumulator, AuxMode, Film};
+use crate::integrator::{
+    Estimator, RenderControl, RenderError, RenderPlan, RenderSettings, RenderStats, RrDepth, render, render_controlled,
+};
+use crate::oidn::{DenoiseError, Denoiser};
 use crate::sampler::mix64;
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -48,8 +55,11 @@ pub struct Study {
 pub struct ConvergencePoint {
     pub variant: Variant,
     pub spp: u32,
-    /// Mean render time ([`RenderStats::elapsed`]: the render only, not the BVH build).
+    /// Mean time to the image: the render ([`RenderStats::elapsed`], not the BVH build) and,
+    /// for a denoised variant, the denoiser (`denoise_seconds`).
     pub seconds: f64,
+    /// Of `seconds`, the mean time the denoiser took (0 for a noisy variant).
+    pub denoise_seconds: f64,
     /// Mean rays traced per render.
     pub rays: f64,
     /// Mean error against the reference.
@@ -67,8 +77,9 @@ impl ConvergencePoint {
             variant: Variant::new(Estimator::NeeMis),
             spp,
             seconds,
+            denoise_seconds: 0.0,
             rays: 0.0,
-            error: ImageDifference { rel_mse, mae: 0.0 },
+            error: ImageDifference { rel_mse, mae: 0.0, flip: 0.0 },
             nonfinite: 0,
         }
     }
@@ -85,6 +96,8 @@ pub enum ConvergeError {
     Render(#[from] RenderError),
     #[error(transparent)]
     Size(#[from] SizeMismatch),
+    #[error(transparent)]
+    Denoise(#[from] DenoiseError),
 }
 
 impl Study {
@@ -99,6 +112,7 @@ impl Study {
             seed,
             threads: self.threads,
             estimator: variant.estimator,
+            aux: matches!(variant.denoise, Some(AuxMode::With(_))),
             ..RenderSettings::default()
         }
     }
@@ -142,7 +156,8 @@ impl Study {
     }
 
     /// Renders `variant` at every rung of the ladder and measures it against `reference`;
-    /// `on_point` sees each point as it is measured.
+    /// `on_point` sees each point as it is measured. A denoised variant loads Open Image
+    /// Denoise (and fails with [`ConvergeError::Denoise`] without it).
     pub fn measure(
         &self,
         scene: &Scene,
@@ -152,34 +167,62 @@ impl Study {
         mut on_point: impl FnMut(&ConvergencePoint),
     ) -> Result<Vec<ConvergencePoint>, ConvergeError> {
         let repeats = self.repeats.max(1);
+        let denoiser = match variant.denoise {
+            Some(_) => Some(Denoiser::new()?),
+            None => None,
+        };
         let mut out = Vec::with_capacity(self.ladder.len());
         for (rung, &spp) in self.ladder.iter().enumerate() {
             let mut m = ConvergencePoint {
                 variant,
                 spp,
                 seconds: 0.0,
+                denoise_seconds: 0.0,
                 rays: 0.0,
                 error: ImageDifference::default(),
                 nonfinite: 0,
             };
             for repeat in 0..repeats {
-                let (film, stats) =
-                    render(scene, accel, &self.settings(&variant, spp, self.render_seed(rung, repeat)))?;
+                let settings = self.settings(&variant, spp, self.render_seed(rung, repeat));
+                let (accum, stats) = render_accum(scene, accel, &settings)?;
+                let film = match (&denoiser, variant.denoise) {
+                    (Some(d), Some(mode)) => {
+                        let start = std::time::Instant::now();
+                        let film = crate::film::denoise(d, &accum, mode)?;
+                        m.denoise_seconds += start.elapsed().as_secs_f64();
+                        film
+                    }
+                    _ => accum.film(),
+                };
                 let e = image_difference(&film, reference)?;
                 m.seconds += stats.elapsed.as_secs_f64();
                 m.rays += stats.rays as f64;
                 m.error.rel_mse += e.rel_mse;
                 m.error.mae += e.mae;
+                m.error.flip += e.flip;
                 m.nonfinite += stats.nonfinite;
             }
             let r = repeats as f64;
-            (m.seconds, m.rays, m.error.rel_mse, m.error.mae) =
-                (m.seconds / r, m.rays / r, m.error.rel_mse / r, m.error.mae / r);
+            m.seconds += m.denoise_seconds;
+            (m.seconds, m.denoise_seconds, m.rays) = (m.seconds / r, m.denoise_seconds / r, m.rays / r);
+            (m.error.rel_mse, m.error.mae, m.error.flip) = (m.error.rel_mse / r, m.error.mae / r, m.error.flip / r);
             on_point(&m);
             out.push(m);
         }
         Ok(out)
     }
+}
+
+/// Renders with `settings`, returning the accumulated samples (with the auxiliary images if
+/// the settings take them).
+fn render_accum(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &RenderSettings,
+) -> Result<(Accumulator, RenderStats), RenderError> {
+    let plan = RenderPlan::new(scene, settings);
+    let r = render_controlled(scene, accel, &plan, RenderControl::default())?;
+    Ok((r.accum, r.stats))
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 //! The estimator variants a study compares, and the syntax that names them
-//! (`ESTIMATOR[/no-rr][/depth=D]` and the groups `estimators`, `no-rr`, `depth`, `all`).
+//! (`ESTIMATOR[/no-rr][/depth=D][/denoise[=MODE]]` and the groups `estimators`, `no-rr`,
+//! `depth`, `denoise`, `all`).
 
+use crate::film::AuxMode;
 use crate::integrator::Estimator;
 
 /// The depths of the `depth` variant group: each compared to the full-depth reference, so
@@ -15,15 +17,19 @@ pub struct Variant {
     pub russian_roulette: bool,
     /// Bounce limit; `None`: the study's full depth (that of the reference).
     pub max_depth: Option<u32>,
+    /// Denoised with Open Image Denoise, given the auxiliary images as this says; `None`: the
+    /// render's own (noisy) estimate.
+    pub denoise: Option<AuxMode>,
 }
 
 impl Variant {
     pub const fn new(estimator: Estimator) -> Variant {
-        Variant { estimator, russian_roulette: true, max_depth: None }
+        Variant { estimator, russian_roulette: true, max_depth: None, denoise: None }
     }
 
-    /// `ESTIMATOR[/no-rr][/depth=D]`, e.g. `nee-mis`, `bsdf/no-rr`, `nee-mis/depth=3`; the
-    /// same syntax is accepted by [`parse_variants`].
+    /// `ESTIMATOR[/no-rr][/depth=D][/denoise=MODE]`, e.g. `nee-mis`, `bsdf/no-rr`,
+    /// `nee-mis/depth=3`, `nee-mis/denoise=prefilter`; the same syntax is accepted by
+    /// [`parse_variants`] (where `/denoise` alone is the default mode).
     pub fn name(&self) -> String {
         let mut s = self.estimator.name().to_string();
         if !self.russian_roulette {
@@ -32,7 +38,21 @@ impl Variant {
         if let Some(d) = self.max_depth {
             s.push_str(&format!("/depth={d}"));
         }
+        if let Some(m) = self.denoise {
+            s.push_str(&format!("/denoise={m}"));
+        }
         s
+    }
+
+    /// Why its images do not converge to the reference, if they do not: a depth limit cuts
+    /// light off, a denoiser smooths (its error stops falling as 1/spp and keeps a bias).
+    pub fn bias(&self) -> Option<&'static str> {
+        match (self.max_depth, self.denoise) {
+            (Some(_), Some(_)) => Some("biased: depth limit, denoised"),
+            (Some(_), None) => Some("biased: depth limit"),
+            (None, Some(_)) => Some("biased: denoised"),
+            (None, None) => None,
+        }
     }
 }
 
@@ -47,8 +67,14 @@ impl std::str::FromStr for Variant {
                 v.russian_roulette = false;
             } else if let Some(d) = part.strip_prefix("depth=") {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
+            } else if part == "denoise" {
+                v.denoise = Some(AuxMode::DEFAULT);
+            } else if let Some(m) = part.strip_prefix("denoise=") {
+                v.denoise = Some(m.parse().map_err(|e| format!("variant {s:?}: {e}"))?);
             } else {
-                return Err(format!("variant {s:?}: unknown option {part:?} (expected no-rr or depth=D)"));
+                return Err(format!(
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, denoise or denoise=MODE)"
+                ));
             }
         }
         Ok(v)
@@ -59,8 +85,10 @@ impl std::str::FromStr for Variant {
 /// - `estimators`: the four estimators at full depth with Russian roulette;
 /// - `no-rr`: the four estimators at full depth without Russian roulette;
 /// - `depth`: NEE+MIS with Russian roulette at each depth of [`DEPTH_GROUP`] below `full_depth`;
-/// - `all`: the three groups;
-/// - or one variant, `ESTIMATOR[/no-rr][/depth=D]` (see [`Variant::name`]).
+/// - `denoise`: NEE+MIS, and NEE+MIS denoised in each [`AuxMode`] (colour only; albedo and
+///   normal noisy, prefiltered, clean);
+/// - `all`: the four groups;
+/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/denoise[=MODE]]` (see [`Variant::name`]).
 ///
 /// Duplicates are dropped; the order is kept.
 pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, String> {
@@ -75,7 +103,11 @@ pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, Strin
                 .filter(|&d| d < full_depth)
                 .map(|d| Variant { max_depth: Some(d), ..Variant::new(Estimator::NeeMis) })
                 .collect(),
-            "all" => parse_variants("estimators,no-rr,depth", full_depth)?,
+            "denoise" => std::iter::once(None)
+                .chain(AuxMode::ALL.into_iter().map(Some))
+                .map(|denoise| Variant { denoise, ..Variant::new(Estimator::NeeMis) })
+                .collect(),
+            "all" => parse_variants("estimators,no-rr,depth,denoise", full_depth)?,
             "" => return Err("empty variant in the list".into()),
             spec => vec![spec.parse()?],
         };
@@ -98,13 +130,22 @@ mod tests {
             assert_eq!(v.name().parse::<Variant>().unwrap(), v);
         }
         let v: Variant = "bsdf-uniform/no-rr/depth=3".parse().unwrap();
-        assert_eq!(v, Variant { estimator: Estimator::BsdfUniform, russian_roulette: false, max_depth: Some(3) });
+        assert_eq!(
+            v,
+            Variant { estimator: Estimator::BsdfUniform, russian_roulette: false, max_depth: Some(3), denoise: None }
+        );
+        let v: Variant = "nee-mis/denoise".parse().unwrap();
+        assert_eq!(v.name(), "nee-mis/denoise=prefilter");
+        assert_eq!(v.bias(), Some("biased: denoised"));
+        assert_eq!("nee-mis/denoise=color".parse::<Variant>().unwrap().denoise, Some(AuxMode::ColorOnly));
+        assert!("nee-mis/denoise=fast".parse::<Variant>().unwrap_err().contains("unknown auxiliary mode"));
     }
 
     #[test]
     fn groups_expand_and_duplicates_are_dropped() {
         let all = parse_variants("all", 64).unwrap();
-        assert_eq!(all.len(), 4 + 4 + 10);
+        assert_eq!(all.len(), 4 + 4 + 10 + 4);
+        assert_eq!(parse_variants("denoise", 64).unwrap().len(), 5);
         assert_eq!(parse_variants("nee-mis,estimators,nee-mis", 64).unwrap().len(), 4);
         // Depths at or beyond the full depth are not in the group.
         assert_eq!(parse_variants("depth", 4).unwrap().len(), 3);
