@@ -4,13 +4,13 @@
 //!
 //!     cargo run --release --example denoise_comparison -- SCENE OUT.png \
 //!         [--width 320] [--height 240] [--spp 16] [--reference-spp 4096] [--reference REF.exr] \
-//!         [--save-reference REF.exr] [--aux-mode prefilter] [--aux-panels] [--flip-maps]
+//!         [--save-reference REF.exr] [--aux-mode prefilter] [--aux-panels] [--flip-maps] [--scale 1]
 //!
 //! The noisy render uses seed 1, the reference seed 0 (no shared random numbers). With
 //! `--aux-panels` the albedo and normal images the denoiser was given are shown too (normals
 //! mapped from [-1, 1] to [0, 1]); with `--flip-maps`, FLIP's error maps of the noisy and the
-//! denoised image (black: no difference, yellow: the largest). Captions are drawn with DejaVu
-//! Sans (as the plots are).
+//! denoised image (black: no difference, yellow: the largest); `--scale K` shows each pixel as
+//! K x K. Captions are drawn with DejaVu Sans (as the plots are).
 
 use ember::accel::AccelKind;
 use ember::film::{AuxMode, Film, denoise};
@@ -43,7 +43,7 @@ fn main() {
     };
     let [scene_path, out] = positional[..] else {
         eprintln!(
-            "usage: denoise_comparison SCENE OUT.png [--width W] [--height H] [--spp N] [--reference-spp M] [--reference REF.exr] [--save-reference REF.exr] [--aux-mode MODE] [--aux-panels] [--flip-maps]"
+            "usage: denoise_comparison SCENE OUT.png [--width W] [--height H] [--spp N] [--reference-spp M] [--reference REF.exr] [--save-reference REF.exr] [--aux-mode MODE] [--aux-panels] [--flip-maps] [--scale K]"
         );
         std::process::exit(2);
     };
@@ -116,7 +116,14 @@ fn main() {
         panels.push((albedo, "albedo".into()));
         panels.push((normal, "normal".into()));
     }
-    compose(&panels, width, height).save(out).expect("write PNG");
+    let scale = num("--scale", 1).max(1);
+    if scale > 1 {
+        // Each pixel shown as scale x scale (nearest): small renders, readable captions.
+        for (film, _) in &mut panels {
+            *film = magnify(film, scale);
+        }
+    }
+    compose(&panels, width * scale, height * scale).save(out).expect("write PNG");
     eprintln!("wrote {out}");
 }
 
@@ -131,6 +138,13 @@ fn flip_map(image: &Film, reference: &Film) -> Film {
         .map(|c| Vec3::from_array([c[0], c[1], c[2]].map(|b| ember::film::srgb_to_linear(b as f32 / 255.0))))
         .collect();
     Film { width: image.width, height: image.height, pixels }
+}
+
+/// `film` with each pixel repeated `k` x `k` times.
+fn magnify(film: &Film, k: u32) -> Film {
+    let (w, h) = (film.width * k, film.height * k);
+    let pixels = (0..w * h).map(|i| film.get(i % w / k, i / w / k)).collect();
+    Film { width: w, height: h, pixels }
 }
 
 /// The panels in a row, each with its caption below, on a dark background.
