@@ -4,6 +4,7 @@
 //! Russian roulette starts, which kernel) is worked out once from them and the scene, in
 //! [`crate::integrator::RenderPlan`].
 
+pub use crate::sampler::SamplerKind;
 use std::fmt;
 use std::str::FromStr;
 
@@ -171,6 +172,8 @@ pub struct RenderSettings {
     pub target_error: Option<f32>,
     /// Render only this part of the image (`None`: all of it).
     pub shard: Option<Shard>,
+    /// Where the samples get their numbers.
+    pub sampler: SamplerKind,
 }
 
 impl RenderSettings {
@@ -184,6 +187,7 @@ impl RenderSettings {
             max_depth: r.max_depth.unwrap_or(d.max_depth),
             rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
             seed: r.seed.unwrap_or(d.seed),
+            sampler: r.sampler.unwrap_or(d.sampler),
             ..d
         }
     }
@@ -210,6 +214,7 @@ impl Default for RenderSettings {
             specialize: true,
             target_error: None,
             shard: None,
+            sampler: SamplerKind::default(),
         }
     }
 }
@@ -223,6 +228,7 @@ pub struct RenderDefaults {
     pub max_depth: Option<u32>,
     pub rr_depth: Option<RrDepth>,
     pub seed: Option<u64>,
+    pub sampler: Option<SamplerKind>,
 }
 
 #[cfg(test)]

@@ -80,8 +80,8 @@ impl RenderPlan {
         let rr = self.roulette_start.map_or("off".to_string(), |d| d.to_string());
         let te = s.target_error.map_or("none".to_string(), |e| e.to_string());
         format!(
-            "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} target-error={te} {accel}",
-            s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator
+            "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} sampler={} target-error={te} {accel}",
+            s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator, s.sampler
         )
     }
 
@@ -185,7 +185,7 @@ mod tests {
         let key = plan(scattering(0.75), RrDepth::Auto, true).checkpoint_key(7, "accel=naive");
         assert_eq!(
             key.settings,
-            "width=640 height=480 spp=64 max-depth=8 rr-depth=3 seed=0 estimator=nee-mis target-error=none accel=naive"
+            "width=640 height=480 spp=64 max-depth=8 rr-depth=3 seed=0 estimator=nee-mis sampler=sobol target-error=none accel=naive"
         );
         assert_eq!((key.scene, key.width, key.height, key.spp), (7, 640, 480, 64));
         // The kernel does not change the image, so it is not in the key.

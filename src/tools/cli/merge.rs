@@ -69,7 +69,6 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     let elapsed: std::time::Duration = readers.iter().map(|r| r.header.elapsed).sum();
     let mut accum = Accumulator::new(width, height);
     for r in readers {
-        let path = r.path.clone();
         r.read_into(&mut accum).map_err(|e| anyhow::anyhow!("{e}; nothing was written"))?;
     }
     let film = accum.film();

@@ -4,7 +4,7 @@ use crate::accel::AccelKind;
 use crate::embree::BuildQuality;
 use crate::scene::Scene;
 use crate::scene::format::MAX_IMAGE_SIDE;
-use crate::settings::{Estimator, RenderSettings, RrDepth, Shard};
+use crate::settings::{Estimator, RenderSettings, RrDepth, SamplerKind, Shard};
 use clap::Args;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -67,6 +67,10 @@ pub struct RenderArgs {
     /// Estimator: nee-mis, nee, bsdf or bsdf-uniform.
     #[arg(long, default_value = "nee-mis")]
     pub estimator: Estimator,
+    /// Where samples get their numbers: sobol (an Owen-scrambled Sobol sequence per pixel)
+    /// or independent [scene's render.sampler, else sobol].
+    #[arg(long)]
+    pub sampler: Option<SamplerKind>,
     /// Fail (exit 2, no image written) if any sample was NaN or infinite.
     #[arg(long)]
     pub strict: bool,
@@ -132,6 +136,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         estimator: args.estimator,
         specialize: !args.no_specialize,
         target_error: args.target_error,
+        sampler: args.sampler.unwrap_or(s.sampler),
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
     })
 }
