@@ -15,6 +15,7 @@ use ember::film::{
 use ember::integrator::{RenderControl, RenderPlan, RenderResult, RenderSettings, render_controlled};
 use ember::oidn::Denoiser;
 use ember::scene::Scene;
+use ember::settings::SamplerKind;
 use glam::{Vec2, Vec3};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -138,15 +139,19 @@ fn through_a_mirror_the_albedo_and_normal_are_those_of_the_surface_seen() {
 #[test]
 fn the_image_is_the_same_with_or_without_aux_and_as_before_them() {
     // spheres.toml has every material (mirror, glass, rough metal, textures) and an area light.
-    // The hash is of the image rendered by the commit before the auxiliary images existed
-    // (`ember render scenes/spheres.toml --width 48 --height 30 --spp 8 -o x.exr`, b9cc65e).
+    // The hashes are of the images rendered before the auxiliary images existed:
+    // `ember render scenes/spheres.toml --width 48 --height 30 --spp 8 -o x.exr` by 9d4ce8d
+    // (Sobol samples, the default) and, with independent samples, by b9cc65e.
     let scene = Scene::load(&common::scene_path("spheres.toml")).unwrap();
     let settings = RenderSettings { width: 48, height: 30, spp: 8, ..RenderSettings::from_scene(&scene.render) };
+    assert_eq!(settings.sampler, SamplerKind::Sobol);
     let plain = render(&scene, &settings);
     let with_aux = render(&scene, &RenderSettings { aux: true, ..settings.clone() });
     assert_eq!(plain.accum.pixels, with_aux.accum.pixels, "the aux images changed the image");
     assert!(plain.accum.aux.is_none() && with_aux.accum.aux.is_some());
-    assert_eq!(bits_hash(&plain.accum.film()), BEFORE_AUX_HASH, "the image differs from before");
+    assert_eq!(bits_hash(&plain.accum.film()), SOBOL_HASH, "the image differs from before");
+    let independent = RenderSettings { sampler: SamplerKind::Independent, aux: true, ..settings.clone() };
+    assert_eq!(bits_hash(&render(&scene, &independent).accum.film()), INDEPENDENT_HASH);
     // Adaptive sampling decides on the image alone: the same pixels stop at the same counts.
     let adaptive = RenderSettings { target_error: Some(0.2), spp: 64, ..settings };
     let a = render(&scene, &adaptive);
@@ -154,8 +159,10 @@ fn the_image_is_the_same_with_or_without_aux_and_as_before_them() {
     assert_eq!(a.accum.pixels, b.accum.pixels);
 }
 
-/// [`bits_hash`] of spheres.toml at 48x30, 8 spp, before the auxiliary images existed.
-const BEFORE_AUX_HASH: u64 = 12716509579082221967;
+/// [`bits_hash`] of spheres.toml at 48x30, 8 spp, before the auxiliary images existed: with
+/// Sobol samples (9d4ce8d) and independent ones (b9cc65e).
+const SOBOL_HASH: u64 = 9809396641485505721;
+const INDEPENDENT_HASH: u64 = 12716509579082221967;
 
 #[test]
 fn aux_images_are_the_same_for_one_and_two_threads_and_after_a_resume() {
@@ -341,6 +348,25 @@ fn the_scene_file_can_ask_for_denoising() {
     assert!(o.status.success(), "{err}");
     assert!(err.lines().any(|l| l.starts_with("denoised in ")), "{err}");
     assert!(exr_channel_names(&out).unwrap().contains(&NOISY_LAYER[0].to_string()));
+
+    // A shard is not a whole image and its file holds no aux sums: --shard refuses to denoise,
+    // whether the scene or a flag asks, before rendering (nothing written).
+    let shard = dir.join("x.shard");
+    let plain = common::scene_path("cornell-area.toml");
+    for (scene, flag, needle) in [
+        (&scene, None, "the scene asks for denoising ([render] denoise = true), which --shard cannot do"),
+        (&plain, Some("--denoise"), "--shard cannot be combined with --denoise or --aux"),
+        (&plain, Some("--aux"), "--shard cannot be combined with --denoise or --aux"),
+    ] {
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", shard.to_str().unwrap(), "--shard", "0/2"];
+        args.extend(["--width", "8", "--height", "6", "--spp", "2"]);
+        args.extend(flag);
+        let o = common::ember(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{flag:?}: {err}");
+        assert!(err.contains(needle), "{flag:?}: {err}");
+        assert!(!shard.exists());
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -352,11 +378,12 @@ fn rel_mse(image: &Film, reference: &Film) -> f64 {
 #[test]
 fn denoising_brings_a_low_spp_render_closer_to_the_reference() {
     // cornell-area at 40x40: 8 spp (seed 1) against 1024 spp (seed 0, no shared random
-    // numbers). Measured: relMSE 0.170 noisy, 0.0135 denoised (albedo + normal, prefiltered),
-    // 0.0148 colour only; mean FLIP 0.177 noisy, 0.139 denoised. FLIP gains less: at this size
-    // it also sees the reference's own grain, which a smooth image does not share
-    // (docs/denoiser.md). Asserted with room for other builds of OIDN: denoised relMSE below a
-    // fifth of the noisy one, FLIP below 90% of it; colour only below half of the noisy relMSE.
+    // numbers). Measured (Sobol samples): relMSE 0.178 noisy, 0.0125 denoised (albedo + normal,
+    // prefiltered), 0.0144 colour only; mean FLIP 0.163 noisy, 0.138 denoised (independent
+    // samples: 0.170, 0.0135, 0.0148; 0.177, 0.139). FLIP gains less: it damps pixel-scale
+    // noise and sees the smooth blotches a denoiser leaves (docs/denoiser.md). Asserted with
+    // room for other builds of OIDN: denoised relMSE below a fifth of the noisy one, FLIP
+    // below 90% of it; colour only below half of the noisy relMSE.
     let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
     let base = RenderSettings { width: 40, height: 40, ..RenderSettings::from_scene(&scene.render) };
     let reference = render(&scene, &RenderSettings { spp: 1024, seed: 0, ..base.clone() }).accum.film();

@@ -6,6 +6,7 @@ mod accum;
 mod checkpoint;
 mod denoise;
 mod layers;
+pub mod shard;
 
 pub use accum::{Accumulator, AuxSums, PixelState, RELATIVE_ERROR_FLOOR};
 pub use checkpoint::{Checkpoint, CheckpointError, CheckpointKey, checkpoint_path};

@@ -222,6 +222,18 @@ pub struct RenderSection {
     pub seed: Option<u64>,
     /// Denoise the image with Open Image Denoise (as `--denoise`).
     pub denoise: Option<bool>,
+    pub sampler: Option<SamplerName>,
+}
+
+/// `sampler`: `"sobol"` or `"independent"`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SamplerName(pub crate::settings::SamplerKind);
+
+impl<'de> Deserialize<'de> for SamplerName {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map(SamplerName).map_err(de::Error::custom)
+    }
 }
 
 #[derive(Debug, Deserialize, Clone)]

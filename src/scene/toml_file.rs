@@ -249,6 +249,7 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
         rr_depth: r.rr_depth.map(|v| v.0),
         seed: r.seed,
         denoise: r.denoise,
+        sampler: r.sampler.map(|v| v.0),
     }
 }
 

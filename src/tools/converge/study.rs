@@ -113,6 +113,7 @@ impl Study {
             threads: self.threads,
             estimator: variant.estimator,
             aux: matches!(variant.denoise, Some(AuxMode::With(_))),
+            sampler: variant.sampler.unwrap_or_default(),
             ..RenderSettings::default()
         }
     }

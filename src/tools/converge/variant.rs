@@ -1,9 +1,10 @@
 //! The estimator variants a study compares, and the syntax that names them
-//! (`ESTIMATOR[/no-rr][/depth=D][/denoise[=MODE]]` and the groups `estimators`, `no-rr`,
-//! `depth`, `denoise`, `all`).
+//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/denoise[=MODE]]` and the groups
+//! `estimators`, `no-rr`, `depth`, `samplers`, `denoise`, `all`).
 
 use crate::film::AuxMode;
 use crate::integrator::Estimator;
+use crate::sampler::SamplerKind;
 
 /// The depths of the `depth` variant group: each compared to the full-depth reference, so
 /// their curves flatten at the bias of cutting paths short.
@@ -17,6 +18,8 @@ pub struct Variant {
     pub russian_roulette: bool,
     /// Bounce limit; `None`: the study's full depth (that of the reference).
     pub max_depth: Option<u32>,
+    /// Where samples get their numbers; `None`: the default sampler.
+    pub sampler: Option<SamplerKind>,
     /// Denoised with Open Image Denoise, given the auxiliary images as this says; `None`: the
     /// render's own (noisy) estimate.
     pub denoise: Option<AuxMode>,
@@ -24,12 +27,12 @@ pub struct Variant {
 
 impl Variant {
     pub const fn new(estimator: Estimator) -> Variant {
-        Variant { estimator, russian_roulette: true, max_depth: None, denoise: None }
+        Variant { estimator, russian_roulette: true, max_depth: None, sampler: None, denoise: None }
     }
 
-    /// `ESTIMATOR[/no-rr][/depth=D][/denoise=MODE]`, e.g. `nee-mis`, `bsdf/no-rr`,
-    /// `nee-mis/depth=3`, `nee-mis/denoise=prefilter`; the same syntax is accepted by
-    /// [`parse_variants`] (where `/denoise` alone is the default mode).
+    /// `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/denoise=MODE]`, e.g. `nee-mis`, `bsdf/no-rr`,
+    /// `nee-mis/depth=3`, `nee-mis/sobol`, `nee-mis/denoise=prefilter`; the same syntax is
+    /// accepted by [`parse_variants`] (where `/denoise` alone is the default mode).
     pub fn name(&self) -> String {
         let mut s = self.estimator.name().to_string();
         if !self.russian_roulette {
@@ -37,6 +40,9 @@ impl Variant {
         }
         if let Some(d) = self.max_depth {
             s.push_str(&format!("/depth={d}"));
+        }
+        if let Some(k) = self.sampler {
+            s.push_str(&format!("/{k}"));
         }
         if let Some(m) = self.denoise {
             s.push_str(&format!("/denoise={m}"));
@@ -67,13 +73,15 @@ impl std::str::FromStr for Variant {
                 v.russian_roulette = false;
             } else if let Some(d) = part.strip_prefix("depth=") {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
+            } else if let Ok(k) = part.parse::<SamplerKind>() {
+                v.sampler = Some(k);
             } else if part == "denoise" {
                 v.denoise = Some(AuxMode::DEFAULT);
             } else if let Some(m) = part.strip_prefix("denoise=") {
                 v.denoise = Some(m.parse().map_err(|e| format!("variant {s:?}: {e}"))?);
             } else {
                 return Err(format!(
-                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, denoise or denoise=MODE)"
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, denoise or denoise=MODE)"
                 ));
             }
         }
@@ -85,10 +93,12 @@ impl std::str::FromStr for Variant {
 /// - `estimators`: the four estimators at full depth with Russian roulette;
 /// - `no-rr`: the four estimators at full depth without Russian roulette;
 /// - `depth`: NEE+MIS with Russian roulette at each depth of [`DEPTH_GROUP`] below `full_depth`;
+/// - `samplers`: NEE+MIS with each sampler;
 /// - `denoise`: NEE+MIS, and NEE+MIS denoised in each [`AuxMode`] (colour only; albedo and
 ///   normal noisy, prefiltered, clean);
-/// - `all`: the four groups;
-/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/denoise[=MODE]]` (see [`Variant::name`]).
+/// - `all`: `estimators`, `no-rr`, `depth` and `denoise`;
+/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/denoise[=MODE]]` (see
+///   [`Variant::name`]).
 ///
 /// Duplicates are dropped; the order is kept.
 pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, String> {
@@ -102,6 +112,10 @@ pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, Strin
             "depth" => DEPTH_GROUP
                 .filter(|&d| d < full_depth)
                 .map(|d| Variant { max_depth: Some(d), ..Variant::new(Estimator::NeeMis) })
+                .collect(),
+            "samplers" => SamplerKind::ALL
+                .into_iter()
+                .map(|k| Variant { sampler: Some(k), ..Variant::new(Estimator::NeeMis) })
                 .collect(),
             "denoise" => std::iter::once(None)
                 .chain(AuxMode::ALL.into_iter().map(Some))
@@ -132,13 +146,25 @@ mod tests {
         let v: Variant = "bsdf-uniform/no-rr/depth=3".parse().unwrap();
         assert_eq!(
             v,
-            Variant { estimator: Estimator::BsdfUniform, russian_roulette: false, max_depth: Some(3), denoise: None }
+            Variant {
+                estimator: Estimator::BsdfUniform,
+                russian_roulette: false,
+                max_depth: Some(3),
+                sampler: None,
+                denoise: None
+            }
         );
+        let v: Variant = "nee-mis/sobol".parse().unwrap();
+        assert_eq!(v.sampler, Some(SamplerKind::Sobol));
+        assert_eq!(v.name(), "nee-mis/sobol");
+        assert_eq!(parse_variants("samplers", 64).unwrap().len(), 2);
         let v: Variant = "nee-mis/denoise".parse().unwrap();
         assert_eq!(v.name(), "nee-mis/denoise=prefilter");
         assert_eq!(v.bias(), Some("biased: denoised"));
         assert_eq!("nee-mis/denoise=color".parse::<Variant>().unwrap().denoise, Some(AuxMode::ColorOnly));
         assert!("nee-mis/denoise=fast".parse::<Variant>().unwrap_err().contains("unknown auxiliary mode"));
+        let v: Variant = "nee-mis/independent/denoise=clean".parse().unwrap();
+        assert_eq!(v.name().parse::<Variant>().unwrap(), v);
     }
 
     #[test]

@@ -10,6 +10,7 @@ pub use interrupt::Interrupted;
 
 use super::progress::ProgressBar;
 use crate::embree::BuildOptions;
+use crate::film::shard::ShardHeader;
 use crate::film::{Checkpoint, ImageFormat, RenderImages, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
 use crate::memory::{LoadBudget, MemoryLimit};
@@ -19,8 +20,24 @@ use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    let format = ImageFormat::from_path(&args.output)?;
-    if args.aux && format != ImageFormat::Exr {
+    // An image format, or None for a shard file.
+    let format = if args.shard.is_some() {
+        if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("shard")) {
+            anyhow::bail!(
+                "{}: --shard writes a shard file for `ember merge`: give the output a name ending in .shard",
+                args.output.display()
+            );
+        }
+        if args.denoise || args.aux {
+            anyhow::bail!(
+                "--shard cannot be combined with --denoise or --aux: shard files hold no albedo or normal images, and a shard is not a whole image to denoise"
+            );
+        }
+        None
+    } else {
+        Some(ImageFormat::from_path(&args.output)?)
+    };
+    if args.aux && format != Some(ImageFormat::Exr) {
         anyhow::bail!(
             "{}: --aux writes the albedo, normal and sample count as EXR layers; a PNG cannot hold them (use .exr)",
             args.output.display()
@@ -38,6 +55,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     let settings = args::settings(&args, &scene)?;
+    if settings.shard.is_some() && settings.aux {
+        anyhow::bail!(
+            "{}: the scene asks for denoising ([render] denoise = true), which --shard cannot do (a shard file holds no albedo or normal images)",
+            args.scene.display()
+        );
+    }
     // The library is loaded before rendering: a render is not spent on a denoise that fails.
     let denoiser = if args::denoise(&args, &scene) { Some(crate::oidn::Denoiser::new()?) } else { None };
     let checkpoint = checkpoint_path(&args.output);
@@ -117,24 +140,39 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
-    let (albedo, normal) = (result.accum.albedo(), result.accum.normal());
-    let counts = result.accum.aux.is_some().then(|| result.accum.sample_counts());
-    let denoised = match &denoiser {
-        Some(d) => {
-            let start = std::time::Instant::now();
-            let image = crate::film::denoise(d, &result.accum, args.denoise_aux)?;
-            Some((image, start.elapsed()))
+    let mut denoised = None;
+    match settings.shard {
+        Some(shard) => {
+            let header = ShardHeader {
+                scene: scene.fingerprint(),
+                settings: plan.image_key(&args.accel.image_key(bvh)),
+                shard,
+                width: settings.width,
+                height: settings.height,
+                spp: settings.spp,
+                nonfinite: stats.nonfinite,
+                elapsed: stats.elapsed + stats.earlier_sessions,
+            };
+            crate::film::shard::save(&args.output, &header, &result.accum)?;
         }
-        None => None,
-    };
-    let images = RenderImages {
-        image: &film,
-        denoised: denoised.as_ref().map(|(f, _)| f),
-        albedo: albedo.as_ref(),
-        normal: normal.as_ref(),
-        sample_count: counts.as_deref(),
-    };
-    images.save(&args.output)?;
+        None => {
+            let (albedo, normal) = (result.accum.albedo(), result.accum.normal());
+            let counts = result.accum.aux.is_some().then(|| result.accum.sample_counts());
+            if let Some(d) = &denoiser {
+                let start = std::time::Instant::now();
+                let image = crate::film::denoise(d, &result.accum, args.denoise_aux)?;
+                denoised = Some((image, start.elapsed()));
+            }
+            let images = RenderImages {
+                image: &film,
+                denoised: denoised.as_ref().map(|(f, _)| f),
+                albedo: albedo.as_ref(),
+                normal: normal.as_ref(),
+                sample_count: counts.as_deref(),
+            };
+            images.save(&args.output)?;
+        }
+    }
     // Only a regular file: a folder or a link someone put there is not ours to remove.
     if is_file(&checkpoint) {
         std::fs::remove_file(&checkpoint)
@@ -145,7 +183,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         crate::accel::AccelKind::Naive => "naive accel".to_string(),
     };
     eprintln!("{}", summary::rendered(&stats, &accel_text, &args.output));
-    if let (Some((_, took)), Some(d)) = (&denoised, &denoiser) {
+    if let (Some((_, took)), Some(d), Some(format)) = (&denoised, &denoiser, format) {
         eprintln!("{}", summary::denoised(*took, d, args.denoise_aux, format));
     }
     eprintln!("{}", summary::error_estimate(&stats));
