@@ -109,7 +109,7 @@ pub fn read_exr_channel(path: &Path, name: &str) -> Result<(u32, u32, Vec<f32>),
         .channel_data
         .list
         .iter()
-        .find(|c| c.name == Text::from(name))
+        .find(|c| c.name == *name)
         .ok_or_else(|| read_err(format!("no channel {name:?}")))?;
     let values: Vec<f32> = channel.sample_data.values_as_f32().collect();
     Ok((size.width() as u32, size.height() as u32, values))

@@ -173,6 +173,8 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     }
 }
 
+// The packet's state and the kernel's switches: grouping them would only rename them.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const HIT_LIGHTS: bool>(
     ctx: &PathContext,
