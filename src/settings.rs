@@ -164,6 +164,9 @@ pub struct RenderDefaults {
     pub max_depth: Option<u32>,
     pub rr_depth: Option<RrDepth>,
     pub seed: Option<u64>,
+    /// The look of 8-bit output (not a render setting: the image rendered is the same).
+    pub exposure: Option<f32>,
+    pub tonemap: Option<crate::film::Tonemap>,
 }
 
 #[cfg(test)]

@@ -90,6 +90,50 @@ fn exr_output_is_linear_float_and_matches_png() {
 }
 
 #[test]
+fn exposure_and_tone_curve_change_the_png_only() {
+    use ember::film::{Film, Look, Tonemap};
+    let d = common::fresh_dir("cli", "look");
+    let scene = common::scene_path("cornell-area.toml");
+    let small = ["--width", "16", "--height", "16", "--spp", "4"];
+    let run = |scene: &Path, out: &Path, extra: &[&str]| {
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        args.extend(small);
+        args.extend(extra);
+        let o = ember(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    // EXR stays linear: the look changes nothing in it, and a note says so.
+    let (plain, looked) = (d.join("plain.exr"), d.join("looked.exr"));
+    run(&scene, &plain, &[]);
+    let e = run(&scene, &looked, &["--exposure", "-1.5", "--tonemap", "aces"]);
+    assert!(e.contains("note: exposure -1.5 and tone curve aces apply to 8-bit output only"), "{e}");
+    assert_eq!(std::fs::read(&plain).unwrap(), std::fs::read(&looked).unwrap());
+    let film = Film::load_exr(&plain).unwrap();
+    // PNG: exposure, then the curve, then sRGB.
+    let png = d.join("neutral.png");
+    let e = run(&scene, &png, &["--exposure", "1", "--tonemap", "neutral"]);
+    assert!(!e.contains("note:"), "{e}");
+    let look = Look { exposure: 1.0, tonemap: Tonemap::Neutral };
+    let pixels = image::open(&png).unwrap().to_rgb8().into_raw();
+    assert_eq!(pixels, film.to_rgb8_with(&look));
+    assert_ne!(pixels, film.to_rgb8());
+    // The same from the scene file's [render] keys; the command line wins over them.
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let text = text.replacen("[render]\n", "[render]\nexposure = 1.0\ntonemap = \"neutral\"\n", 1);
+    let keyed = write(&d, "keyed.toml", &text);
+    for asset in ["cornell_box.obj", "cornell_box.mtl"] {
+        let _ = std::fs::copy(common::scene_path(asset), d.join(asset));
+    }
+    let from_keys = d.join("keys.png");
+    run(&keyed, &from_keys, &[]);
+    assert_eq!(image::open(&from_keys).unwrap().to_rgb8().into_raw(), pixels);
+    let overridden = d.join("overridden.png");
+    run(&keyed, &overridden, &["--exposure", "0", "--tonemap", "clamp"]);
+    assert_eq!(image::open(&overridden).unwrap().to_rgb8().into_raw(), film.to_rgb8());
+}
+
+#[test]
 fn environment_image_background_lights_the_scene() {
     let d = common::fresh_dir("cli", "env");
     std::fs::copy(common::scene_path("earthmap.jpg"), d.join("env.jpg")).unwrap();

@@ -291,6 +291,18 @@ fn out_of_range_values() {
         "must be between 1 and 16384, found 100000",
     );
     expect_scene_error(
+        "tonemap",
+        &format!("[render]\ntonemap = \"filmic\"\n{SPHERE_OK}"),
+        Some(2),
+        "unknown tone curve \"filmic\" (expected clamp, aces or neutral)",
+    );
+    expect_scene_error(
+        "exposure",
+        &format!("[render]\nexposure = -70.0\n{SPHERE_OK}"),
+        Some(2),
+        "exposure must be a number of stops between -64 and 64, found -70",
+    );
+    expect_scene_error(
         "negative-depth",
         &format!("[render]\nmax_depth = -1\n{SPHERE_OK}"),
         Some(2),
@@ -538,6 +550,9 @@ fn bad_flags() {
         (&["--bvh-quality", "best"], "unknown BVH quality \"best\" (expected low, medium or high)"),
         (&["--rr-depth", "banana"], "--rr-depth: expected a number, \"off\" or \"auto\", found \"banana\""),
         (&["--seed", "x"], "--seed"),
+        (&["--tonemap", "filmic"], "unknown tone curve \"filmic\" (expected clamp, aces or neutral)"),
+        (&["--exposure", "100"], "exposure must be a number of stops between -64 and 64, found 100"),
+        (&["--exposure", "bright"], "expected a number of stops (e.g. 1.5 or -2), found \"bright\""),
     ] {
         expect_render_error(&scene, &out, args, &[], "error: ", needle);
     }

@@ -2,6 +2,7 @@
 
 use crate::accel::AccelKind;
 use crate::embree::BuildQuality;
+use crate::film::{Look, Tonemap, check_exposure};
 use crate::scene::Scene;
 use crate::scene::format::MAX_IMAGE_SIDE;
 use crate::settings::{Estimator, RenderSettings, RrDepth};
@@ -70,6 +71,27 @@ pub struct RenderArgs {
     /// Fail (exit 2, no image written) if any sample was NaN or infinite.
     #[arg(long)]
     pub strict: bool,
+    /// Exposure in stops for PNG output: linear values are multiplied by 2^EV before the tone
+    /// curve (EXR output stays linear and unscaled) [scene's render.exposure, else 0].
+    #[arg(long, value_name = "EV", allow_negative_numbers = true, value_parser = parse_exposure)]
+    pub exposure: Option<f32>,
+    /// Tone curve for PNG output: clamp (values above 1 clipped), aces (Narkowicz's ACES fit)
+    /// or neutral (Khronos PBR Neutral) [scene's render.tonemap, else clamp].
+    #[arg(long)]
+    pub tonemap: Option<Tonemap>,
+}
+
+fn parse_exposure(s: &str) -> Result<f32, String> {
+    let v: f32 = s.trim().parse().map_err(|_| format!("expected a number of stops (e.g. 1.5 or -2), found {s:?}"))?;
+    check_exposure(v)
+}
+
+/// The look of 8-bit output: the command line, then the scene file, then the default.
+pub(super) fn look(args: &RenderArgs, scene: &Scene) -> Look {
+    Look {
+        exposure: args.exposure.or(scene.render.exposure).unwrap_or(0.0),
+        tonemap: args.tonemap.or(scene.render.tonemap).unwrap_or_default(),
+    }
 }
 
 fn parse_target_error(s: &str) -> Result<f32, String> {

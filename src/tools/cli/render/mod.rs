@@ -19,7 +19,7 @@ use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    ImageFormat::from_path(&args.output)?;
+    let format = ImageFormat::from_path(&args.output)?;
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
     crate::atomic_write::check_writable(&args.output)?;
     // From here a signal stops the render cleanly (or, before it starts, ends ember without
@@ -32,6 +32,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     let settings = args::settings(&args, &scene)?;
+    let look = args::look(&args, &scene);
+    if format == ImageFormat::Exr && !look.is_default() {
+        eprintln!(
+            "note: exposure {} and tone curve {} apply to 8-bit output only; {} is linear, unscaled radiance",
+            look.exposure,
+            look.tonemap,
+            args.output.display()
+        );
+    }
     let checkpoint = checkpoint_path(&args.output);
     refuse_overwriting_inputs(
         &scene,
@@ -109,7 +118,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
-    film.save(&args.output)?;
+    film.save_with(&args.output, &look)?;
     // Only a regular file: a folder or a link someone put there is not ours to remove.
     if is_file(&checkpoint) {
         std::fs::remove_file(&checkpoint)
