@@ -113,6 +113,8 @@ pub struct RenderSettings {
     /// error of its mean falls below this (see [`crate::film::PixelState::relative_error`]);
     /// `spp` is then the most any pixel gets.
     pub target_error: Option<f32>,
+    /// Where a pixel's samples land: the pixel reconstruction filter, sampled.
+    pub filter: crate::film::PixelFilter,
 }
 
 impl RenderSettings {
@@ -126,6 +128,7 @@ impl RenderSettings {
             max_depth: r.max_depth.unwrap_or(d.max_depth),
             rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
             seed: r.seed.unwrap_or(d.seed),
+            filter: r.filter.unwrap_or(d.filter),
             ..d
         }
     }
@@ -151,6 +154,7 @@ impl Default for RenderSettings {
             estimator: Estimator::NeeMis,
             specialize: true,
             target_error: None,
+            filter: crate::film::PixelFilter::Box,
         }
     }
 }
@@ -167,6 +171,7 @@ pub struct RenderDefaults {
     /// The look of 8-bit output (not a render setting: the image rendered is the same).
     pub exposure: Option<f32>,
     pub tonemap: Option<crate::film::Tonemap>,
+    pub filter: Option<crate::film::PixelFilter>,
 }
 
 #[cfg(test)]

@@ -134,6 +134,29 @@ fn exposure_and_tone_curve_change_the_png_only() {
 }
 
 #[test]
+fn the_pixel_filter_from_the_command_line_or_the_scene() {
+    let d = common::fresh_dir("cli", "filter");
+    let scene = write(&d, "s.toml", &format!("[render]\nfilter = \"gaussian\"\n{SKY_SPHERE}"));
+    let plain = write(&d, "plain.toml", SKY_SPHERE);
+    let run = |scene: &Path, name: &str, extra: &[&str]| {
+        let out = d.join(name);
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        args.extend(["--width", "12", "--height", "12", "--spp", "4"]);
+        args.extend(extra);
+        let o = ember(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(&out).unwrap()
+    };
+    let from_scene = run(&scene, "scene.exr", &[]);
+    assert_eq!(run(&plain, "flag.exr", &["--filter", "gaussian"]), from_scene);
+    assert_ne!(run(&plain, "box.exr", &[]), from_scene);
+    assert_eq!(run(&scene, "box-over-scene.exr", &["--filter", "box"]), run(&plain, "box2.exr", &[]));
+}
+
+/// A grey sphere under a sky gradient.
+const SKY_SPHERE: &str = "[background]\ntype = \"gradient\"\nzenith = [1.0, 1.0, 1.0]\nhorizon = [0.5, 0.6, 0.8]\n[materials.m]\ntype = \"diffuse\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n";
+
+#[test]
 fn environment_image_background_lights_the_scene() {
     let d = common::fresh_dir("cli", "env");
     std::fs::copy(common::scene_path("earthmap.jpg"), d.join("env.jpg")).unwrap();

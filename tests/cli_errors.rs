@@ -291,6 +291,12 @@ fn out_of_range_values() {
         "must be between 1 and 16384, found 100000",
     );
     expect_scene_error(
+        "filter",
+        &format!("[render]\nfilter = \"tent\"\n{SPHERE_OK}"),
+        Some(2),
+        "unknown pixel filter \"tent\" (expected box or gaussian)",
+    );
+    expect_scene_error(
         "tonemap",
         &format!("[render]\ntonemap = \"filmic\"\n{SPHERE_OK}"),
         Some(2),
@@ -550,6 +556,7 @@ fn bad_flags() {
         (&["--bvh-quality", "best"], "unknown BVH quality \"best\" (expected low, medium or high)"),
         (&["--rr-depth", "banana"], "--rr-depth: expected a number, \"off\" or \"auto\", found \"banana\""),
         (&["--seed", "x"], "--seed"),
+        (&["--filter", "tent"], "unknown pixel filter \"tent\" (expected box or gaussian)"),
         (&["--tonemap", "filmic"], "unknown tone curve \"filmic\" (expected clamp, aces or neutral)"),
         (&["--exposure", "100"], "exposure must be a number of stops between -64 and 64, found 100"),
         (&["--exposure", "bright"], "expected a number of stops (e.g. 1.5 or -2), found \"bright\""),

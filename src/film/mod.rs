@@ -3,10 +3,12 @@
 
 mod accum;
 mod checkpoint;
+mod filter;
 mod look;
 
 pub use accum::{Accumulator, PixelState, RELATIVE_ERROR_FLOOR};
 pub use checkpoint::{Checkpoint, CheckpointError, CheckpointKey, checkpoint_path};
+pub use filter::{GAUSSIAN_RADIUS, GAUSSIAN_SIGMA, PixelFilter};
 pub use look::{Look, MAX_EXPOSURE, Tonemap, check_exposure};
 
 use glam::Vec3;

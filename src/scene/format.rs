@@ -181,6 +181,17 @@ impl<'de> Deserialize<'de> for TonemapValue {
     }
 }
 
+/// `filter`: `"box"` or `"gaussian"`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterValue(pub crate::film::PixelFilter);
+
+impl<'de> Deserialize<'de> for FilterValue {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map(FilterValue).map_err(de::Error::custom)
+    }
+}
+
 /// Largest accepted image side.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
@@ -246,6 +257,8 @@ pub struct RenderSection {
     pub exposure: Option<Exposure>,
     /// The tone curve of 8-bit output.
     pub tonemap: Option<TonemapValue>,
+    /// The pixel reconstruction filter.
+    pub filter: Option<FilterValue>,
 }
 
 #[derive(Debug, Deserialize, Clone)]

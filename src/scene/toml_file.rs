@@ -250,6 +250,7 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
         seed: r.seed,
         exposure: r.exposure.map(|e| e.0),
         tonemap: r.tonemap.map(|t| t.0),
+        filter: r.filter.map(|f| f.0),
     }
 }
 

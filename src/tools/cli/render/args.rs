@@ -2,7 +2,7 @@
 
 use crate::accel::AccelKind;
 use crate::embree::BuildQuality;
-use crate::film::{Look, Tonemap, check_exposure};
+use crate::film::{Look, PixelFilter, Tonemap, check_exposure};
 use crate::scene::Scene;
 use crate::scene::format::MAX_IMAGE_SIDE;
 use crate::settings::{Estimator, RenderSettings, RrDepth};
@@ -79,6 +79,11 @@ pub struct RenderArgs {
     /// or neutral (Khronos PBR Neutral) [scene's render.tonemap, else clamp].
     #[arg(long)]
     pub tonemap: Option<Tonemap>,
+    /// Pixel reconstruction filter: box (uniform over the pixel) or gaussian (σ 0.5 pixel,
+    /// radius 1.5: smoother edges, slightly softer), by filter importance sampling
+    /// [scene's render.filter, else box].
+    #[arg(long)]
+    pub filter: Option<PixelFilter>,
 }
 
 fn parse_exposure(s: &str) -> Result<f32, String> {
@@ -119,6 +124,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         estimator: args.estimator,
         specialize: !args.no_specialize,
         target_error: args.target_error,
+        filter: args.filter.unwrap_or(s.filter),
     })
 }
 
