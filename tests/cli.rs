@@ -153,6 +153,36 @@ fn the_pixel_filter_from_the_command_line_or_the_scene() {
     assert_eq!(run(&scene, "box-over-scene.exr", &["--filter", "box"]), run(&plain, "box2.exr", &[]));
 }
 
+#[test]
+fn a_camera_on_the_command_line() {
+    let d = common::fresh_dir("cli", "camera");
+    let run = |scene: &Path, name: &str, extra: &[&str]| {
+        let out = d.join(name);
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        args.extend(["--width", "12", "--height", "8", "--spp", "2"]);
+        args.extend(extra);
+        let o = ember(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(&out).unwrap()
+    };
+    let camera = "[camera]\nposition = [0.5, 1.0, -4.0]\nlook_at = [0.0, 0.2, 0.0]\nup = [0.1, 1.0, 0.0]\nfov = 35.0\n";
+    let with = write(&d, "with.toml", &format!("{camera}{SKY_SPHERE}"));
+    let without = write(&d, "without.toml", SKY_SPHERE);
+    // A scene without a camera given one: the image of the scene with that camera in its file.
+    let from_file = run(&with, "file.exr", &[]);
+    let flags = ["--camera-position", "0.5,1,-4", "--look-at", "0,0.2,0", "--up", "0.1,1,0", "--fov", "35"];
+    assert_eq!(run(&without, "flags.exr", &flags), from_file);
+    // Embree's tutorials' names.
+    let aliases = ["--vp", "0.5,1,-4", "--vi", "0,0.2,0", "--vu", "0.1,1,0", "--fov", "35"];
+    assert_eq!(run(&without, "aliases.exr", &aliases), from_file);
+    // One part over a scene's camera.
+    let wide = write(&d, "wide.toml", &format!("{}{SKY_SPHERE}", camera.replace("35.0", "70.0")));
+    assert_eq!(run(&wide, "fov.exr", &["--fov", "35"]), from_file);
+    // A mesh, from the other side of the framing camera.
+    let teapot = common::scene_path("teapot.obj");
+    assert_ne!(run(&teapot, "framed.exr", &[]), run(&teapot, "behind.exr", &["--camera-position", "-3,-2,-6"]));
+}
+
 /// A grey sphere under a sky gradient.
 const SKY_SPHERE: &str = "[background]\ntype = \"gradient\"\nzenith = [1.0, 1.0, 1.0]\nhorizon = [0.5, 0.6, 0.8]\n[materials.m]\ntype = \"diffuse\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n";
 

@@ -556,12 +556,23 @@ fn bad_flags() {
         (&["--bvh-quality", "best"], "unknown BVH quality \"best\" (expected low, medium or high)"),
         (&["--rr-depth", "banana"], "--rr-depth: expected a number, \"off\" or \"auto\", found \"banana\""),
         (&["--seed", "x"], "--seed"),
+        (&["--fov", "0"], "expected a field of view in degrees between 0 and 180 (exclusive), found \"0\""),
+        (&["--fov", "180"], "between 0 and 180 (exclusive), found \"180\""),
+        (&["--camera-position", "1,2"], "expected three finite numbers x,y,z (e.g. 0,1.5,-4), found \"1,2\""),
+        (&["--up", "0,nan,1"], "expected three finite numbers x,y,z"),
+        (&["--look-at", "-1e16,0,0"], "coordinates must be between -1e15 and 1e15, found -1e16"),
         (&["--filter", "tent"], "unknown pixel filter \"tent\" (expected box or gaussian)"),
         (&["--tonemap", "filmic"], "unknown tone curve \"filmic\" (expected clamp, aces or neutral)"),
         (&["--exposure", "100"], "exposure must be a number of stops between -64 and 64, found 100"),
         (&["--exposure", "bright"], "expected a number of stops (e.g. 1.5 or -2), found \"bright\""),
     ] {
         expect_render_error(&scene, &out, args, &[], "error: ", needle);
+    }
+    // Each part is valid, but the camera would look at itself: from the scene's look_at, or
+    // from both given.
+    for args in [&["--camera-position", "0,1,0"][..], &["--vp", "1,1,1", "--vi", "1,1,1"]] {
+        let needle = "the camera position and the point it looks at are the same point";
+        expect_render_error(&scene, &out, args, &[], &at(&scene, None), needle);
     }
 }
 

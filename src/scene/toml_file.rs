@@ -216,7 +216,7 @@ pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<S
         scene.set_background(b);
     }
     if let Some(c) = file.camera {
-        let fov = c.fov.as_ref().map_or(40.0, |f| f.get_ref().0);
+        let fov = c.fov.as_ref().map_or(super::DEFAULT_FOV, |f| f.get_ref().0);
         if fov >= 180.0 {
             return Err(ctx.err_at(c.fov.unwrap().span(), format!("fov must be below 180 degrees, found {fov}")));
         }

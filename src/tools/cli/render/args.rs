@@ -3,10 +3,11 @@
 use crate::accel::AccelKind;
 use crate::embree::BuildQuality;
 use crate::film::{Look, PixelFilter, Tonemap, check_exposure};
-use crate::scene::Scene;
-use crate::scene::format::MAX_IMAGE_SIDE;
+use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
+use crate::scene::{CameraOverride, Scene};
 use crate::settings::{Estimator, RenderSettings, RrDepth};
 use clap::Args;
+use glam::Vec3;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -84,6 +85,56 @@ pub struct RenderArgs {
     /// [scene's render.filter, else box].
     #[arg(long)]
     pub filter: Option<PixelFilter>,
+    /// Camera position x,y,z, over the scene's [camera] (or the camera that frames a scene or
+    /// mesh without one); the aliases are those of Embree's tutorials.
+    #[arg(long, value_name = "X,Y,Z", visible_alias = "vp", allow_hyphen_values = true, value_parser = parse_point)]
+    pub camera_position: Option<Vec3>,
+    /// The point the camera looks at, x,y,z.
+    #[arg(long, value_name = "X,Y,Z", visible_alias = "vi", allow_hyphen_values = true, value_parser = parse_point)]
+    pub look_at: Option<Vec3>,
+    /// The camera's up direction, x,y,z.
+    #[arg(long, value_name = "X,Y,Z", visible_alias = "vu", allow_hyphen_values = true, value_parser = parse_direction)]
+    pub up: Option<Vec3>,
+    /// Vertical field of view in degrees, between 0 and 180 (exclusive).
+    #[arg(long, value_name = "DEG", value_parser = parse_fov)]
+    pub fov: Option<f32>,
+}
+
+/// Three comma-separated finite numbers.
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let numbers: Option<Vec<f32>> = parts.iter().map(|p| p.parse::<f32>().ok().filter(|v| v.is_finite())).collect();
+    match numbers {
+        Some(v) if v.len() == 3 => Ok(Vec3::new(v[0], v[1], v[2])),
+        _ => Err(format!("expected three finite numbers x,y,z (e.g. 0,1.5,-4), found {s:?}")),
+    }
+}
+
+/// A point: as in a scene file, each coordinate within ±MAX_COORDINATE.
+fn parse_point(s: &str) -> Result<Vec3, String> {
+    let v = parse_vec3(s)?;
+    match v.to_array().into_iter().find(|c| c.abs() > MAX_COORDINATE) {
+        Some(c) => Err(format!("coordinates must be between -{MAX_COORDINATE:e} and {MAX_COORDINATE:e}, found {c:e}")),
+        None => Ok(v),
+    }
+}
+
+/// A direction: as a scene file's `up`, three finite numbers.
+fn parse_direction(s: &str) -> Result<Vec3, String> {
+    parse_vec3(s)
+}
+
+/// A vertical field of view: as in a scene file, 0 < fov < 180 degrees.
+fn parse_fov(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v < 180.0 => Ok(v),
+        _ => Err(format!("expected a field of view in degrees between 0 and 180 (exclusive), found {s:?}")),
+    }
+}
+
+/// The camera parts given on the command line.
+pub(super) fn camera_override(args: &RenderArgs) -> CameraOverride {
+    CameraOverride { position: args.camera_position, look_at: args.look_at, up: args.up, fov: args.fov }
 }
 
 fn parse_exposure(s: &str) -> Result<f32, String> {

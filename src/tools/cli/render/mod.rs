@@ -27,11 +27,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     interrupt::install_handler();
     let embree = args.accel == crate::accel::AccelKind::Embree;
     let budget = LoadBudget::for_render(limit, embree, args.width, args.height);
-    let scene = Scene::load_within(&args.scene, &budget)?;
+    let mut scene = Scene::load_within(&args.scene, &budget)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
     let settings = args::settings(&args, &scene)?;
+    scene
+        .override_camera(&args::camera_override(&args), settings.width as f32 / settings.height as f32)
+        .map_err(|e| anyhow::anyhow!("{}: {e} (--camera-position, --look-at)", args.scene.display()))?;
     let look = args::look(&args, &scene);
     if format == ImageFormat::Exr && !look.is_default() {
         eprintln!(
