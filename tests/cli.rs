@@ -183,6 +183,26 @@ fn a_camera_on_the_command_line() {
     assert_ne!(run(&teapot, "framed.exr", &[]), run(&teapot, "behind.exr", &["--camera-position", "-3,-2,-6"]));
 }
 
+#[test]
+fn a_scene_without_light_is_said_before_rendering() {
+    let d = common::fresh_dir("cli", "dark");
+    let sphere = SKY_SPHERE.split("[materials.m]").nth(1).unwrap();
+    let scene = write(&d, "dark.toml", &format!("[materials.m]{sphere}"));
+    let out = d.join("dark.png");
+    let o = ember(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "8", "--height", "8"]);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    let warning = format!(
+        "warning: {}: nothing in the scene emits light: the image will be black; add a light, an emissive material or a [background]",
+        scene.display()
+    );
+    let lines: Vec<&str> = e.lines().collect();
+    let at = lines.iter().position(|l| *l == warning).unwrap_or_else(|| panic!("no warning line in {e}"));
+    let rendered = lines.iter().position(|l| l.starts_with("rendered ")).unwrap();
+    assert!(at < rendered && !lines[..at].iter().any(|l| l.starts_with("kernel:")), "{e}");
+    assert!(image::open(&out).unwrap().to_rgb8().into_raw().iter().all(|&c| c == 0));
+}
+
 /// A grey sphere under a sky gradient.
 const SKY_SPHERE: &str = "[background]\ntype = \"gradient\"\nzenith = [1.0, 1.0, 1.0]\nhorizon = [0.5, 0.6, 0.8]\n[materials.m]\ntype = \"diffuse\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n";
 

@@ -536,6 +536,16 @@ fn texture_errors() {
 }
 
 #[test]
+fn strict_refuses_a_scene_without_light() {
+    let d = common::fresh_dir("cli-errors", "dark");
+    let scene = write(&d, "dark.toml", SPHERE_OK);
+    let out = d.join("out.png");
+    let needle = "nothing in the scene emits light: the image will be black; add a light, an emissive material or a \
+                  [background]; --strict refuses a black image, so";
+    expect_render_error(&scene, &out, &["--strict", "--spp", "1"], &[], &at(&scene, None), needle);
+}
+
+#[test]
 fn missing_mesh_file() {
     expect_scene_error("missing-obj", "[[meshes]]\nfile = \"nothere.obj\"\n", Some(2), "nothere.obj: no such file");
 }

@@ -92,6 +92,9 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
         None => None,
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create folder", args.out.display()))?;
+    if !scene.effects().lit {
+        eprintln!("warning: {}: {}", args.scene.display(), super::render::UNLIT);
+    }
 
     let accel = args.accel.build(&scene.geometry)?;
 

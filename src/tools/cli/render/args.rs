@@ -69,7 +69,8 @@ pub struct RenderArgs {
     /// Estimator: nee-mis, nee, bsdf or bsdf-uniform.
     #[arg(long, default_value = "nee-mis")]
     pub estimator: Estimator,
-    /// Fail (exit 2, no image written) if any sample was NaN or infinite.
+    /// Fail (exit 2, no image written) if any sample was NaN or infinite, or if nothing in the
+    /// scene emits light (the image would be black).
     #[arg(long)]
     pub strict: bool,
     /// Exposure in stops for PNG output: linear values are multiplied by 2^EV before the tone

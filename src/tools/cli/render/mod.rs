@@ -18,6 +18,10 @@ use crate::scene::Scene;
 use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 
+/// Why a scene without light renders black, and what to do about it.
+pub(super) const UNLIT: &str =
+    "nothing in the scene emits light: the image will be black; add a light, an emissive material or a [background]";
+
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let format = ImageFormat::from_path(&args.output)?;
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
@@ -49,10 +53,21 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         &scene,
         &[(&args.output, "the image"), (&checkpoint, "the checkpoint"), (&lock_path(&args.output), "the lock file")],
     )?;
+    let plan = RenderPlan::new(&scene, &settings);
+    if !plan.effects.lit {
+        // Said before anything is rendered or written, on its own line.
+        if args.strict {
+            anyhow::bail!(
+                "{}: {UNLIT}; --strict refuses a black image, so {} was not written",
+                args.scene.display(),
+                args.output.display()
+            );
+        }
+        eprintln!("warning: {}: {UNLIT}", args.scene.display());
+    }
     // Held until this function returns, whichever way; removes OUT.lock then.
     let _lock = OutputLock::acquire(&args.output)?;
     let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
-    let plan = RenderPlan::new(&scene, &settings);
     let resume = if args.resume {
         // Checked against this render before anything is read: size, scene, settings,
         // accelerator, contents.
