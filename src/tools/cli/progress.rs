@@ -27,7 +27,9 @@ impl ProgressBar {
     pub fn update(&self, p: Progress) {
         let Some(bar) = &self.0 else { return };
         bar.set_length(p.samples_planned.max(1));
-        bar.set_position(p.samples_done.min(p.samples_planned));
+        // Reports come from several worker threads and may arrive out of order: the bar never
+        // goes back.
+        bar.set_position(p.samples_done.min(p.samples_planned).max(bar.position()));
         let rate = p.rays as f64 / p.elapsed.as_secs_f64().max(1e-9) / 1e6;
         let round = if p.rounds > 1 { format!("round {}/{}  ", p.round, p.rounds) } else { String::new() };
         bar.set_message(format!("{round}{rate:.1} Mrays/s"));
