@@ -223,6 +223,7 @@ fn render_reporting(
         if let Some((report, done)) = progress {
             report(Progress {
                 samples_done: done.samples + p.samples_done,
+                samples_before: 0,
                 samples_planned: done.planned,
                 rays: done.rays + p.rays,
                 elapsed: done.since.elapsed(),
