@@ -7,7 +7,9 @@ mod common;
 use ember::film::{Film, PixelFilter};
 use ember::hash::Fnv1a;
 use ember::integrator::RenderSettings;
+use ember::sampler::SamplerKind;
 use ember::scene::Scene;
+use glam::Vec2;
 use std::path::Path;
 
 fn pixel_hash(film: &Film) -> u64 {
@@ -21,9 +23,11 @@ fn pixel_hash(film: &Film) -> u64 {
 }
 
 /// Images of the sample scenes (40 × 30, 8 spp, each scene's own `[render]` otherwise) with
-/// the default settings, whose filter is the box. The hashes were recorded by the same code
-/// (the library's `render`) built from main before filters existed (b9cc65e): a box render
-/// draws its film positions exactly as that code did.
+/// the default settings, whose filter is the box, and independent samples. The hashes were
+/// recorded by the same code (the library's `render`) built from main before filters existed
+/// (b9cc65e), whose only sampler was the independent one: a box render draws its film
+/// positions exactly as that code did. (The Sobol sampler's first two numbers of a sample are
+/// the same whether drawn as one pair or one by one, so its box renders are main's too.)
 #[test]
 fn box_renders_are_bit_identical_to_before_filters() {
     let recorded = [
@@ -35,7 +39,13 @@ fn box_renders_are_bit_identical_to_before_filters() {
     ];
     for (name, hash) in recorded {
         let scene = Scene::load(&common::scene_path(name)).unwrap();
-        let settings = RenderSettings { width: 40, height: 30, spp: 8, ..RenderSettings::from_scene(&scene.render) };
+        let settings = RenderSettings {
+            width: 40,
+            height: 30,
+            spp: 8,
+            sampler: SamplerKind::Independent,
+            ..RenderSettings::from_scene(&scene.render)
+        };
         assert_eq!(settings.filter, PixelFilter::Box);
         let (film, _) = common::render_embree(&scene, &settings);
         assert_eq!(pixel_hash(&film), hash, "{name}: the box render changed");
@@ -116,4 +126,23 @@ fn gaussian_images_do_not_depend_on_the_thread_count() {
     // The same light, differently placed: the image means agree within their noise.
     let (a, b) = (one.mean(), boxed.mean());
     assert!((a - b).abs().max_element() < 0.05 * b.max_element(), "{a} vs {b}");
+}
+
+/// A box render's film position is the first pair of numbers of a sample, drawn with
+/// `next_2d`; before filters it was drawn as two `next_f32`. Both samplers give the same two
+/// numbers either way, so box images are those of the code before filters with either one.
+#[test]
+fn a_first_pair_is_the_first_two_numbers_with_either_sampler() {
+    use ember::sampler::PixelSampler;
+    for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+        for (seed, pixel, sample) in [(0, 0, 0), (7, 1234, 5), (u64::MAX, 99, 1 << 20)] {
+            let stream = PixelSampler::new(kind, seed, pixel).sample(sample);
+            let (mut a, mut b) = (stream.clone(), stream);
+            let pair = a.next_2d();
+            let (x, y) = (b.next_f32(), b.next_f32());
+            assert_eq!((pair.x.to_bits(), pair.y.to_bits()), (x.to_bits(), y.to_bits()), "{kind:?}");
+            // And the streams go on alike.
+            assert_eq!(a.next_2d(), Vec2::new(b.next_f32(), b.next_f32()), "{kind:?}");
+        }
+    }
 }

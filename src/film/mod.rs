@@ -5,6 +5,7 @@ mod accum;
 mod checkpoint;
 mod filter;
 mod look;
+pub mod shard;
 
 pub use accum::{Accumulator, PixelState, RELATIVE_ERROR_FLOOR};
 pub use checkpoint::{Checkpoint, CheckpointError, CheckpointKey, checkpoint_path};

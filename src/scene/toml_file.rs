@@ -251,6 +251,7 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
         exposure: r.exposure.map(|e| e.0),
         tonemap: r.tonemap.map(|t| t.0),
         filter: r.filter.map(|f| f.0),
+        sampler: r.sampler.map(|v| v.0),
     }
 }
 

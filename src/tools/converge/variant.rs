@@ -1,7 +1,9 @@
 //! The estimator variants a study compares, and the syntax that names them
-//! (`ESTIMATOR[/no-rr][/depth=D]` and the groups `estimators`, `no-rr`, `depth`, `all`).
+//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent]` and the groups `estimators`, `no-rr`,
+//! `depth`, `samplers`, `all`).
 
 use crate::integrator::Estimator;
+use crate::sampler::SamplerKind;
 
 /// The depths of the `depth` variant group: each compared to the full-depth reference, so
 /// their curves flatten at the bias of cutting paths short.
@@ -15,15 +17,17 @@ pub struct Variant {
     pub russian_roulette: bool,
     /// Bounce limit; `None`: the study's full depth (that of the reference).
     pub max_depth: Option<u32>,
+    /// Where samples get their numbers; `None`: the default sampler.
+    pub sampler: Option<SamplerKind>,
 }
 
 impl Variant {
     pub const fn new(estimator: Estimator) -> Variant {
-        Variant { estimator, russian_roulette: true, max_depth: None }
+        Variant { estimator, russian_roulette: true, max_depth: None, sampler: None }
     }
 
-    /// `ESTIMATOR[/no-rr][/depth=D]`, e.g. `nee-mis`, `bsdf/no-rr`, `nee-mis/depth=3`; the
-    /// same syntax is accepted by [`parse_variants`].
+    /// `ESTIMATOR[/no-rr][/depth=D][/SAMPLER]`, e.g. `nee-mis`, `bsdf/no-rr`,
+    /// `nee-mis/depth=3`, `nee-mis/sobol`; the same syntax is accepted by [`parse_variants`].
     pub fn name(&self) -> String {
         let mut s = self.estimator.name().to_string();
         if !self.russian_roulette {
@@ -31,6 +35,9 @@ impl Variant {
         }
         if let Some(d) = self.max_depth {
             s.push_str(&format!("/depth={d}"));
+        }
+        if let Some(k) = self.sampler {
+            s.push_str(&format!("/{k}"));
         }
         s
     }
@@ -47,8 +54,12 @@ impl std::str::FromStr for Variant {
                 v.russian_roulette = false;
             } else if let Some(d) = part.strip_prefix("depth=") {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
+            } else if let Ok(k) = part.parse::<SamplerKind>() {
+                v.sampler = Some(k);
             } else {
-                return Err(format!("variant {s:?}: unknown option {part:?} (expected no-rr or depth=D)"));
+                return Err(format!(
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol or independent)"
+                ));
             }
         }
         Ok(v)
@@ -59,7 +70,8 @@ impl std::str::FromStr for Variant {
 /// - `estimators`: the four estimators at full depth with Russian roulette;
 /// - `no-rr`: the four estimators at full depth without Russian roulette;
 /// - `depth`: NEE+MIS with Russian roulette at each depth of [`DEPTH_GROUP`] below `full_depth`;
-/// - `all`: the three groups;
+/// - `samplers`: NEE+MIS with each sampler;
+/// - `all`: the three groups above `samplers`;
 /// - or one variant, `ESTIMATOR[/no-rr][/depth=D]` (see [`Variant::name`]).
 ///
 /// Duplicates are dropped; the order is kept.
@@ -74,6 +86,10 @@ pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, Strin
             "depth" => DEPTH_GROUP
                 .filter(|&d| d < full_depth)
                 .map(|d| Variant { max_depth: Some(d), ..Variant::new(Estimator::NeeMis) })
+                .collect(),
+            "samplers" => SamplerKind::ALL
+                .into_iter()
+                .map(|k| Variant { sampler: Some(k), ..Variant::new(Estimator::NeeMis) })
                 .collect(),
             "all" => parse_variants("estimators,no-rr,depth", full_depth)?,
             "" => return Err("empty variant in the list".into()),
@@ -98,7 +114,14 @@ mod tests {
             assert_eq!(v.name().parse::<Variant>().unwrap(), v);
         }
         let v: Variant = "bsdf-uniform/no-rr/depth=3".parse().unwrap();
-        assert_eq!(v, Variant { estimator: Estimator::BsdfUniform, russian_roulette: false, max_depth: Some(3) });
+        assert_eq!(
+            v,
+            Variant { estimator: Estimator::BsdfUniform, russian_roulette: false, max_depth: Some(3), sampler: None }
+        );
+        let v: Variant = "nee-mis/sobol".parse().unwrap();
+        assert_eq!(v.sampler, Some(SamplerKind::Sobol));
+        assert_eq!(v.name(), "nee-mis/sobol");
+        assert_eq!(parse_variants("samplers", 64).unwrap().len(), 2);
     }
 
     #[test]

@@ -10,6 +10,7 @@ pub use interrupt::Interrupted;
 
 use super::progress::ProgressBar;
 use crate::embree::BuildOptions;
+use crate::film::shard::ShardHeader;
 use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
 use crate::memory::{LoadBudget, MemoryLimit};
@@ -23,7 +24,18 @@ pub(super) const UNLIT: &str =
     "nothing in the scene emits light: the image will be black; add a light, an emissive material or a [background]";
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    let format = ImageFormat::from_path(&args.output)?;
+    // A shard file holds the linear sums for `ember merge`; an image has its format.
+    let format = if args.shard.is_some() {
+        if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("shard")) {
+            anyhow::bail!(
+                "{}: --shard writes a shard file for `ember merge`: give the output a name ending in .shard",
+                args.output.display()
+            );
+        }
+        None
+    } else {
+        Some(ImageFormat::from_path(&args.output)?)
+    };
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
     crate::atomic_write::check_writable(&args.output)?;
     // From here a signal stops the render cleanly (or, before it starts, ends ember without
@@ -40,7 +52,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .override_camera(&args::camera_override(&args), settings.width as f32 / settings.height as f32)
         .map_err(|e| anyhow::anyhow!("{}: {e} (--camera-position, --look-at)", args.scene.display()))?;
     let look = args::look(&args, &scene);
-    if format == ImageFormat::Exr && !look.is_default() {
+    if format != Some(ImageFormat::Png) && !look.is_default() {
         eprintln!(
             "note: exposure {} and tone curve {} apply to 8-bit output only; {} is linear, unscaled radiance",
             look.exposure,
@@ -136,7 +148,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
-    film.save_with(&args.output, &look)?;
+    match settings.shard {
+        Some(shard) => {
+            let header = ShardHeader {
+                scene: scene.fingerprint(),
+                settings: plan.image_key(&args.accel.image_key(bvh)),
+                shard,
+                width: settings.width,
+                height: settings.height,
+                spp: settings.spp,
+                nonfinite: stats.nonfinite,
+                elapsed: stats.elapsed + stats.earlier_sessions,
+            };
+            crate::film::shard::save(&args.output, &header, &result.accum)?;
+        }
+        None => film.save_with(&args.output, &look)?,
+    }
     // Only a regular file: a folder or a link someone put there is not ours to remove.
     if is_file(&checkpoint) {
         std::fs::remove_file(&checkpoint)
