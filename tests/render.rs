@@ -67,6 +67,56 @@ fn white_furnace_sphere_in_uniform_sky_is_one_everywhere() {
     assert!((image_mean(&film) - 1.0).abs() < 0.002, "mean {}", image_mean(&film));
 }
 
+/// Writes a `width` x `height` OpenEXR image (f32 RGB) of `f(x, y)` with the `exr` crate.
+fn write_exr(path: &std::path::Path, width: usize, height: usize, f: impl Fn(usize, usize) -> Vec3 + Sync) {
+    exr::prelude::write_rgb_file(path, width, height, |x, y| {
+        let c = f(x, y);
+        (c.x, c.y, c.z)
+    })
+    .unwrap();
+}
+
+#[test]
+fn hdr_environment_images_are_linear_and_unclamped() {
+    // A Radiance RGBE file (written by the image crate) and an OpenEXR file of values above 1
+    // are seen as they are (times the scale); a PNG environment is sRGB as before; an EXR is
+    // refused as a surface's texture.
+    let dir = common::fresh_dir("render", "env-hdr");
+    let hdr = image::Rgb32FImage::from_pixel(8, 4, image::Rgb([3.0, 1.5, 0.25]));
+    image::DynamicImage::ImageRgb32F(hdr).save(dir.join("sky.hdr")).unwrap();
+    write_exr(&dir.join("sky.exr"), 8, 4, |_, _| Vec3::new(3.0, 1.5, 0.25));
+    image::RgbImage::from_pixel(8, 4, image::Rgb([188, 188, 188])).save(dir.join("sky.png")).unwrap();
+    let scene = |background: &str, texture: &str| {
+        format!(
+            "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 10\n\
+             [background]\ntype = \"image\"\n{background}\n[materials.m]\ntype = \"diffuse\"\n{texture}\n\
+             [[spheres]]\ncenter = [0.0, 50.0, 0.0]\nradius = 0.5\nmaterial = \"m\"\n"
+        )
+    };
+    for (background, expected) in [
+        ("file = \"sky.hdr\"", Vec3::new(3.0, 1.5, 0.25)),
+        ("file = \"sky.exr\"\nscale = 2.0", Vec3::new(6.0, 3.0, 0.5)),
+        ("file = \"sky.png\"", Vec3::splat(ember::film::srgb_to_linear(188.0 / 255.0))),
+    ] {
+        let p = dir.join("scene.toml");
+        std::fs::write(&p, scene(background, "")).unwrap();
+        let s = Scene::load(&p).unwrap_or_else(|e| panic!("{background}: {e}"));
+        let film = embree_render(&s, &settings(4, 4, 1));
+        for px in &film.pixels {
+            assert!((*px - expected).abs().max_element() <= 1e-5 * expected.max_element(), "{background}: {px}");
+        }
+    }
+    let p = dir.join("texture.toml");
+    std::fs::write(&p, scene("file = \"sky.exr\"", "texture = \"sky.exr\"")).unwrap();
+    let e = Scene::load(&p).unwrap_err().to_string();
+    assert!(e.contains("OpenEXR is a high-dynamic-range format, for [background]"), "{e}");
+    // A NaN in the file is refused, naming the pixel.
+    write_exr(&dir.join("nan.exr"), 8, 4, |x, y| if (x, y) == (5, 2) { Vec3::NAN } else { Vec3::ONE });
+    std::fs::write(&p, scene("file = \"nan.exr\"", "")).unwrap();
+    let e = Scene::load(&p).unwrap_err().to_string();
+    assert!(e.contains("nan.exr: pixel (5, 2) is [NaN, NaN, NaN]: not a finite value"), "{e}");
+}
+
 #[test]
 fn diffuse_plane_under_point_light_matches_inverse_square_cosine() {
     // L = albedo/π · I cosθ / r² averaged over each pixel. Direct light only: the only noise

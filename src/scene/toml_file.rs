@@ -56,6 +56,19 @@ impl SceneFileReader<'_> {
         Ok(img)
     }
 
+    /// The environment image `file`: 8-bit (sRGB) or HDR (linear). One a texture already
+    /// loaded is shared.
+    fn environment_image(&mut self, file: &str, span: std::ops::Range<usize>) -> Result<Arc<Image>, SceneError> {
+        let p = self.resolve(file);
+        if let Some(img) = self.images.get(&p) {
+            return Ok(img.clone());
+        }
+        let img = Image::load_environment(&p, self.budget)
+            .map_err(|e| self.err_at(span, format!("environment image {}: {e}", p.display())))?;
+        self.inputs.push(p);
+        Ok(Arc::new(img))
+    }
+
     fn texture(&mut self, c: ColorSource, at: std::ops::Range<usize>) -> Result<Texture, SceneError> {
         let given = c.color.is_some() as u8 + c.texture.is_some() as u8 + c.checker.is_some() as u8;
         if given > 1 {
@@ -208,7 +221,7 @@ pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<S
             ground: ground.map_or(horizon.0, |g| g.0),
         }),
         Some(BackgroundSection::Image { file, scale }) => Some(Background::Image {
-            image: ctx.image(&file, background_span.unwrap_or(0..0))?,
+            image: ctx.environment_image(&file, background_span.unwrap_or(0..0))?,
             scale: scale.map_or(1.0, |s| s.0),
         }),
     };
