@@ -314,6 +314,15 @@ pub fn hdr_image_bytes(width: u32, height: u32) -> u64 {
     width as u64 * height as u64 * HDR_IMAGE_BYTES_PER_PIXEL
 }
 
+/// Bytes per pixel of an environment image's sampling distribution while it is built: the
+/// luminance (4, freed after) and the per-pixel density and cumulative sums kept (8).
+pub const ENVIRONMENT_SAMPLING_BYTES_PER_PIXEL: u64 = 12;
+
+/// Memory to build the sampling distribution of a `width` x `height` environment image.
+pub fn environment_sampling_bytes(width: u32, height: u32) -> u64 {
+    width as u64 * height as u64 * ENVIRONMENT_SAMPLING_BYTES_PER_PIXEL
+}
+
 /// Memory Embree needs for `triangles` triangles and `shapes` user primitives (spheres,
 /// cylinders): its copies of the vertex and index buffers and the BVH being built (measured,
 /// medium build quality: 114 bytes per triangle for a 1,000,000-triangle height field, 113

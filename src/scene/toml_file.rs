@@ -5,7 +5,7 @@
 use super::format::{self, BackgroundSection, ColorSource, LightSection, MaterialSection, ScaleSpec, SceneFile};
 use super::{CameraSpec, MaterialBinding, Scene, SceneError, mesh_file};
 use crate::geometry::{Cylinder, Geometry, Sphere, TriMesh};
-use crate::light::{Background, Light, PointLight};
+use crate::light::{Background, Environment, Light, PointLight};
 use crate::material::{
     DiffuseMaterial, EmissiveMaterial, GlassMaterial, Material, MaterialKind, MetalMaterial, PlasticMaterial,
 };
@@ -220,10 +220,20 @@ pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<S
             horizon: horizon.0,
             ground: ground.map_or(horizon.0, |g| g.0),
         }),
-        Some(BackgroundSection::Image { file, scale }) => Some(Background::Image {
-            image: ctx.environment_image(&file, background_span.unwrap_or(0..0))?,
-            scale: scale.map_or(1.0, |s| s.0),
-        }),
+        Some(BackgroundSection::Image { file, strength, rotate }) => {
+            let span = background_span.unwrap_or(0..0);
+            let image = ctx.environment_image(&file, span.clone())?;
+            let sampling = memory::environment_sampling_bytes(image.width, image.height);
+            budget
+                .admit(
+                    format!("sampling distribution of the {}x{} environment image", image.width, image.height),
+                    sampling,
+                )
+                .map_err(|e| ctx.err_at(span, e.to_string()))?;
+            let env = Environment::new(image, strength.map_or(1.0, |s| s.0), rotate.map_or(0.0, |r| r.0));
+            budget.keep(env.sampling_bytes());
+            Some(Background::Image(Arc::new(env)))
+        }
     };
     if let Some(b) = background {
         scene.set_background(b);
