@@ -117,6 +117,12 @@ impl Image {
                 .map_err(|e| TextureError(format!("cannot read: {e}")))
         };
         let format = open()?.format();
+        if format.is_none() {
+            return Err(TextureError(format!(
+                "not an image ember reads: {}",
+                if hdr { "expected OpenEXR, Radiance HDR, PNG or JPEG" } else { "expected PNG or JPEG" }
+            )));
+        }
         let is_hdr = matches!(format, Some(image::ImageFormat::OpenExr | image::ImageFormat::Hdr));
         if is_hdr && !hdr {
             return Err(TextureError(format!(
@@ -138,7 +144,13 @@ impl Image {
         let mut decode_limits = image::Limits::default();
         decode_limits.max_alloc = budget.limit().bytes;
         reader.limits(decode_limits);
-        let decoded = reader.decode().map_err(|e| TextureError(e.to_string()))?;
+        let decoded = reader.decode().map_err(|e| match e {
+            // The Radiance decoder reports a short file as a bare I/O error.
+            image::ImageError::IoError(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+                TextureError(format!("truncated or damaged: the file ends early ({e})"))
+            }
+            e => TextureError(e.to_string()),
+        })?;
         let (width, height) = (decoded.width(), decoded.height());
         let pixels = if is_hdr { linear_pixels(decoded)? } else { srgb_pixels(decoded) };
         budget.keep(pixels_bytes(width, height));

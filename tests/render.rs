@@ -161,6 +161,40 @@ fn hdr_environment_images_are_linear_and_unclamped() {
 }
 
 #[test]
+fn damaged_environment_files_are_refused_naming_the_file() {
+    // Truncated OpenEXR and Radiance files (the first half of a good one), a text file named
+    // .exr, an empty .hdr and a missing file: each an error naming the scene, the background
+    // section and the image file, with the decoder's reason.
+    let dir = common::fresh_dir("render", "env-bad");
+    write_exr(&dir.join("good.exr"), 32, 16, |x, y| Vec3::splat((x + y) as f32));
+    let hdr = image::Rgb32FImage::from_fn(32, 16, |x, y| image::Rgb([x as f32, y as f32, 1.0]));
+    image::DynamicImage::ImageRgb32F(hdr).save(dir.join("good.hdr")).unwrap();
+    for ext in ["exr", "hdr"] {
+        let bytes = std::fs::read(dir.join(format!("good.{ext}"))).unwrap();
+        std::fs::write(dir.join(format!("cut.{ext}")), &bytes[..bytes.len() / 2]).unwrap();
+    }
+    std::fs::write(dir.join("text.exr"), "not an image\n").unwrap();
+    std::fs::write(dir.join("empty.hdr"), "").unwrap();
+    let p = dir.join("scene.toml");
+    for (file, reason) in [
+        ("cut.exr", "Format error decoding OpenExr: invalid: reference to missing bytes"),
+        ("cut.hdr", "truncated or damaged: the file ends early"),
+        ("text.exr", "not an image ember reads: expected OpenEXR, Radiance HDR, PNG or JPEG"),
+        ("empty.hdr", "not an image ember reads"),
+        ("missing.exr", "no such file"),
+    ] {
+        std::fs::write(&p, format!("[background]\ntype = \"image\"\nfile = \"{file}\"\n")).unwrap();
+        let e = Scene::load(&p).unwrap_err().to_string();
+        eprintln!("{file}: {e}");
+        assert!(
+            e.contains("scene.toml:1") && e.contains(&format!("environment image {}", dir.join(file).display())),
+            "{e}"
+        );
+        assert!(e.contains(reason), "{file}: {e}");
+    }
+}
+
+#[test]
 fn diffuse_plane_under_point_light_matches_inverse_square_cosine() {
     // L = albedo/π · I cosθ / r² averaged over each pixel. Direct light only: the only noise
     // is the jittered position inside the pixel (about ±1% at 64 spp, so 1024 spp). Tolerance:
