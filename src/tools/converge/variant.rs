@@ -1,5 +1,6 @@
 //! The estimator variants a study compares, and the syntax that names them
-//! (`ESTIMATOR[/no-rr][/depth=D]` and the groups `estimators`, `no-rr`, `depth`, `all`).
+//! (`ESTIMATOR[/no-rr][/depth=D][/env-uniform]` and the groups `estimators`, `no-rr`, `depth`,
+//! `all`).
 
 use crate::integrator::Estimator;
 
@@ -15,14 +16,18 @@ pub struct Variant {
     pub russian_roulette: bool,
     /// Bounce limit; `None`: the study's full depth (that of the reference).
     pub max_depth: Option<u32>,
+    /// Next-event estimation samples an environment image uniformly over the sphere instead
+    /// of by luminance (no effect on other backgrounds): what importance sampling gains.
+    pub uniform_environment: bool,
 }
 
 impl Variant {
     pub const fn new(estimator: Estimator) -> Variant {
-        Variant { estimator, russian_roulette: true, max_depth: None }
+        Variant { estimator, russian_roulette: true, max_depth: None, uniform_environment: false }
     }
 
-    /// `ESTIMATOR[/no-rr][/depth=D]`, e.g. `nee-mis`, `bsdf/no-rr`, `nee-mis/depth=3`; the
+    /// `ESTIMATOR[/no-rr][/depth=D][/env-uniform]`, e.g. `nee-mis`, `bsdf/no-rr`,
+    /// `nee-mis/depth=3`, `nee-mis/env-uniform`; the
     /// same syntax is accepted by [`parse_variants`].
     pub fn name(&self) -> String {
         let mut s = self.estimator.name().to_string();
@@ -31,6 +36,9 @@ impl Variant {
         }
         if let Some(d) = self.max_depth {
             s.push_str(&format!("/depth={d}"));
+        }
+        if self.uniform_environment {
+            s.push_str("/env-uniform");
         }
         s
     }
@@ -45,10 +53,12 @@ impl std::str::FromStr for Variant {
         for part in parts {
             if part == "no-rr" {
                 v.russian_roulette = false;
+            } else if part == "env-uniform" {
+                v.uniform_environment = true;
             } else if let Some(d) = part.strip_prefix("depth=") {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
             } else {
-                return Err(format!("variant {s:?}: unknown option {part:?} (expected no-rr or depth=D)"));
+                return Err(format!("variant {s:?}: unknown option {part:?} (expected no-rr, depth=D or env-uniform)"));
             }
         }
         Ok(v)
@@ -60,7 +70,7 @@ impl std::str::FromStr for Variant {
 /// - `no-rr`: the four estimators at full depth without Russian roulette;
 /// - `depth`: NEE+MIS with Russian roulette at each depth of [`DEPTH_GROUP`] below `full_depth`;
 /// - `all`: the three groups;
-/// - or one variant, `ESTIMATOR[/no-rr][/depth=D]` (see [`Variant::name`]).
+/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/env-uniform]` (see [`Variant::name`]).
 ///
 /// Duplicates are dropped; the order is kept.
 pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, String> {
@@ -98,7 +108,18 @@ mod tests {
             assert_eq!(v.name().parse::<Variant>().unwrap(), v);
         }
         let v: Variant = "bsdf-uniform/no-rr/depth=3".parse().unwrap();
-        assert_eq!(v, Variant { estimator: Estimator::BsdfUniform, russian_roulette: false, max_depth: Some(3) });
+        assert_eq!(
+            v,
+            Variant {
+                estimator: Estimator::BsdfUniform,
+                russian_roulette: false,
+                max_depth: Some(3),
+                uniform_environment: false
+            }
+        );
+        let v: Variant = "nee-mis/env-uniform".parse().unwrap();
+        assert_eq!(v, Variant { uniform_environment: true, ..Variant::new(Estimator::NeeMis) });
+        assert_eq!(v.name(), "nee-mis/env-uniform");
     }
 
     #[test]
