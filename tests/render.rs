@@ -433,26 +433,31 @@ fn every_bvh_build_gives_the_same_image() {
 
 #[test]
 fn image_is_bit_identical_for_one_and_two_threads() {
-    let scene = Scene::load(&common::scene_path("spheres.toml")).unwrap();
-    let device = Device::new().unwrap();
-    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
-    let one = render(&scene, &accel, &RenderSettings { threads: Some(1), ..settings(48, 30, 4) }).unwrap().0;
-    let two = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
-    let again = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
-    assert!(
-        one.pixels
-            .iter()
-            .zip(&two.pixels)
-            .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits))
-    );
-    assert_eq!(two, again);
-    let other_seed = render(&scene, &accel, &RenderSettings { seed: 1, ..settings(48, 30, 4) }).unwrap().0;
-    assert_ne!(one, other_seed, "the seed must matter");
+    // spheres.toml (a gradient sky) and gltf-sky.toml (an environment image sampled by
+    // luminance).
+    for name in ["spheres.toml", "gltf-sky.toml"] {
+        let scene = Scene::load(&common::scene_path(name)).unwrap();
+        let device = Device::new().unwrap();
+        let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+        let one = render(&scene, &accel, &RenderSettings { threads: Some(1), ..settings(48, 30, 4) }).unwrap().0;
+        let two = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
+        let again = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
+        assert!(
+            one.pixels
+                .iter()
+                .zip(&two.pixels)
+                .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)),
+            "{name}"
+        );
+        assert_eq!(two, again, "{name}");
+        let other_seed = render(&scene, &accel, &RenderSettings { seed: 1, ..settings(48, 30, 4) }).unwrap().0;
+        assert_ne!(one, other_seed, "{name}: the seed must matter");
+    }
 }
 
 #[test]
 fn every_sample_scene_renders_finite() {
-    for name in ["teapot.toml", "cornell.toml", "cornell-area.toml", "spheres.toml", "dof.toml"] {
+    for name in ["teapot.toml", "cornell.toml", "cornell-area.toml", "spheres.toml", "dof.toml", "gltf-sky.toml"] {
         let scene = Scene::load(&common::scene_path(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
         let film = embree_render(&scene, &settings(32, 24, 2));
         assert!(film.pixels.iter().all(|p| p.is_finite()), "{name}");
