@@ -4,6 +4,7 @@
 //! Russian roulette starts, which kernel) is worked out once from them and the scene, in
 //! [`crate::integrator::RenderPlan`].
 
+pub use crate::sampler::SamplerKind;
 use std::fmt;
 use std::str::FromStr;
 
@@ -92,6 +93,62 @@ impl fmt::Display for RrDepth {
     }
 }
 
+/// Side of the square tiles an image is rendered in (the last row and column may be cut).
+pub const TILE: u32 = 16;
+
+/// One of `count` parts of an image rendered apart (on other machines) and merged after
+/// (`ember merge`): shard `index` renders the tiles (tx, ty) with `(tx + ty) % count ==
+/// index`, diagonal stripes that spread every part of the image over all shards. Each pixel's
+/// samples are the ones a whole render takes, so the merged image is the same bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl Shard {
+    /// Whether this shard renders tile (`tx`, `ty`).
+    #[inline]
+    pub fn owns_tile(&self, tx: u32, ty: u32) -> bool {
+        (tx as u64 + ty as u64) % self.count as u64 == self.index as u64
+    }
+
+    /// Whether this shard renders pixel (`x`, `y`).
+    #[inline]
+    pub fn owns_pixel(&self, x: u32, y: u32) -> bool {
+        self.owns_tile(x / TILE, y / TILE)
+    }
+
+    /// The pixels (row-major indices, increasing) this shard renders of a `width` x `height`
+    /// image.
+    pub fn pixels(&self, width: u32, height: u32) -> impl Iterator<Item = usize> + '_ {
+        (0..height).flat_map(move |y| {
+            (0..width).filter(move |&x| self.owns_pixel(x, y)).map(move |x| y as usize * width as usize + x as usize)
+        })
+    }
+}
+
+impl FromStr for Shard {
+    type Err = String;
+    /// `K/N`, 0 ≤ K < N.
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("expected K/N with 0 <= K < N (e.g. 0/4), found {s:?}");
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let (index, count): (u32, u32) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+/// `K/N`
+impl fmt::Display for Shard {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
 /// How to render, as asked for.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -113,6 +170,10 @@ pub struct RenderSettings {
     /// error of its mean falls below this (see [`crate::film::PixelState::relative_error`]);
     /// `spp` is then the most any pixel gets.
     pub target_error: Option<f32>,
+    /// Render only this part of the image (`None`: all of it).
+    pub shard: Option<Shard>,
+    /// Where the samples get their numbers.
+    pub sampler: SamplerKind,
 }
 
 impl RenderSettings {
@@ -126,6 +187,7 @@ impl RenderSettings {
             max_depth: r.max_depth.unwrap_or(d.max_depth),
             rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
             seed: r.seed.unwrap_or(d.seed),
+            sampler: r.sampler.unwrap_or(d.sampler),
             ..d
         }
     }
@@ -151,6 +213,8 @@ impl Default for RenderSettings {
             estimator: Estimator::NeeMis,
             specialize: true,
             target_error: None,
+            shard: None,
+            sampler: SamplerKind::default(),
         }
     }
 }
@@ -164,6 +228,7 @@ pub struct RenderDefaults {
     pub max_depth: Option<u32>,
     pub rr_depth: Option<RrDepth>,
     pub seed: Option<u64>,
+    pub sampler: Option<SamplerKind>,
 }
 
 #[cfg(test)]
@@ -180,5 +245,26 @@ mod tests {
         }
         assert_eq!("banana".parse::<RrDepth>(), Err("expected a number, \"off\" or \"auto\", found \"banana\"".into()));
         assert!("-1".parse::<RrDepth>().is_err());
+    }
+
+    #[test]
+    fn shards_parse_and_cover_every_tile_once() {
+        assert_eq!("2/7".parse::<Shard>(), Ok(Shard { index: 2, count: 7 }));
+        assert_eq!(Shard { index: 2, count: 7 }.to_string(), "2/7");
+        for bad in ["7/7", "1/0", "x/2", "3", "-1/2", "1/2/3"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+        for count in [1, 2, 3, 7] {
+            let shards: Vec<Shard> = (0..count).map(|index| Shard { index, count }).collect();
+            for ty in 0..9 {
+                for tx in 0..13 {
+                    assert_eq!(shards.iter().filter(|s| s.owns_tile(tx, ty)).count(), 1);
+                }
+            }
+            let (w, h) = (37, 21);
+            let mut all: Vec<usize> = shards.iter().flat_map(|s| s.pixels(w, h)).collect();
+            all.sort();
+            assert_eq!(all, (0..(w * h) as usize).collect::<Vec<_>>());
+        }
     }
 }

@@ -73,21 +73,45 @@ impl Accumulator {
 
     /// Total samples taken.
     pub fn samples(&self) -> u64 {
-        self.pixels.iter().map(|p| p.count as u64).sum()
+        self.samples_of(|_| true)
     }
 
     /// (min, mean, max) samples per pixel.
     pub fn spp_range(&self) -> (u32, f64, u32) {
-        let min = self.pixels.iter().map(|p| p.count).min().unwrap_or(0);
-        let max = self.pixels.iter().map(|p| p.count).max().unwrap_or(0);
-        (min, self.samples() as f64 / self.pixels.len().max(1) as f64, max)
+        self.spp_range_of(|_| true)
     }
 
     /// (mean, max) of the pixels' estimated relative errors.
     pub fn error_estimate(&self) -> (f64, f64) {
-        let errs = self.pixels.iter().map(PixelState::relative_error);
-        let (sum, max) = errs.fold((0.0, 0.0f64), |(s, m), e| (s + e, m.max(e)));
-        (sum / self.pixels.len().max(1) as f64, max)
+        self.error_estimate_of(|_| true)
+    }
+
+    /// The pixels (row-major index) for which `keep` holds: a shard's.
+    fn pixels_of(&self, keep: impl Fn(usize) -> bool) -> impl Iterator<Item = &PixelState> {
+        self.pixels.iter().enumerate().filter(move |(i, _)| keep(*i)).map(|(_, p)| p)
+    }
+
+    /// [`Accumulator::samples`] of the pixels for which `keep` holds.
+    pub fn samples_of(&self, keep: impl Fn(usize) -> bool) -> u64 {
+        self.pixels_of(keep).map(|p| p.count as u64).sum()
+    }
+
+    /// [`Accumulator::spp_range`] of the pixels for which `keep` holds.
+    pub fn spp_range_of(&self, keep: impl Fn(usize) -> bool + Copy) -> (u32, f64, u32) {
+        let (mut min, mut max, mut n, mut sum) = (u32::MAX, 0, 0u64, 0u64);
+        for p in self.pixels_of(keep) {
+            (min, max, n, sum) = (min.min(p.count), max.max(p.count), n + 1, sum + p.count as u64);
+        }
+        if n == 0 { (0, 0.0, 0) } else { (min, sum as f64 / n as f64, max) }
+    }
+
+    /// [`Accumulator::error_estimate`] of the pixels for which `keep` holds.
+    pub fn error_estimate_of(&self, keep: impl Fn(usize) -> bool) -> (f64, f64) {
+        let (mut sum, mut max, mut n) = (0.0, 0.0f64, 0usize);
+        for e in self.pixels_of(keep).map(PixelState::relative_error) {
+            (sum, max, n) = (sum + e, max.max(e), n + 1);
+        }
+        (sum / n.max(1) as f64, max)
     }
 }
 

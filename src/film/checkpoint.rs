@@ -23,7 +23,7 @@ use std::time::Duration;
 
 const MAGIC: &[u8; 8] = b"EMBERCK\x01";
 /// Bytes of a pixel: count (u32) and four f64 sums.
-const PIXEL_BYTES: u64 = 36;
+pub(super) const PIXEL_BYTES: u64 = 36;
 /// Magic, scene and settings length: what comes before the settings text.
 const PREFIX_BYTES: u64 = 8 + 8 + 4;
 /// Non-finite count, elapsed time, width and height: between the settings and the pixels.
@@ -94,9 +94,9 @@ pub fn checkpoint_path(output: &Path) -> PathBuf {
 }
 
 /// A writer that hashes what goes through it.
-struct Hashing<W> {
-    inner: W,
-    hash: Fnv1a,
+pub(super) struct Hashing<W> {
+    pub(super) inner: W,
+    pub(super) hash: Fnv1a,
 }
 
 impl<W: Write> Write for Hashing<W> {
@@ -134,12 +134,7 @@ impl Checkpoint {
         w.write_all(&self.accum.width.to_le_bytes())?;
         w.write_all(&self.accum.height.to_le_bytes())?;
         for p in &self.accum.pixels {
-            let mut b = [0u8; PIXEL_BYTES as usize];
-            b[..4].copy_from_slice(&p.count.to_le_bytes());
-            for (i, x) in [p.sum.x, p.sum.y, p.sum.z, p.sum_lum_sq].into_iter().enumerate() {
-                b[4 + 8 * i..12 + 8 * i].copy_from_slice(&x.to_le_bytes());
-            }
-            w.write_all(&b)?;
+            w.write_all(&encode_pixel(p))?;
         }
         let sum = w.hash.finish();
         w.inner.write_all(&sum.to_le_bytes())?;
@@ -244,12 +239,7 @@ impl Checkpoint {
             r.read_exact(bytes).map_err(io)?;
             hash.write(bytes);
             for (p, b) in pixels.iter_mut().zip(bytes.chunks_exact(PIXEL_BYTES as usize)) {
-                let f = |i: usize| f64::from_le_bytes(b[4 + 8 * i..12 + 8 * i].try_into().unwrap());
-                *p = PixelState {
-                    count: u32::from_le_bytes(b[..4].try_into().unwrap()),
-                    sum: DVec3::new(f(0), f(1), f(2)),
-                    sum_lum_sq: f(3),
-                };
+                *p = decode_pixel(b);
             }
         }
         let mut tail = [0u8; CHECKSUM_BYTES as usize];
@@ -296,27 +286,9 @@ impl Checkpoint {
         }
         let mut samples = 0u64;
         for (i, p) in a.pixels.iter().enumerate() {
-            let at = || format!("pixel ({}, {})", i % a.width as usize, i / a.width as usize);
-            if p.count > key.spp {
-                return Err(corrupt(format!(
-                    "{}: {} samples, more than the {} spp of this render",
-                    at(),
-                    p.count,
-                    key.spp
-                )));
-            }
-            if !p.sum.is_finite() {
-                return Err(corrupt(format!("{}: the sum of its samples is not finite ({})", at(), p.sum)));
-            }
-            if !(p.sum_lum_sq.is_finite() && p.sum_lum_sq >= 0.0) {
-                return Err(corrupt(format!(
-                    "{}: the sum of its squared luminances is {} (must be finite and not negative)",
-                    at(),
-                    p.sum_lum_sq
-                )));
-            }
-            if p.count == 0 && (p.sum != DVec3::ZERO || p.sum_lum_sq != 0.0) {
-                return Err(corrupt(format!("{}: no samples, but sums that are not zero", at())));
+            if let Some(why) = pixel_problem(p, key.spp) {
+                let (x, y) = (i % a.width as usize, i / a.width as usize);
+                return Err(corrupt(format!("pixel ({x}, {y}): {why}")));
             }
             samples += p.count as u64;
         }
@@ -327,28 +299,77 @@ impl Checkpoint {
     }
 }
 
+/// A pixel's state as stored: its count (u32) and sums r, g, b and of squared luminance (f64),
+/// little-endian.
+pub(super) fn encode_pixel(p: &PixelState) -> [u8; PIXEL_BYTES as usize] {
+    let mut b = [0u8; PIXEL_BYTES as usize];
+    b[..4].copy_from_slice(&p.count.to_le_bytes());
+    for (i, x) in [p.sum.x, p.sum.y, p.sum.z, p.sum_lum_sq].into_iter().enumerate() {
+        b[4 + 8 * i..12 + 8 * i].copy_from_slice(&x.to_le_bytes());
+    }
+    b
+}
+
+/// The pixel state of [`PIXEL_BYTES`] bytes written by [`encode_pixel`].
+pub(super) fn decode_pixel(b: &[u8]) -> PixelState {
+    let f = |i: usize| f64::from_le_bytes(b[4 + 8 * i..12 + 8 * i].try_into().unwrap());
+    PixelState {
+        count: u32::from_le_bytes(b[..4].try_into().unwrap()),
+        sum: DVec3::new(f(0), f(1), f(2)),
+        sum_lum_sq: f(3),
+    }
+}
+
+/// Why a stored pixel could not have come from a render of `spp` samples per pixel, if it
+/// could not: more samples, a sum that is not finite, a negative or non-finite sum of
+/// squares, sums without samples.
+pub(super) fn pixel_problem(p: &PixelState, spp: u32) -> Option<String> {
+    if p.count > spp {
+        return Some(format!("{} samples, more than the {spp} spp of this render", p.count));
+    }
+    if !p.sum.is_finite() {
+        return Some(format!("the sum of its samples is not finite ({})", p.sum));
+    }
+    if !(p.sum_lum_sq.is_finite() && p.sum_lum_sq >= 0.0) {
+        return Some(format!(
+            "the sum of its squared luminances is {} (must be finite and not negative)",
+            p.sum_lum_sq
+        ));
+    }
+    if p.count == 0 && (p.sum != DVec3::ZERO || p.sum_lum_sq != 0.0) {
+        return Some("no samples, but sums that are not zero".into());
+    }
+    None
+}
+
 /// `spp=16 in the checkpoint, spp=32 now; …` for every word of `now` that `was` lacks, and
 /// every key of `was` that `now` lacks.
-fn settings_diff(was: &str, now: &str) -> String {
+pub(super) fn settings_diff(was: &str, now: &str) -> String {
+    words_diff(was, "in the checkpoint", now, "now")
+}
+
+/// `spp=16 {a_name}, spp=32 {b_name}; …` for every word of `b` that `a` lacks, and every key
+/// of `a` that `b` lacks.
+pub(super) fn words_diff(a: &str, a_name: &str, b: &str, b_name: &str) -> String {
     let key_of = |w: &str| w.split('=').next().unwrap_or(w).to_string();
-    let mine: Vec<&str> = was.split_whitespace().collect();
-    let theirs: Vec<&str> = now.split_whitespace().collect();
+    let mine: Vec<&str> = a.split_whitespace().collect();
+    let theirs: Vec<&str> = b.split_whitespace().collect();
     let mut diffs: Vec<String> = theirs
         .iter()
         .filter(|w| !mine.contains(w))
         .map(|w| {
             let key = key_of(w);
             let old = mine.iter().find(|m| key_of(m) == key).copied().unwrap_or("(absent)");
-            format!("{old} in the checkpoint, {w} now")
+            format!("{old} {a_name}, {w} {b_name}")
         })
         .collect();
     for m in &mine {
         if !theirs.iter().any(|w| key_of(w) == key_of(m)) {
-            diffs.push(format!("{m} in the checkpoint, (absent) now"));
+            diffs.push(format!("{m} {a_name}, (absent) {b_name}"));
         }
     }
     if diffs.is_empty() {
-        diffs.push(format!("{was:?} in the checkpoint, {now:?} now"));
+        diffs.push(format!("{a:?} {a_name}, {b:?} {b_name}"));
     }
     diffs.join("; ")
 }

@@ -3,6 +3,7 @@
 
 mod accum;
 mod checkpoint;
+pub mod shard;
 
 pub use accum::{Accumulator, PixelState, RELATIVE_ERROR_FLOOR};
 pub use checkpoint::{Checkpoint, CheckpointError, CheckpointKey, checkpoint_path};

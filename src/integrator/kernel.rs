@@ -31,7 +31,7 @@
 use super::path::{PathContext, radiance};
 use crate::accel::{Accel, AccelError, LANES};
 use crate::geometry::Ray;
-use crate::sampler::{PixelStreams, Rng};
+use crate::sampler::{PixelSampler, SampleStream};
 use crate::scene::Effects;
 use glam::{Vec2, Vec3};
 use std::fmt;
@@ -122,10 +122,10 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     let pixel = y as u64 * w as u64 + x as u64;
     // Idle lanes (a group cut short by the sample count) get placeholders, not streams and
     // camera rays of their own: at 1 spp, seven of every eight lanes are idle.
-    let streams = PixelStreams::new(ctx.settings.seed, pixel);
+    let streams = PixelSampler::new(ctx.settings.sampler, ctx.settings.seed, pixel);
     // Plain loops, not `array::from_fn`, whose per-element closure calls did not inline.
     let first = streams.sample(samples.start as u64);
-    let mut rngs: [Rng; LANES] = std::array::from_fn(|_| first.clone());
+    let mut rngs: [SampleStream; LANES] = std::array::from_fn(|_| first.clone());
     for (i, rng) in rngs.iter_mut().enumerate().take(n).skip(1) {
         *rng = streams.sample(samples.start as u64 + i as u64);
     }
@@ -152,7 +152,7 @@ fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     accel: &A,
     camera_rays: &[Ray; LANES],
     active: [bool; LANES],
-    rngs: &mut [Rng; LANES],
+    rngs: &mut [SampleStream; LANES],
     out: &mut [Vec3; LANES],
     rays: &mut u64,
 ) -> Result<(), AccelError> {

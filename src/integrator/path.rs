@@ -8,7 +8,7 @@ use crate::camera::Camera;
 use crate::geometry::{Frame, Hit, Ray, offset_ray_origin, offset_toward};
 use crate::light::{LightChoice, LightSet};
 use crate::material::{Bsdf, BsdfSample};
-use crate::sampler::Rng;
+use crate::sampler::SampleStream;
 use crate::scene::Scene;
 use crate::settings::{Estimator, RenderSettings};
 use glam::Vec3;
@@ -53,7 +53,7 @@ pub(crate) fn radiance<
     accel: &A,
     mut ray: Ray,
     first: Option<Hit>,
-    rng: &mut Rng,
+    rng: &mut SampleStream,
     rays: &mut u64,
 ) -> Vec3 {
     let s = ctx.settings;

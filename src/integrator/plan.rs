@@ -62,17 +62,27 @@ impl RenderPlan {
     /// ([`Scene::fingerprint`]), the image size and spp, and everything else that changes the
     /// image as `key=value` words — the requests that matter, the roulette start in force and
     /// the accelerator with its build options (`accel`: [`crate::accel::Accel::image_key`]);
-    /// the thread count and kernel choice do not change the image. A checkpoint records this
-    /// and resumes only against the same.
+    /// the thread count and kernel choice do not change the image — and, for a shard, which
+    /// one. A checkpoint records this and resumes only against the same.
     pub fn checkpoint_key(&self, scene_fingerprint: u64, accel: &str) -> CheckpointKey {
+        let s = &self.settings;
+        let mut settings = self.image_key(accel);
+        if let Some(shard) = s.shard {
+            settings += &format!(" shard={shard}");
+        }
+        CheckpointKey { scene: scene_fingerprint, settings, width: s.width, height: s.height, spp: s.spp }
+    }
+
+    /// The settings that change the image (all but the shard), as `key=value` words; `accel`
+    /// names the accelerator and its build. The shards of one image all have these.
+    pub fn image_key(&self, accel: &str) -> String {
         let s = &self.settings;
         let rr = self.roulette_start.map_or("off".to_string(), |d| d.to_string());
         let te = s.target_error.map_or("none".to_string(), |e| e.to_string());
-        let settings = format!(
-            "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} target-error={te} {accel}",
-            s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator
-        );
-        CheckpointKey { scene: scene_fingerprint, settings, width: s.width, height: s.height, spp: s.spp }
+        format!(
+            "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} sampler={} target-error={te} {accel}",
+            s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator, s.sampler
+        )
     }
 
     /// Whether anything in the scene emits light; without light every sample is exactly zero
@@ -175,7 +185,7 @@ mod tests {
         let key = plan(scattering(0.75), RrDepth::Auto, true).checkpoint_key(7, "accel=naive");
         assert_eq!(
             key.settings,
-            "width=640 height=480 spp=64 max-depth=8 rr-depth=3 seed=0 estimator=nee-mis target-error=none accel=naive"
+            "width=640 height=480 spp=64 max-depth=8 rr-depth=3 seed=0 estimator=nee-mis sampler=sobol target-error=none accel=naive"
         );
         assert_eq!((key.scene, key.width, key.height, key.spp), (7, 640, 480, 64));
         // The kernel does not change the image, so it is not in the key.

@@ -13,13 +13,13 @@ use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
 use crate::film::{Accumulator, Checkpoint, PixelState};
 use crate::scene::Scene;
+use crate::settings::TILE;
 use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-const TILE: u32 = 16;
 /// Samples every pixel takes before its error estimate is trusted (adaptive sampling).
 const MIN_ADAPTIVE_SPP: u32 = 16;
 
@@ -128,23 +128,28 @@ pub(super) fn run(
     };
     let camera = scene.camera(w as f32 / h as f32);
     let lights = scene.light_set();
+    // The pixels this render takes: a shard's, or all.
+    let owned = |i: usize| settings.shard.is_none_or(|s| s.owns_pixel(i as u32 % w, i as u32 / w));
     let finish = |accum: Accumulator, rays: u64, nonfinite: u64, complete: bool, warnings: Vec<String>| {
         let stats = RenderStats {
             elapsed: start.elapsed(),
             earlier_sessions: prior_elapsed,
             rays,
-            samples: accum.samples(),
+            samples: accum.samples_of(owned),
             nonfinite: prior_nonfinite + nonfinite,
             plan: plan.clone(),
-            spp: accum.spp_range(),
-            error_estimate: accum.error_estimate(),
+            spp: accum.spp_range_of(owned),
+            error_estimate: accum.error_estimate_of(owned),
         };
         RenderResult { accum, stats, complete, warnings }
     };
     if plan.traces_nothing() {
         // Nothing emits: every path carries zero radiance, so none is traced; each pixel's
         // samples are all exactly zero.
-        for p in &mut accum.pixels {
+        for (i, p) in accum.pixels.iter_mut().enumerate() {
+            if !owned(i) {
+                continue;
+            }
             while round_target(settings, 0, p).is_some_and(|t| p.count < t) {
                 p.add(glam::Vec3::ZERO);
             }
@@ -163,8 +168,11 @@ pub(super) fn run(
         path_depth: plan.path_depth,
         roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
     };
-    let tiles: Vec<(u32, u32)> =
-        (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
+    // A shard renders only its own tiles.
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty)))
+        .filter(|&(tx, ty)| settings.shard.is_none_or(|s| s.owns_tile(tx, ty)))
+        .collect();
     let n_rounds = rounds(settings);
     let rays_total = AtomicU64::new(0);
     let samples_done = AtomicU64::new(accum.samples());
@@ -194,7 +202,9 @@ pub(super) fn run(
             a.samples()
                 + a.pixels
                     .iter()
-                    .map(|p| round_target(settings, round, p).map_or(0, |t| (t - p.count) as u64))
+                    .enumerate()
+                    .filter(|&(i, _)| owned(i))
+                    .map(|(_, p)| round_target(settings, round, p).map_or(0, |t| (t - p.count) as u64))
                     .sum::<u64>()
         };
         tiles.par_iter().try_for_each(|&(tx, ty)| -> Result<(), RenderError> {

@@ -220,6 +220,18 @@ pub struct RenderSection {
     pub max_depth: Option<u32>,
     pub rr_depth: Option<RrDepthValue>,
     pub seed: Option<u64>,
+    pub sampler: Option<SamplerName>,
+}
+
+/// `sampler`: `"sobol"` or `"independent"`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SamplerName(pub crate::settings::SamplerKind);
+
+impl<'de> Deserialize<'de> for SamplerName {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map(SamplerName).map_err(de::Error::custom)
+    }
 }
 
 #[derive(Debug, Deserialize, Clone)]

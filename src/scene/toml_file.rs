@@ -271,6 +271,7 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
         max_depth: r.max_depth,
         rr_depth: r.rr_depth.map(|v| v.0),
         seed: r.seed,
+        sampler: r.sampler.map(|v| v.0),
     }
 }
 

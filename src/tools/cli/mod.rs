@@ -5,6 +5,7 @@ mod bench;
 mod check;
 mod converge;
 mod info;
+mod merge;
 mod progress;
 mod render;
 
@@ -20,8 +21,11 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Render a scene (.toml) or a mesh (.obj, .ply, .gltf, .glb) to an image (.png or .exr).
+    /// Render a scene (.toml) or a mesh (.obj, .ply, .gltf, .glb) to an image (.png or .exr),
+    /// or one shard of it (--shard K/N) to a .shard file.
     Render(render::RenderArgs),
+    /// Put the shard files of one image together into the image a whole render gives.
+    Merge(merge::MergeArgs),
     /// Print a scene's or mesh's primitive counts, bounds and effects, the kernel, path depth,
     /// Russian roulette and light choice a render would use, and the BVH build time.
     Info(info::InfoArgs),
@@ -45,6 +49,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(a) => render::run(a).map(|()| ExitCode::SUCCESS),
         Command::Info(a) => info::run(a).map(|()| ExitCode::SUCCESS),
+        Command::Merge(a) => merge::run(a).map(|()| ExitCode::SUCCESS),
         Command::Bench(a) => bench::run_bench(a).map(|()| ExitCode::SUCCESS),
         Command::Converge(a) => converge::run(a).map(|()| ExitCode::SUCCESS),
         Command::Check(a) => check::run(a),

@@ -101,6 +101,7 @@ impl Study {
             seed,
             threads: self.threads,
             estimator: variant.estimator,
+            sampler: variant.sampler.unwrap_or_default(),
             ..RenderSettings::default()
         }
     }

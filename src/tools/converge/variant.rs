@@ -1,8 +1,9 @@
 //! The estimator variants a study compares, and the syntax that names them
-//! (`ESTIMATOR[/no-rr][/depth=D][/env-uniform]` and the groups `estimators`, `no-rr`, `depth`,
-//! `all`).
+//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform]` and the groups
+//! `estimators`, `no-rr`, `depth`, `samplers`, `all`).
 
 use crate::integrator::Estimator;
+use crate::sampler::SamplerKind;
 
 /// The depths of the `depth` variant group: each compared to the full-depth reference, so
 /// their curves flatten at the bias of cutting paths short.
@@ -19,16 +20,18 @@ pub struct Variant {
     /// Next-event estimation samples an environment image uniformly over the sphere instead
     /// of by luminance (no effect on other backgrounds): what importance sampling gains.
     pub uniform_environment: bool,
+    /// Where samples get their numbers; `None`: the default sampler.
+    pub sampler: Option<SamplerKind>,
 }
 
 impl Variant {
     pub const fn new(estimator: Estimator) -> Variant {
-        Variant { estimator, russian_roulette: true, max_depth: None, uniform_environment: false }
+        Variant { estimator, russian_roulette: true, max_depth: None, sampler: None, uniform_environment: false }
     }
 
-    /// `ESTIMATOR[/no-rr][/depth=D][/env-uniform]`, e.g. `nee-mis`, `bsdf/no-rr`,
-    /// `nee-mis/depth=3`, `nee-mis/env-uniform`; the
-    /// same syntax is accepted by [`parse_variants`].
+    /// `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform]`, e.g. `nee-mis`, `bsdf/no-rr`,
+    /// `nee-mis/depth=3`, `nee-mis/sobol`, `nee-mis/env-uniform`; the same syntax is accepted by
+    /// [`parse_variants`].
     pub fn name(&self) -> String {
         let mut s = self.estimator.name().to_string();
         if !self.russian_roulette {
@@ -36,6 +39,9 @@ impl Variant {
         }
         if let Some(d) = self.max_depth {
             s.push_str(&format!("/depth={d}"));
+        }
+        if let Some(k) = self.sampler {
+            s.push_str(&format!("/{k}"));
         }
         if self.uniform_environment {
             s.push_str("/env-uniform");
@@ -57,8 +63,12 @@ impl std::str::FromStr for Variant {
                 v.uniform_environment = true;
             } else if let Some(d) = part.strip_prefix("depth=") {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
+            } else if let Ok(k) = part.parse::<SamplerKind>() {
+                v.sampler = Some(k);
             } else {
-                return Err(format!("variant {s:?}: unknown option {part:?} (expected no-rr, depth=D or env-uniform)"));
+                return Err(format!(
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent or env-uniform)"
+                ));
             }
         }
         Ok(v)
@@ -69,8 +79,9 @@ impl std::str::FromStr for Variant {
 /// - `estimators`: the four estimators at full depth with Russian roulette;
 /// - `no-rr`: the four estimators at full depth without Russian roulette;
 /// - `depth`: NEE+MIS with Russian roulette at each depth of [`DEPTH_GROUP`] below `full_depth`;
-/// - `all`: the three groups;
-/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/env-uniform]` (see [`Variant::name`]).
+/// - `samplers`: NEE+MIS with each sampler;
+/// - `all`: the three groups above `samplers`;
+/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform]` (see [`Variant::name`]).
 ///
 /// Duplicates are dropped; the order is kept.
 pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, String> {
@@ -84,6 +95,10 @@ pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, Strin
             "depth" => DEPTH_GROUP
                 .filter(|&d| d < full_depth)
                 .map(|d| Variant { max_depth: Some(d), ..Variant::new(Estimator::NeeMis) })
+                .collect(),
+            "samplers" => SamplerKind::ALL
+                .into_iter()
+                .map(|k| Variant { sampler: Some(k), ..Variant::new(Estimator::NeeMis) })
                 .collect(),
             "all" => parse_variants("estimators,no-rr,depth", full_depth)?,
             "" => return Err("empty variant in the list".into()),
@@ -114,12 +129,19 @@ mod tests {
                 estimator: Estimator::BsdfUniform,
                 russian_roulette: false,
                 max_depth: Some(3),
+                sampler: None,
                 uniform_environment: false
             }
         );
+        let v: Variant = "nee-mis/sobol".parse().unwrap();
+        assert_eq!(v.sampler, Some(SamplerKind::Sobol));
+        assert_eq!(v.name(), "nee-mis/sobol");
+        assert_eq!(parse_variants("samplers", 64).unwrap().len(), 2);
         let v: Variant = "nee-mis/env-uniform".parse().unwrap();
         assert_eq!(v, Variant { uniform_environment: true, ..Variant::new(Estimator::NeeMis) });
         assert_eq!(v.name(), "nee-mis/env-uniform");
+        let v: Variant = "nee-mis/independent/env-uniform".parse().unwrap();
+        assert_eq!(v.name().parse::<Variant>().unwrap(), v);
     }
 
     #[test]

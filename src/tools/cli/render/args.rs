@@ -4,7 +4,7 @@ use crate::accel::AccelKind;
 use crate::embree::BuildQuality;
 use crate::scene::Scene;
 use crate::scene::format::MAX_IMAGE_SIDE;
-use crate::settings::{Estimator, RenderSettings, RrDepth};
+use crate::settings::{Estimator, RenderSettings, RrDepth, SamplerKind, Shard};
 use clap::Args;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -13,7 +13,7 @@ use std::time::Duration;
 pub struct RenderArgs {
     /// Scene file (.toml) or mesh (.obj, .ply, .gltf, .glb).
     pub scene: PathBuf,
-    /// Output image: .png (8-bit sRGB) or .exr (linear float).
+    /// Output image: .png (8-bit sRGB) or .exr (linear float); with --shard, a .shard file.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Samples per pixel [scene's render.spp, else 64].
@@ -67,9 +67,48 @@ pub struct RenderArgs {
     /// Estimator: nee-mis, nee, bsdf or bsdf-uniform.
     #[arg(long, default_value = "nee-mis")]
     pub estimator: Estimator,
+    /// Where samples get their numbers: sobol (an Owen-scrambled Sobol sequence per pixel)
+    /// or independent [scene's render.sampler, else sobol].
+    #[arg(long)]
+    pub sampler: Option<SamplerKind>,
     /// Fail (exit 2, no image written) if any sample was NaN or infinite.
     #[arg(long)]
     pub strict: bool,
+    /// Render only shard K of N (0-based) of the image, to a shard file (-o NAME.shard) that
+    /// `ember merge` puts together with the others; "auto" takes K and N from Slurm
+    /// (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT), "auto/N" K from Slurm or a Kubernetes
+    /// Indexed Job (JOB_COMPLETION_INDEX).
+    #[arg(long, value_name = "K/N|auto|auto/N")]
+    pub shard: Option<String>,
+}
+
+/// The shard `--shard` asks for: `K/N`, or K (and N) from the job engine's environment.
+pub(super) fn shard(arg: &str, env: &dyn Fn(&str) -> Option<String>) -> anyhow::Result<Shard> {
+    let index_from_env = || -> anyhow::Result<u32> {
+        let (name, value) =
+            ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"].iter().find_map(|n| env(n).map(|v| (*n, v))).ok_or_else(
+                || anyhow::anyhow!("--shard {arg}: neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX is set"),
+            )?;
+        value.trim().parse().map_err(|_| anyhow::anyhow!("--shard {arg}: {name}={value:?} is not a shard index"))
+    };
+    let (index, count) = match arg.split_once('/') {
+        _ if arg == "auto" => {
+            let count = env("SLURM_ARRAY_TASK_COUNT").ok_or_else(|| {
+                anyhow::anyhow!("--shard auto: SLURM_ARRAY_TASK_COUNT is not set (give the count: --shard auto/N)")
+            })?;
+            let count = count
+                .trim()
+                .parse::<u32>()
+                .map_err(|_| anyhow::anyhow!("--shard auto: SLURM_ARRAY_TASK_COUNT={count:?} is not a count"))?;
+            (index_from_env()?, count)
+        }
+        Some(("auto", n)) => {
+            let count = n.parse::<u32>().map_err(|_| anyhow::anyhow!("--shard {arg}: {n:?} is not a count"))?;
+            (index_from_env()?, count)
+        }
+        _ => return arg.parse::<Shard>().map_err(|e| anyhow::anyhow!("--shard: {e}")),
+    };
+    format!("{index}/{count}").parse::<Shard>().map_err(|e| anyhow::anyhow!("--shard {arg}: {e}"))
 }
 
 fn parse_target_error(s: &str) -> Result<f32, String> {
@@ -97,6 +136,8 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         estimator: args.estimator,
         specialize: !args.no_specialize,
         target_error: args.target_error,
+        sampler: args.sampler.unwrap_or(s.sampler),
+        shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
     })
 }
 
@@ -122,5 +163,35 @@ impl std::str::FromStr for CliDuration {
             return Err(format!("duration {s:?} must be positive"));
         }
         Ok(CliDuration(Duration::from_secs_f64(v * scale)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
+        move |name| vars.iter().find(|(n, _)| *n == name).map(|(_, v)| v.to_string())
+    }
+
+    #[test]
+    fn the_shard_comes_from_the_flag_or_the_job_engine() {
+        let none = env(&[]);
+        assert_eq!(shard("2/4", &none).unwrap(), Shard { index: 2, count: 4 });
+        let slurm = env(&[("SLURM_ARRAY_TASK_ID", "3"), ("SLURM_ARRAY_TASK_COUNT", "5")]);
+        assert_eq!(shard("auto", &slurm).unwrap(), Shard { index: 3, count: 5 });
+        assert_eq!(shard("auto/8", &slurm).unwrap(), Shard { index: 3, count: 8 });
+        let k8s = env(&[("JOB_COMPLETION_INDEX", "6")]);
+        assert_eq!(shard("auto/7", &k8s).unwrap(), Shard { index: 6, count: 7 });
+        for (arg, vars, needle) in [
+            ("auto", &k8s as &dyn Fn(&str) -> Option<String>, "SLURM_ARRAY_TASK_COUNT is not set"),
+            ("auto/4", &none, "neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX is set"),
+            ("auto/7", &env(&[("JOB_COMPLETION_INDEX", "7")]), "expected K/N with 0 <= K < N"),
+            ("auto/x", &k8s, "\"x\" is not a count"),
+            ("4/4", &none, "expected K/N"),
+        ] {
+            let e = shard(arg, vars).unwrap_err().to_string();
+            assert!(e.contains(needle), "{arg}: {e}");
+        }
     }
 }

@@ -10,6 +10,7 @@ pub use interrupt::Interrupted;
 
 use super::progress::ProgressBar;
 use crate::embree::BuildOptions;
+use crate::film::shard::ShardHeader;
 use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
 use crate::memory::{LoadBudget, MemoryLimit};
@@ -19,7 +20,16 @@ use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    ImageFormat::from_path(&args.output)?;
+    if args.shard.is_some() {
+        if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("shard")) {
+            anyhow::bail!(
+                "{}: --shard writes a shard file for `ember merge`: give the output a name ending in .shard",
+                args.output.display()
+            );
+        }
+    } else {
+        ImageFormat::from_path(&args.output)?;
+    }
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
     crate::atomic_write::check_writable(&args.output)?;
     // From here a signal stops the render cleanly (or, before it starts, ends ember without
@@ -109,7 +119,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
-    film.save(&args.output)?;
+    match settings.shard {
+        Some(shard) => {
+            let header = ShardHeader {
+                scene: scene.fingerprint(),
+                settings: plan.image_key(&args.accel.image_key(bvh)),
+                shard,
+                width: settings.width,
+                height: settings.height,
+                spp: settings.spp,
+                nonfinite: stats.nonfinite,
+                elapsed: stats.elapsed + stats.earlier_sessions,
+            };
+            crate::film::shard::save(&args.output, &header, &result.accum)?;
+        }
+        None => film.save(&args.output)?,
+    }
     // Only a regular file: a folder or a link someone put there is not ours to remove.
     if is_file(&checkpoint) {
         std::fs::remove_file(&checkpoint)

@@ -1,0 +1,311 @@
+//! Shard files: the pixels one shard of an image rendered (`ember render --shard K/N`), exactly
+//! as the render accumulated them, for `ember merge` to put back together into the image a
+//! whole render gives, bit for bit.
+//!
+//! A shard file records what it belongs to — the scene's fingerprint, the settings that change
+//! the image as `key=value` words, the image size and spp, and which shard of how many it is —
+//! so that the merge can refuse files of another scene or other settings, a duplicate or a
+//! missing shard. Its pixels are those [`Shard::pixels`] lists, in that order; the file is
+//! binary (little-endian), ends with a checksum and is written atomically.
+//!
+//! Layout: `EMBERSH\x01`, scene (u64), settings length (u32) and text, shard index and count,
+//! width, height and spp (u32 each), non-finite samples (u64), render nanoseconds (u64), then
+//! per pixel of the shard its count (u32) and sums r, g, b and of squared luminance (f64), and
+//! the FNV-1a hash of all that (u64). A file is read only if it is a regular file of exactly
+//! the size its header implies, and every pixel must be one the render could have produced.
+
+use super::accum::{Accumulator, PixelState};
+use super::checkpoint::{Hashing, PIXEL_BYTES, decode_pixel, encode_pixel, pixel_problem, words_diff};
+use crate::hash::Fnv1a;
+use crate::settings::Shard;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+const MAGIC: &[u8; 8] = b"EMBERSH\x01";
+/// Magic, scene and settings length: before the settings text.
+const PREFIX_BYTES: u64 = 8 + 8 + 4;
+/// Shard index and count, width, height, spp, non-finite samples, nanoseconds.
+const FIELDS_BYTES: u64 = 5 * 4 + 8 + 8;
+const CHECKSUM_BYTES: u64 = 8;
+/// The longest settings text accepted.
+const MAX_SETTINGS: u64 = 64 * 1024;
+
+/// What a shard file says of itself.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShardHeader {
+    /// [`crate::scene::Scene::fingerprint`] of the scene rendered.
+    pub scene: u64,
+    /// The settings that change the image (`crate::integrator::RenderPlan::image_key`).
+    pub settings: String,
+    pub shard: Shard,
+    pub width: u32,
+    pub height: u32,
+    /// The most samples a pixel takes.
+    pub spp: u32,
+    /// Non-finite samples dropped in the shard's pixels.
+    pub nonfinite: u64,
+    /// Time the shard's render took (all its sessions).
+    pub elapsed: Duration,
+}
+
+impl ShardHeader {
+    /// The number of pixels the shard holds.
+    pub fn pixel_count(&self) -> u64 {
+        self.shard.pixels(self.width, self.height).count() as u64
+    }
+
+    /// The size in bytes of the shard file.
+    pub fn file_size(&self) -> u64 {
+        PREFIX_BYTES + self.settings.len() as u64 + FIELDS_BYTES + self.pixel_count() * PIXEL_BYTES + CHECKSUM_BYTES
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ShardError {
+    #[error("{}: cannot read shard file: {}", .0.display(), .1)]
+    Read(PathBuf, String),
+    #[error("{}: not a valid ember shard file ({})", .0.display(), .1)]
+    Corrupt(PathBuf, String),
+    #[error(transparent)]
+    Write(#[from] crate::atomic_write::WriteError),
+}
+
+/// Writes the pixels of `header.shard` from `accum` (the render's accumulator, of the whole
+/// image) to `path`, atomically.
+pub fn save(path: &Path, header: &ShardHeader, accum: &Accumulator) -> Result<(), ShardError> {
+    assert_eq!((accum.width, accum.height), (header.width, header.height), "the accumulator is the image's");
+    crate::atomic_write::write_atomically(path, |file| {
+        let mut out = std::io::BufWriter::new(file);
+        write(&mut out, header, accum).map_err(|e| e.to_string())?;
+        out.into_inner().map(|_| ()).map_err(|e| e.error().to_string())
+    })?;
+    Ok(())
+}
+
+fn write(out: impl Write, h: &ShardHeader, accum: &Accumulator) -> std::io::Result<()> {
+    let mut w = Hashing { inner: out, hash: Fnv1a::default() };
+    w.write_all(MAGIC)?;
+    w.write_all(&h.scene.to_le_bytes())?;
+    w.write_all(&(h.settings.len() as u32).to_le_bytes())?;
+    w.write_all(h.settings.as_bytes())?;
+    for x in [h.shard.index, h.shard.count, h.width, h.height, h.spp] {
+        w.write_all(&x.to_le_bytes())?;
+    }
+    w.write_all(&h.nonfinite.to_le_bytes())?;
+    w.write_all(&(h.elapsed.as_nanos().min(u64::MAX as u128) as u64).to_le_bytes())?;
+    for i in h.shard.pixels(h.width, h.height) {
+        w.write_all(&encode_pixel(&accum.pixels[i]))?;
+    }
+    let sum = w.hash.finish();
+    w.inner.write_all(&sum.to_le_bytes())?;
+    w.flush()
+}
+
+/// A shard file opened for reading: its header read and checked against the file's size.
+pub struct ShardReader {
+    pub path: PathBuf,
+    pub header: ShardHeader,
+    reader: std::io::BufReader<std::fs::File>,
+    hash: Fnv1a,
+}
+
+impl ShardReader {
+    /// Opens the shard file `path` and reads its header. Only a regular file whose size is
+    /// the one its header implies is accepted.
+    pub fn open(path: &Path) -> Result<ShardReader, ShardError> {
+        use std::os::unix::fs::OpenOptionsExt;
+        let read_err = |e: std::io::Error| ShardError::Read(path.to_path_buf(), e.to_string());
+        let corrupt = |why: String| ShardError::Corrupt(path.to_path_buf(), why);
+        // Non-blocking: opening a FIFO must not wait for a writer (regular files ignore it).
+        let file =
+            std::fs::OpenOptions::new().read(true).custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY).open(path).map_err(
+                |e| match e.kind() {
+                    std::io::ErrorKind::NotFound => ShardError::Read(path.to_path_buf(), "no such file".into()),
+                    _ => read_err(e),
+                },
+            )?;
+        let meta = file.metadata().map_err(read_err)?;
+        if !meta.is_file() {
+            return Err(ShardError::Read(path.to_path_buf(), "is not a regular file".into()));
+        }
+        let len = meta.len();
+        let mut r = ShardReader {
+            path: path.to_path_buf(),
+            header: ShardHeader {
+                scene: 0,
+                settings: String::new(),
+                shard: Shard { index: 0, count: 1 },
+                width: 0,
+                height: 0,
+                spp: 0,
+                nonfinite: 0,
+                elapsed: Duration::ZERO,
+            },
+            reader: std::io::BufReader::with_capacity(1 << 16, file),
+            hash: Fnv1a::default(),
+        };
+        if len < PREFIX_BYTES + FIELDS_BYTES + CHECKSUM_BYTES {
+            return Err(corrupt(format!("{len} bytes: too short")));
+        }
+        let prefix = r.take(PREFIX_BYTES as usize)?;
+        if &prefix[..8] != MAGIC {
+            return Err(corrupt("wrong header: not written by `ember render --shard`".into()));
+        }
+        let scene = u64::from_le_bytes(prefix[8..16].try_into().unwrap());
+        let settings_len = u32::from_le_bytes(prefix[16..20].try_into().unwrap()) as u64;
+        if settings_len > MAX_SETTINGS || settings_len > len - PREFIX_BYTES - FIELDS_BYTES - CHECKSUM_BYTES {
+            return Err(corrupt(format!("settings of {settings_len} bytes in a file of {len}")));
+        }
+        let settings = String::from_utf8(r.take(settings_len as usize)?)
+            .map_err(|_| corrupt("the settings are not text".into()))?;
+        let fields = r.take(FIELDS_BYTES as usize)?;
+        let u32_at = |i: usize| u32::from_le_bytes(fields[4 * i..4 * i + 4].try_into().unwrap());
+        let u64_at = |at: usize| u64::from_le_bytes(fields[at..at + 8].try_into().unwrap());
+        let (index, count, width, height, spp) = (u32_at(0), u32_at(1), u32_at(2), u32_at(3), u32_at(4));
+        if count == 0 || index >= count {
+            return Err(corrupt(format!("shard {index} of {count}")));
+        }
+        let max_side = crate::scene::format::MAX_IMAGE_SIDE;
+        if !(1..=max_side).contains(&width) || !(1..=max_side).contains(&height) || spp == 0 {
+            return Err(corrupt(format!("image {width}x{height} at {spp} spp")));
+        }
+        r.header = ShardHeader {
+            scene,
+            settings,
+            shard: Shard { index, count },
+            width,
+            height,
+            spp,
+            nonfinite: u64_at(20),
+            elapsed: Duration::from_nanos(u64_at(28)),
+        };
+        if len != r.header.file_size() {
+            return Err(corrupt(format!(
+                "{len} bytes, but shard {} of a {width}x{height} image takes {}: truncated or damaged",
+                r.header.shard,
+                r.header.file_size()
+            )));
+        }
+        Ok(r)
+    }
+
+    fn take(&mut self, n: usize) -> Result<Vec<u8>, ShardError> {
+        let mut b = vec![0u8; n];
+        self.reader.read_exact(&mut b).map_err(|e| self.io(e))?;
+        self.hash.write(&b);
+        Ok(b)
+    }
+
+    fn io(&self, e: std::io::Error) -> ShardError {
+        match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => ShardError::Corrupt(self.path.clone(), "truncated".into()),
+            _ => ShardError::Read(self.path.clone(), e.to_string()),
+        }
+    }
+
+    /// Reads the shard's pixels into `accum` (the image's, of the header's size), checking
+    /// each and the checksum; on error `accum` may hold some of them.
+    pub fn read_into(mut self, accum: &mut Accumulator) -> Result<(), ShardError> {
+        let h = self.header.clone();
+        assert_eq!((accum.width, accum.height), (h.width, h.height), "the accumulator is the image's");
+        let corrupt = |why: String| ShardError::Corrupt(self.path.clone(), why);
+        let mut b = [0u8; PIXEL_BYTES as usize];
+        let mut samples = 0u64;
+        for i in h.shard.pixels(h.width, h.height) {
+            self.reader.read_exact(&mut b).map_err(|e| self.io(e))?;
+            self.hash.write(&b);
+            let p: PixelState = decode_pixel(&b);
+            if let Some(why) = pixel_problem(&p, h.spp) {
+                let (x, y) = (i % h.width as usize, i / h.width as usize);
+                return Err(corrupt(format!("pixel ({x}, {y}): {why}")));
+            }
+            samples += p.count as u64;
+            accum.pixels[i] = p;
+        }
+        let mut tail = [0u8; CHECKSUM_BYTES as usize];
+        self.reader.read_exact(&mut tail).map_err(|e| self.io(e))?;
+        if self.hash.finish() != u64::from_le_bytes(tail) {
+            return Err(corrupt("checksum mismatch: truncated or damaged".into()));
+        }
+        if h.nonfinite > samples {
+            return Err(corrupt(format!("{} non-finite samples of {samples} samples in all", h.nonfinite)));
+        }
+        Ok(())
+    }
+}
+
+/// Why the shard `b` (from `b_path`) cannot be merged with `a` (from `a_path`), if it cannot:
+/// another scene, other settings, another image size or spp, another shard count.
+pub fn mismatch(a: &ShardHeader, a_path: &Path, b: &ShardHeader, b_path: &Path) -> Option<String> {
+    let (an, bn) = (a_path.display(), b_path.display());
+    if a.scene != b.scene {
+        return Some(format!("{bn} is a shard of another scene than {an} (or a file the scene uses changed)"));
+    }
+    if a.settings != b.settings {
+        return Some(format!(
+            "{bn} was rendered with other settings than {an}: {}",
+            words_diff(&a.settings, &format!("in {an}"), &b.settings, &format!("in {bn}"))
+        ));
+    }
+    if (a.width, a.height, a.spp) != (b.width, b.height, b.spp) {
+        return Some(format!(
+            "{bn} is of a {}x{} image at {} spp, {an} of {}x{} at {}",
+            b.width, b.height, b.spp, a.width, a.height, a.spp
+        ));
+    }
+    if a.shard.count != b.shard.count {
+        return Some(format!("{bn} is shard {} but {an} is shard {}: the counts differ", b.shard, a.shard));
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn a_shard_round_trips_its_own_pixels_and_detects_damage() {
+        let (w, h) = (40, 20);
+        let mut accum = Accumulator::new(w, h);
+        for (i, p) in accum.pixels.iter_mut().enumerate() {
+            for s in 0..(i % 3) {
+                p.add(Vec3::new(0.1 * s as f32, i as f32, 0.5));
+            }
+        }
+        let dir = std::env::temp_dir().join(format!("ember-shard-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let shard = Shard { index: 1, count: 3 };
+        let header = ShardHeader {
+            scene: 7,
+            settings: "width=40 height=20 spp=4".into(),
+            shard,
+            width: w,
+            height: h,
+            spp: 4,
+            nonfinite: 0,
+            elapsed: Duration::from_millis(5),
+        };
+        let path = dir.join("p.shard");
+        save(&path, &header, &accum).unwrap();
+        assert_eq!(std::fs::metadata(&path).unwrap().len(), header.file_size());
+        let r = ShardReader::open(&path).unwrap();
+        assert_eq!(r.header, header);
+        let mut back = Accumulator::new(w, h);
+        r.read_into(&mut back).unwrap();
+        for (i, (a, b)) in accum.pixels.iter().zip(&back.pixels).enumerate() {
+            let mine = shard.owns_pixel(i as u32 % w, i as u32 / w);
+            assert_eq!(a == b, mine || a.count == 0, "pixel {i}");
+        }
+        let mut bytes = std::fs::read(&path).unwrap();
+        let at = bytes.len() - 20;
+        bytes[at] ^= 1;
+        std::fs::write(&path, &bytes).unwrap();
+        let e = ShardReader::open(&path).unwrap().read_into(&mut Accumulator::new(w, h)).unwrap_err();
+        assert!(e.to_string().contains("checksum mismatch"), "{e}");
+        std::fs::write(&path, &bytes[..bytes.len() - 1]).unwrap();
+        assert!(ShardReader::open(&path).err().unwrap().to_string().contains("truncated or damaged"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,91 @@
+//! `ember merge`: the shard files of one image (`ember render --shard K/N`) put back together
+//! into the image a whole render gives, bit for bit. Every shard file's header is read and
+//! checked against the others before any pixel is: a missing or duplicate shard, a shard of
+//! another scene or other settings, or a damaged file is refused, naming the files, and
+//! nothing is written. Memory: one image's accumulator, the files read one at a time.
+
+use crate::film::shard::{ShardHeader, ShardReader, mismatch};
+use crate::film::{Accumulator, ImageFormat};
+use crate::memory::{self, MemoryLimit};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// The shard files, every shard of one image once (any order).
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// Output image: .png (8-bit sRGB) or .exr (linear float).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Fail (exit 2, no image written) if a shard dropped NaN or infinite samples or a pixel
+    /// is not finite.
+    #[arg(long)]
+    pub strict: bool,
+}
+
+pub fn run(args: MergeArgs) -> anyhow::Result<()> {
+    ImageFormat::from_path(&args.output)?;
+    let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
+    crate::atomic_write::check_writable(&args.output)?;
+    // Every header first: refuse a wrong set before reading a pixel.
+    let readers = args.shards.iter().map(|p| ShardReader::open(p)).collect::<Result<Vec<_>, _>>()?;
+    let first = &readers[0];
+    for r in &readers[1..] {
+        if let Some(why) = mismatch(&first.header, &first.path, &r.header, &r.path) {
+            anyhow::bail!("{why}; nothing was written");
+        }
+    }
+    let count = first.header.shard.count;
+    let mut by_index: Vec<Option<&PathBuf>> = vec![None; count as usize];
+    for r in &readers {
+        let slot = &mut by_index[r.header.shard.index as usize];
+        if let Some(other) = slot {
+            anyhow::bail!(
+                "{} and {} are both shard {}; nothing was written",
+                other.display(),
+                r.path.display(),
+                r.header.shard
+            );
+        }
+        *slot = Some(&r.path);
+    }
+    let missing: Vec<String> =
+        by_index.iter().enumerate().filter(|(_, p)| p.is_none()).map(|(i, _)| format!("{i}/{count}")).collect();
+    if !missing.is_empty() {
+        anyhow::bail!(
+            "shard{} {} of the image missing (given {} of {count}); nothing was written",
+            if missing.len() == 1 { "" } else { "s" },
+            missing.join(", "),
+            readers.len()
+        );
+    }
+    let ShardHeader { width, height, .. } = first.header;
+    let bytes = memory::film_bytes(width, height);
+    limit
+        .check(format!("image {width}x{height}"), "of film memory", bytes)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", first.path.display()))?;
+    let nonfinite: u64 = readers.iter().map(|r| r.header.nonfinite).sum();
+    let elapsed: std::time::Duration = readers.iter().map(|r| r.header.elapsed).sum();
+    let mut accum = Accumulator::new(width, height);
+    for r in readers {
+        r.read_into(&mut accum).map_err(|e| anyhow::anyhow!("{e}; nothing was written"))?;
+    }
+    let film = accum.film();
+    let bad_pixels = film.pixels.iter().filter(|p| !p.is_finite()).count();
+    if args.strict && (nonfinite > 0 || bad_pixels > 0) {
+        anyhow::bail!(
+            "the shards dropped {nonfinite} NaN or infinite samples and {bad_pixels} pixels are not finite; --strict allows none, so {} was not written",
+            args.output.display()
+        );
+    }
+    film.save(&args.output)?;
+    let (min, mean, max) = accum.spp_range();
+    eprintln!(
+        "merged {count} shards into {width}x{height} at {} ({:.2} s of rendering in all), {nonfinite} non-finite samples dropped -> {}",
+        if min == max { format!("{max} spp") } else { format!("{min}..{max} spp (mean {mean:.1})") },
+        elapsed.as_secs_f64(),
+        args.output.display()
+    );
+    Ok(())
+}

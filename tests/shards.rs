@@ -1,0 +1,181 @@
+//! One image rendered as shards (`ember render --shard K/N`, on as many machines) and merged
+//! (`ember merge`) is the image of a whole render, byte for byte, whatever N; the merge refuses
+//! a missing or duplicate shard, shards of another scene or other settings, and damaged files,
+//! naming them and writing nothing; a shard interrupted and resumed merges to the same image.
+
+mod common;
+
+use common::Running;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const SIZE: [&str; 6] = ["--width", "53", "--height", "37", "--spp", "8"];
+
+fn ember(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ember")).args(args).output().unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn ok(o: &Output) {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// Renders shard `k` of `n` of `scene` into `dir`; its path.
+fn shard(dir: &Path, scene: &Path, k: u32, n: u32, extra: &[&str]) -> PathBuf {
+    let out = dir.join(format!("part-{k}-of-{n}.shard"));
+    let shard = format!("{k}/{n}");
+    ok(&ember(&[&["render", s(scene), "-o", s(&out), "--shard", &shard][..], &SIZE, extra].concat()));
+    out
+}
+
+fn merge(parts: &[PathBuf], out: &Path) -> Output {
+    let mut args: Vec<&str> = vec!["merge"];
+    args.extend(parts.iter().map(|p| s(p)));
+    args.extend(["-o", s(out)]);
+    ember(&args)
+}
+
+#[test]
+fn merged_shards_are_the_whole_render_byte_for_byte() {
+    let d = common::fresh_dir("shards", "equal");
+    // Area light, glass, glossy: every kind of path; and adaptive sampling, whose per-pixel
+    // stopping must not depend on the split either.
+    for (scene, extra) in [
+        (common::scene_path("spheres.toml"), &[][..]),
+        (common::scene_path("cornell-area.toml"), &["--target-error", "0.2"]),
+    ] {
+        for ext in ["png", "exr"] {
+            let whole = d.join(format!("whole.{ext}"));
+            ok(&ember(&[&["render", s(&scene), "-o", s(&whole)][..], &SIZE, extra].concat()));
+            for n in [1, 2, 3, 7] {
+                let parts: Vec<PathBuf> = (0..n).rev().map(|k| shard(&d, &scene, k, n, extra)).collect();
+                let merged = d.join(format!("merged-{n}.{ext}"));
+                ok(&merge(&parts, &merged));
+                assert!(
+                    std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(),
+                    "{}: {n} shards merged to {ext} differ from the whole render",
+                    scene.display()
+                );
+            }
+        }
+    }
+}
+
+/// `ember merge PARTS -o out.png` fails with exit code 2, `needle` in its error, and writes
+/// nothing.
+fn refused(dir: &Path, parts: &[PathBuf], needle: &str) {
+    let out = dir.join("out.png");
+    let o = merge(parts, &out);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{parts:?}: {e}");
+    assert!(e.contains(needle), "{parts:?}: expected {needle:?} in {e}");
+    assert!(e.contains("error: "), "{e}");
+    assert!(!out.exists(), "{parts:?}: an image was written");
+}
+
+#[test]
+fn the_merge_refuses_a_wrong_set_of_shards() {
+    let d = common::fresh_dir("shards", "refusals");
+    let scene = common::scene_path("cornell-area.toml");
+    let parts: Vec<PathBuf> = (0..3).map(|k| shard(&d, &scene, k, 3, &[])).collect();
+    let name = |p: &PathBuf| p.file_name().unwrap().to_str().unwrap().to_string();
+    refused(&d, &parts[..2], "shard 2/3 of the image missing (given 2 of 3)");
+    refused(
+        &d,
+        &[parts[0].clone(), parts[1].clone(), parts[1].clone()],
+        &format!("{} and {} are both shard 1/3", s(&parts[1]), s(&parts[1])),
+    );
+    // Another scene, other settings, another shard count.
+    let other_scene = d.join("other-scene");
+    std::fs::create_dir_all(&other_scene).unwrap();
+    let other = shard(&other_scene, &common::scene_path("cornell.toml"), 2, 3, &[]);
+    refused(&d, &[parts[0].clone(), parts[1].clone(), other.clone()], "is a shard of another scene");
+    let other_settings = d.join("other-settings");
+    std::fs::create_dir_all(&other_settings).unwrap();
+    let seeded = shard(&other_settings, &scene, 2, 3, &["--seed", "5"]);
+    refused(&d, &[parts[0].clone(), parts[1].clone(), seeded], "seed=0 in");
+    let four = shard(&d, &scene, 3, 4, &[]);
+    refused(&d, &[parts[0].clone(), parts[1].clone(), four], "the counts differ");
+    // Damaged: cut short, one byte changed, not a shard at all.
+    let bytes = std::fs::read(&parts[2]).unwrap();
+    let cut = d.join("cut.shard");
+    std::fs::write(&cut, &bytes[..bytes.len() - 100]).unwrap();
+    refused(&d, &[parts[0].clone(), parts[1].clone(), cut], "truncated or damaged");
+    let mut flipped = bytes.clone();
+    let at = bytes.len() / 2;
+    flipped[at] ^= 0x40;
+    let flip = d.join("flip.shard");
+    std::fs::write(&flip, &flipped).unwrap();
+    refused(&d, &[parts[0].clone(), parts[1].clone(), flip], "checksum mismatch");
+    let png = d.join("image.png");
+    ok(&ember(&[&["render", s(&scene), "-o", s(&png)][..], &SIZE].concat()));
+    refused(&d, &[parts[0].clone(), parts[1].clone(), png], "not written by `ember render --shard`");
+    // The right set, in any order, merges.
+    ok(&merge(&[parts[2].clone(), parts[0].clone(), parts[1].clone()], &d.join("fine.png")));
+    assert!(!name(&parts[0]).is_empty());
+}
+
+#[test]
+fn a_shard_needs_a_shard_file_name_and_a_valid_index() {
+    let d = common::fresh_dir("shards", "flags");
+    let scene = common::scene_path("cornell-area.toml");
+    for (args, needle) in [
+        (&["--shard", "1/2", "-o", "x.png"][..], "give the output a name ending in .shard"),
+        (&["--shard", "2/2", "-o", "x.shard"], "expected K/N with 0 <= K < N"),
+        (&["--shard", "auto", "-o", "x.shard"], "SLURM_ARRAY_TASK_COUNT is not set"),
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_ember"))
+            .current_dir(&d)
+            .args([&["render", s(&scene)][..], args, &SIZE].concat())
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("SLURM_ARRAY_TASK_COUNT")
+            .env_remove("JOB_COMPLETION_INDEX")
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        assert!(e.contains(needle), "{args:?}: {e}");
+    }
+    assert_eq!(std::fs::read_dir(&d).unwrap().count(), 0, "files were written");
+    // The index from Slurm's environment.
+    let o = Command::new(env!("CARGO_BIN_EXE_ember"))
+        .current_dir(&d)
+        .args([&["render", s(&scene), "--shard", "auto", "-o", "slurm.shard"][..], &SIZE].concat())
+        .env("SLURM_ARRAY_TASK_ID", "1")
+        .env("SLURM_ARRAY_TASK_COUNT", "2")
+        .output()
+        .unwrap();
+    ok(&o);
+    let header = ember::film::shard::ShardReader::open(&d.join("slurm.shard")).unwrap().header;
+    assert_eq!(header.shard, "1/2".parse().unwrap());
+}
+
+#[test]
+fn a_shard_interrupted_and_resumed_merges_to_the_same_image() {
+    let d = common::fresh_dir("shards", "resume");
+    let scene = common::scene_path("cornell-area.toml");
+    // Long enough to be interrupted part-way.
+    let long = ["--width", "48", "--height", "32", "--spp", "2000", "--threads", "2"];
+    let whole = d.join("whole.exr");
+    ok(&ember(&[&["render", s(&scene), "-o", s(&whole)][..], &long].concat()));
+    let parts: Vec<PathBuf> = (0..2).map(|k| d.join(format!("p{k}.shard"))).collect();
+    ok(&ember(&[&["render", s(&scene), "--shard", "0/2", "-o", s(&parts[0])][..], &long].concat()));
+    let mut c = Command::new(env!("CARGO_BIN_EXE_ember"));
+    c.args([&["render", s(&scene), "--shard", "1/2", "-o", s(&parts[1])][..], &long].concat());
+    let run = Running::start_rendering(&mut c);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    run.signal("INT");
+    let (status, stderr) = run.finish();
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    assert!(!parts[1].exists(), "an interrupted shard wrote its file");
+    let mut checkpoint = parts[1].clone().into_os_string();
+    checkpoint.push(".checkpoint");
+    assert!(Path::new(&checkpoint).is_file(), "{stderr}");
+    ok(&ember(&[&["render", s(&scene), "--shard", "1/2", "-o", s(&parts[1]), "--resume"][..], &long].concat()));
+    let merged = d.join("merged.exr");
+    ok(&merge(&parts, &merged));
+    assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "the resumed shard's merge differs");
+}
