@@ -5,7 +5,9 @@ Run from the repository root:
 
     python scenes/make_showcase_glb.py
 
-Needs trimesh 5.2.0 and numpy 1.26.4 (PyPI). Running it again writes the same bytes.
+Needs trimesh 5.2.0 and numpy 1.26.4 (PyPI). Running it again writes the same bytes. The
+committed file was made without scipy installed: trimesh then prints "unable to use sparse
+matrix, falling back!" while computing vertex normals and uses its dense code instead.
 
 Three meshes, each its own node and metallic-roughness material, Y up, units as
 scenes/teapot.obj:

@@ -65,9 +65,9 @@ fn a_sun_in_an_environment_image_converges_far_faster_sampled_by_luminance() {
     // luminance, 1024 spp. At equal spp (4, 16, 64; 8 seeds each, common to both variants) the
     // relMSE of `nee-mis/env-uniform` over that of `nee-mis`: the ratio of the samples each
     // needs to reach a given relMSE, as both fall as 1/spp (the uniform one only on average:
-    // its error comes from the rare samples that find the sun, so it jumps about). Measured:
-    // 59, 36, 48 (relMSE by luminance 0.56, 0.19, 0.043; with 4 seeds instead of 8: 57, 70,
-    // 46). Asserted: above 20 at every rung. `ember converge` on scenes/gltf-sky.toml measures
+    // its error comes from the rare samples that find the sun, so it jumps about). Measured
+    // with Sobol samples (the default): 80, 160, 58 (relMSE by luminance 0.45, 0.11, 0.026);
+    // with independent samples 59, 36, 48. Asserted: above 20 at every rung. `ember converge` on scenes/gltf-sky.toml measures
     // the same over a longer ladder (docs/performance.md).
     let dir = common::fresh_dir("converge", "sun");
     let sky = image::Rgb32FImage::from_fn(64, 32, |x, y| {
