@@ -12,8 +12,10 @@ use super::variant::Variant;
 use crate::accel::Accel;
 use crate::film::Film;
 use crate::integrator::{Estimator, RenderError, RenderSettings, RenderStats, RrDepth, render};
+use crate::light::{Background, Light};
 use crate::sampler::mix64;
 use crate::scene::Scene;
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 /// 1, 2, 4, … up to `max_spp` (and `max_spp` itself when it is not a power of two).
@@ -153,6 +155,7 @@ impl Study {
         mut on_point: impl FnMut(&ConvergencePoint),
     ) -> Result<Vec<ConvergencePoint>, ConvergeError> {
         let repeats = self.repeats.max(1);
+        let scene = variant_scene(scene, &variant);
         let mut out = Vec::with_capacity(self.ladder.len());
         for (rung, &spp) in self.ladder.iter().enumerate() {
             let mut m = ConvergencePoint {
@@ -165,7 +168,7 @@ impl Study {
             };
             for repeat in 0..repeats {
                 let (film, stats) =
-                    render(scene, accel, &self.settings(&variant, spp, self.render_seed(rung, repeat)))?;
+                    render(&scene, accel, &self.settings(&variant, spp, self.render_seed(rung, repeat)))?;
                 let e = image_difference(&film, reference)?;
                 m.seconds += stats.elapsed.as_secs_f64();
                 m.rays += stats.rays as f64;
@@ -181,6 +184,22 @@ impl Study {
         }
         Ok(out)
     }
+}
+
+/// The scene `variant` renders: `scene` itself, or for `/env-uniform` a copy whose
+/// environment image is sampled uniformly over the sphere (the lights in the same order, so
+/// the choice among them is the same; the geometry, and so `accel`, unchanged).
+fn variant_scene<'a>(scene: &'a Scene, variant: &Variant) -> Cow<'a, Scene> {
+    if !variant.uniform_environment || !matches!(scene.background(), Background::Image(_)) {
+        return Cow::Borrowed(scene);
+    }
+    let mut s = scene.clone();
+    for light in &mut s.lights {
+        if let Light::Background(Background::Image(env)) = light {
+            *env = std::sync::Arc::new(env.uniformly_sampled());
+        }
+    }
+    Cow::Owned(s)
 }
 
 #[cfg(test)]
