@@ -300,7 +300,11 @@ pub enum BackgroundSection {
     /// Not `Spanned`: serde buffers tagged enums, losing spans; errors point at the section.
     Image {
         file: String,
-        scale: Option<Positive>,
+        /// Multiplies the image's radiance; `scale` is its older name.
+        #[serde(alias = "scale")]
+        strength: Option<Positive>,
+        /// Degrees about +Y.
+        rotate: Option<Num>,
     },
 }
 

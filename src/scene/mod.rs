@@ -160,7 +160,8 @@ impl Scene {
         })
     }
 
-    /// Bytes held by the geometry arrays and the texture images (each image once).
+    /// Bytes held by the geometry arrays, the texture and environment images (each image once)
+    /// and the environment's sampling distribution.
     pub fn data_bytes(&self) -> u64 {
         let geometry: u64 = self
             .geometry
@@ -179,12 +180,14 @@ impl Scene {
                 _ => None,
             })
             .collect();
-        if let Background::Image { image, .. } = self.background() {
-            images.push(image);
+        let mut sampling = 0;
+        if let Background::Image(env) = self.background() {
+            images.push(env.image());
+            sampling = env.sampling_bytes();
         }
         images.sort_by_key(|i| Arc::as_ptr(i));
         images.dedup_by(|a, b| Arc::ptr_eq(a, b));
-        geometry + images.iter().map(|i| (i.pixels.capacity() * size_of::<Vec3>()) as u64).sum::<u64>()
+        geometry + sampling + images.iter().map(|i| (i.pixels.capacity() * size_of::<Vec3>()) as u64).sum::<u64>()
     }
 
     /// (triangles, spheres, cylinders)

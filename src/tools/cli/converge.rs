@@ -38,7 +38,8 @@ pub struct ConvergeArgs {
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub reference_spp: Option<u32>,
     /// Comma-separated variants: groups estimators, no-rr, depth, all, or single variants
-    /// ESTIMATOR[/no-rr][/depth=D] with ESTIMATOR one of nee-mis, nee, bsdf, bsdf-uniform.
+    /// ESTIMATOR[/no-rr][/depth=D][/env-uniform] with ESTIMATOR one of nee-mis, nee, bsdf,
+    /// bsdf-uniform (/env-uniform: an environment image sampled uniformly, not by luminance).
     #[arg(long, default_value = "all")]
     pub variants: String,
     /// Full depth: bounce limit of the reference and of every variant without /depth=D.

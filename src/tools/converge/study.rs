@@ -15,8 +15,10 @@ use crate::integrator::{
     Estimator, Progress, RenderControl, RenderError, RenderPlan, RenderSettings, RenderStats, RrDepth,
     render_controlled,
 };
+use crate::light::{Background, Light};
 use crate::sampler::mix64;
 use crate::scene::Scene;
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -180,6 +182,7 @@ impl Study {
         let pixels = self.width as u64 * self.height as u64;
         let planned = self.ladder.iter().map(|&spp| spp as u64 * pixels * repeats as u64).sum();
         let mut done = Done { samples: 0, rays: 0, planned, since: Instant::now() };
+        let scene = variant_scene(scene, &variant);
         let mut out = Vec::with_capacity(self.ladder.len());
         for (rung, &spp) in self.ladder.iter().enumerate() {
             let mut m = ConvergencePoint {
@@ -192,7 +195,7 @@ impl Study {
             };
             for repeat in 0..repeats {
                 let settings = self.settings(&variant, spp, self.render_seed(rung, repeat));
-                let (film, stats) = render_reporting(scene, accel, &settings, progress.map(|p| (p, done)))?;
+                let (film, stats) = render_reporting(&scene, accel, &settings, progress.map(|p| (p, done)))?;
                 done.samples += stats.samples;
                 done.rays += stats.rays;
                 let e = image_difference(&film, reference)?;
@@ -239,6 +242,22 @@ fn render_reporting(
     };
     let r = render_controlled(scene, accel, &RenderPlan::new(scene, settings), control)?;
     Ok((r.accum.film(), r.stats))
+}
+
+/// The scene `variant` renders: `scene` itself, or for `/env-uniform` a copy whose
+/// environment image is sampled uniformly over the sphere (the lights in the same order, so
+/// the choice among them is the same; the geometry, and so `accel`, unchanged).
+fn variant_scene<'a>(scene: &'a Scene, variant: &Variant) -> Cow<'a, Scene> {
+    if !variant.uniform_environment || !matches!(scene.background(), Background::Image(_)) {
+        return Cow::Borrowed(scene);
+    }
+    let mut s = scene.clone();
+    for light in &mut s.lights {
+        if let Light::Background(Background::Image(env)) = light {
+            *env = std::sync::Arc::new(env.uniformly_sampled());
+        }
+    }
+    Cow::Owned(s)
 }
 
 #[cfg(test)]

@@ -1,6 +1,6 @@
 //! The estimator variants a study compares, and the syntax that names them
-//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent]` and the groups `estimators`, `no-rr`,
-//! `depth`, `samplers`, `all`).
+//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform]` and the groups
+//! `estimators`, `no-rr`, `depth`, `samplers`, `all`).
 
 use crate::integrator::Estimator;
 use crate::sampler::SamplerKind;
@@ -17,17 +17,21 @@ pub struct Variant {
     pub russian_roulette: bool,
     /// Bounce limit; `None`: the study's full depth (that of the reference).
     pub max_depth: Option<u32>,
+    /// Next-event estimation samples an environment image uniformly over the sphere instead
+    /// of by luminance (no effect on other backgrounds): what importance sampling gains.
+    pub uniform_environment: bool,
     /// Where samples get their numbers; `None`: the default sampler.
     pub sampler: Option<SamplerKind>,
 }
 
 impl Variant {
     pub const fn new(estimator: Estimator) -> Variant {
-        Variant { estimator, russian_roulette: true, max_depth: None, sampler: None }
+        Variant { estimator, russian_roulette: true, max_depth: None, sampler: None, uniform_environment: false }
     }
 
-    /// `ESTIMATOR[/no-rr][/depth=D][/SAMPLER]`, e.g. `nee-mis`, `bsdf/no-rr`,
-    /// `nee-mis/depth=3`, `nee-mis/sobol`; the same syntax is accepted by [`parse_variants`].
+    /// `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform]`, e.g. `nee-mis`, `bsdf/no-rr`,
+    /// `nee-mis/depth=3`, `nee-mis/sobol`, `nee-mis/env-uniform`; the same syntax is accepted by
+    /// [`parse_variants`].
     pub fn name(&self) -> String {
         let mut s = self.estimator.name().to_string();
         if !self.russian_roulette {
@@ -38,6 +42,9 @@ impl Variant {
         }
         if let Some(k) = self.sampler {
             s.push_str(&format!("/{k}"));
+        }
+        if self.uniform_environment {
+            s.push_str("/env-uniform");
         }
         s
     }
@@ -52,13 +59,15 @@ impl std::str::FromStr for Variant {
         for part in parts {
             if part == "no-rr" {
                 v.russian_roulette = false;
+            } else if part == "env-uniform" {
+                v.uniform_environment = true;
             } else if let Some(d) = part.strip_prefix("depth=") {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
             } else if let Ok(k) = part.parse::<SamplerKind>() {
                 v.sampler = Some(k);
             } else {
                 return Err(format!(
-                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol or independent)"
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent or env-uniform)"
                 ));
             }
         }
@@ -72,7 +81,7 @@ impl std::str::FromStr for Variant {
 /// - `depth`: NEE+MIS with Russian roulette at each depth of [`DEPTH_GROUP`] below `full_depth`;
 /// - `samplers`: NEE+MIS with each sampler;
 /// - `all`: the three groups above `samplers`;
-/// - or one variant, `ESTIMATOR[/no-rr][/depth=D]` (see [`Variant::name`]).
+/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform]` (see [`Variant::name`]).
 ///
 /// Duplicates are dropped; the order is kept.
 pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, String> {
@@ -116,12 +125,23 @@ mod tests {
         let v: Variant = "bsdf-uniform/no-rr/depth=3".parse().unwrap();
         assert_eq!(
             v,
-            Variant { estimator: Estimator::BsdfUniform, russian_roulette: false, max_depth: Some(3), sampler: None }
+            Variant {
+                estimator: Estimator::BsdfUniform,
+                russian_roulette: false,
+                max_depth: Some(3),
+                sampler: None,
+                uniform_environment: false
+            }
         );
         let v: Variant = "nee-mis/sobol".parse().unwrap();
         assert_eq!(v.sampler, Some(SamplerKind::Sobol));
         assert_eq!(v.name(), "nee-mis/sobol");
         assert_eq!(parse_variants("samplers", 64).unwrap().len(), 2);
+        let v: Variant = "nee-mis/env-uniform".parse().unwrap();
+        assert_eq!(v, Variant { uniform_environment: true, ..Variant::new(Estimator::NeeMis) });
+        assert_eq!(v.name(), "nee-mis/env-uniform");
+        let v: Variant = "nee-mis/independent/env-uniform".parse().unwrap();
+        assert_eq!(v.name().parse::<Variant>().unwrap(), v);
     }
 
     #[test]
