@@ -170,6 +170,8 @@ pub struct RenderSettings {
     /// error of its mean falls below this (see [`crate::film::PixelState::relative_error`]);
     /// `spp` is then the most any pixel gets.
     pub target_error: Option<f32>,
+    /// Where a pixel's samples land: the pixel reconstruction filter, sampled.
+    pub filter: crate::film::PixelFilter,
     /// Render only this part of the image (`None`: all of it).
     pub shard: Option<Shard>,
     /// Where the samples get their numbers.
@@ -187,6 +189,7 @@ impl RenderSettings {
             max_depth: r.max_depth.unwrap_or(d.max_depth),
             rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
             seed: r.seed.unwrap_or(d.seed),
+            filter: r.filter.unwrap_or(d.filter),
             sampler: r.sampler.unwrap_or(d.sampler),
             ..d
         }
@@ -213,6 +216,7 @@ impl Default for RenderSettings {
             estimator: Estimator::NeeMis,
             specialize: true,
             target_error: None,
+            filter: crate::film::PixelFilter::Box,
             shard: None,
             sampler: SamplerKind::default(),
         }
@@ -228,6 +232,10 @@ pub struct RenderDefaults {
     pub max_depth: Option<u32>,
     pub rr_depth: Option<RrDepth>,
     pub seed: Option<u64>,
+    /// The look of 8-bit output (not a render setting: the image rendered is the same).
+    pub exposure: Option<f32>,
+    pub tonemap: Option<crate::film::Tonemap>,
+    pub filter: Option<crate::film::PixelFilter>,
     pub sampler: Option<SamplerKind>,
 }
 

@@ -7,12 +7,13 @@ mod common;
 use ember::accel::EmbreeAccel;
 use ember::embree::{BuildOptions, Device};
 use ember::film::Film;
-use ember::integrator::Estimator;
+use ember::integrator::{Estimator, Progress};
 use ember::scene::Scene;
 use ember::tools::converge::{Study, Variant, log_log_slope, spp_ladder};
 use ember::tools::report::converge::CSV_HEADER;
 use std::path::Path;
 use std::process::{Command, Output};
+use std::sync::Mutex;
 
 #[test]
 fn nee_mis_error_falls_as_one_over_spp_and_a_depth_limit_stops_at_its_bias() {
@@ -35,16 +36,22 @@ fn nee_mis_error_falls_as_one_over_spp_and_a_depth_limit_stops_at_its_bias() {
         ladder: spp_ladder(64).into_iter().filter(|&s| s >= 4).collect(),
         repeats: 8,
     };
-    let (reference, stats) = study.render_reference(&scene, &accel, 2048).unwrap();
+    // Progress: one count per render of the reference, and one over all of a variant's renders.
+    let reports = Mutex::new(Vec::new());
+    let record = |p: Progress| reports.lock().unwrap().push(p);
+    let (reference, stats) = study.render_reference(&scene, &accel, 2048, Some(&record)).unwrap();
     assert_eq!(stats.nonfinite, 0);
+    check_progress(&reports.lock().unwrap(), 32 * 32 * 2048);
+    reports.lock().unwrap().clear();
 
     let fit = |variant: Variant| {
-        let points = study.measure(&scene, &accel, &reference, variant, |_| {}).unwrap();
+        let points = study.measure(&scene, &accel, &reference, variant, |_| {}, Some(&record)).unwrap();
         assert_eq!(points.iter().map(|m| m.spp).collect::<Vec<_>>(), vec![4, 8, 16, 32, 64]);
         let xy: Vec<(f64, f64)> = points.iter().map(|m| (m.spp as f64, m.error.rel_mse)).collect();
         (log_log_slope(&xy).unwrap(), xy)
     };
     let (slope, xy) = fit(Variant::new(Estimator::NeeMis));
+    check_progress(&reports.lock().unwrap(), 32 * 32 * (4 + 8 + 16 + 32 + 64) * 8);
     eprintln!("nee-mis: slope {slope:.3}, (spp, relMSE) {xy:?}");
     assert!((slope + 1.0).abs() <= 0.15, "relMSE vs spp slope {slope:.3} (points {xy:?})");
 
@@ -55,6 +62,15 @@ fn nee_mis_error_falls_as_one_over_spp_and_a_depth_limit_stops_at_its_bias() {
     eprintln!("nee-mis/depth=1: slope {slope1:.3}, (spp, relMSE) {xy1:?}");
     assert!(slope1 > -0.5, "depth-1 slope {slope1:.3} (points {xy1:?})");
     assert!(xy1[4].1 > 4.0 * xy[4].1, "depth-1 relMSE {:?} vs full depth {:?} at 64 spp", xy1[4], xy[4]);
+}
+
+/// Progress reports of one bar: all with the same total, none beyond it, and the last count
+/// (reports come from several threads, not always in order: the largest) at the total.
+fn check_progress(reports: &[Progress], total: u64) {
+    assert!(reports.len() > 1, "{} progress reports", reports.len());
+    assert!(reports.iter().all(|p| p.samples_planned == total && p.samples_done <= total), "{reports:?}");
+    assert_eq!(reports.iter().map(|p| p.samples_done).max(), Some(total));
+    assert!(reports.iter().all(|p| p.rounds == 1));
 }
 
 #[test]
@@ -117,9 +133,9 @@ fn a_sun_in_an_environment_image_converges_far_faster_sampled_by_luminance() {
         ladder: vec![4, 16, 64],
         repeats: 8,
     };
-    let (reference, stats) = study.render_reference(&scene, &accel, 1024).unwrap();
+    let (reference, stats) = study.render_reference(&scene, &accel, 1024, None).unwrap();
     assert_eq!(stats.nonfinite, 0);
-    let measure = |v: &str| study.measure(&scene, &accel, &reference, v.parse().unwrap(), |_| {}).unwrap();
+    let measure = |v: &str| study.measure(&scene, &accel, &reference, v.parse().unwrap(), |_| {}, None).unwrap();
     let (luminance, uniform) = (measure("nee-mis"), measure("nee-mis/env-uniform"));
     for (a, b) in luminance.iter().zip(&uniform) {
         let ratio = b.error.rel_mse / a.error.rel_mse;

@@ -239,7 +239,7 @@ pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<S
         scene.set_background(b);
     }
     if let Some(c) = file.camera {
-        let fov = c.fov.as_ref().map_or(40.0, |f| f.get_ref().0);
+        let fov = c.fov.as_ref().map_or(super::DEFAULT_FOV, |f| f.get_ref().0);
         if fov >= 180.0 {
             return Err(ctx.err_at(c.fov.unwrap().span(), format!("fov must be below 180 degrees, found {fov}")));
         }
@@ -271,6 +271,9 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
         max_depth: r.max_depth,
         rr_depth: r.rr_depth.map(|v| v.0),
         seed: r.seed,
+        exposure: r.exposure.map(|e| e.0),
+        tonemap: r.tonemap.map(|t| t.0),
+        filter: r.filter.map(|f| f.0),
         sampler: r.sampler.map(|v| v.0),
     }
 }

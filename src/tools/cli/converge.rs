@@ -1,3 +1,4 @@
+use super::progress::ProgressBar;
 use crate::accel::AccelKind;
 use crate::atomic_write::write_file;
 use crate::film::Film;
@@ -93,6 +94,9 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
         None => None,
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create folder", args.out.display()))?;
+    if !scene.effects().lit {
+        eprintln!("warning: {}: {}", args.scene.display(), super::render::UNLIT);
+    }
 
     let accel = args.accel.build(&scene.geometry)?;
 
@@ -107,7 +111,10 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
         }
         None => {
             let spp = args.reference_spp.unwrap_or(largest.saturating_mul(REFERENCE_FACTOR));
-            let (film, stats) = study.render_reference(&scene, accel.as_ref(), spp)?;
+            let bar = ProgressBar::new("reference                    ");
+            let rendered = study.render_reference(&scene, accel.as_ref(), spp, Some(&|p| bar.update(p)));
+            bar.finish();
+            let (film, stats) = rendered?;
             let path = args.out.join("reference.exr");
             film.save(&path)?;
             eprintln!(
@@ -126,7 +133,10 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     let mut all: Vec<ConvergencePoint> = Vec::new();
     let mut per_variant: Vec<Vec<ConvergencePoint>> = Vec::new();
     for &v in &variants {
-        let points = study.measure(&scene, accel.as_ref(), &reference, v, |_| {})?;
+        let bar = ProgressBar::new(&format!("{:<28} ", v.name()));
+        let measured = study.measure(&scene, accel.as_ref(), &reference, v, |_| {}, Some(&|p| bar.update(p)));
+        bar.finish();
+        let points = measured?;
         let secs: f64 = points.iter().map(|m| m.seconds).sum::<f64>() * study.repeats as f64;
         let (first, last) = (&points[0], &points[points.len() - 1]);
         eprintln!(

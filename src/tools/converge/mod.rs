@@ -14,5 +14,5 @@ mod variant;
 
 pub use analysis::{TimeToReach, log_log_slope, time_to_reach};
 pub use metrics::{ImageDifference, REL_MSE_EPSILON, SizeMismatch, image_difference};
-pub use study::{ConvergeError, ConvergencePoint, Study, spp_ladder};
+pub use study::{ConvergeError, ConvergencePoint, ProgressFn, Study, spp_ladder};
 pub use variant::{DEPTH_GROUP, Variant, parse_variants};

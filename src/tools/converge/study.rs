@@ -11,12 +11,31 @@ use super::metrics::{ImageDifference, SizeMismatch, image_difference};
 use super::variant::Variant;
 use crate::accel::Accel;
 use crate::film::Film;
-use crate::integrator::{Estimator, RenderError, RenderSettings, RenderStats, RrDepth, render};
+use crate::integrator::{
+    Estimator, Progress, RenderControl, RenderError, RenderPlan, RenderSettings, RenderStats, RrDepth,
+    render_controlled,
+};
 use crate::light::{Background, Light};
 use crate::sampler::mix64;
 use crate::scene::Scene;
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Where a study reports the progress of its renders (called from the worker threads): for the
+/// reference, its render's; for a variant, one count over all the renders of its ladder and
+/// repeats (samples done of all of them, rays and time since the first began), so that a
+/// progress bar of it runs once from 0 to 100%. The study draws nothing itself.
+pub type ProgressFn<'a> = &'a (dyn Fn(Progress) + Sync);
+
+/// The renders of a study already done when the next one starts, for [`ProgressFn`].
+#[derive(Clone, Copy)]
+struct Done {
+    samples: u64,
+    rays: u64,
+    planned: u64,
+    since: Instant,
+}
 
 /// 1, 2, 4, … up to `max_spp` (and `max_spp` itself when it is not a power of two).
 pub fn spp_ladder(max_spp: u32) -> Vec<u32> {
@@ -117,14 +136,17 @@ impl Study {
         mix64(self.seed ^ 0x636f_6e76_6572_6765).wrapping_add(rung as u64 * self.repeats as u64 + repeat as u64)
     }
 
-    /// Renders the reference at `spp`.
+    /// Renders the reference at `spp`, reporting its progress to `progress`.
     pub fn render_reference(
         &self,
         scene: &Scene,
         accel: &dyn Accel,
         spp: u32,
+        progress: Option<ProgressFn>,
     ) -> Result<(Film, RenderStats), RenderError> {
-        render(scene, accel, &self.reference_settings(spp))
+        let planned = self.width as u64 * self.height as u64 * spp as u64;
+        let done = Done { samples: 0, rays: 0, planned, since: Instant::now() };
+        render_reporting(scene, accel, &self.reference_settings(spp), progress.map(|p| (p, done)))
     }
 
     /// Refuses a reference (read from `path`) that does not fit the study: another size, or a
@@ -145,7 +167,8 @@ impl Study {
     }
 
     /// Renders `variant` at every rung of the ladder and measures it against `reference`;
-    /// `on_point` sees each point as it is measured.
+    /// `on_point` sees each point as it is measured, `progress` the progress of all the
+    /// variant's renders together.
     pub fn measure(
         &self,
         scene: &Scene,
@@ -153,8 +176,12 @@ impl Study {
         reference: &Film,
         variant: Variant,
         mut on_point: impl FnMut(&ConvergencePoint),
+        progress: Option<ProgressFn>,
     ) -> Result<Vec<ConvergencePoint>, ConvergeError> {
         let repeats = self.repeats.max(1);
+        let pixels = self.width as u64 * self.height as u64;
+        let planned = self.ladder.iter().map(|&spp| spp as u64 * pixels * repeats as u64).sum();
+        let mut done = Done { samples: 0, rays: 0, planned, since: Instant::now() };
         let scene = variant_scene(scene, &variant);
         let mut out = Vec::with_capacity(self.ladder.len());
         for (rung, &spp) in self.ladder.iter().enumerate() {
@@ -167,8 +194,10 @@ impl Study {
                 nonfinite: 0,
             };
             for repeat in 0..repeats {
-                let (film, stats) =
-                    render(&scene, accel, &self.settings(&variant, spp, self.render_seed(rung, repeat)))?;
+                let settings = self.settings(&variant, spp, self.render_seed(rung, repeat));
+                let (film, stats) = render_reporting(&scene, accel, &settings, progress.map(|p| (p, done)))?;
+                done.samples += stats.samples;
+                done.rays += stats.rays;
                 let e = image_difference(&film, reference)?;
                 m.seconds += stats.elapsed.as_secs_f64();
                 m.rays += stats.rays as f64;
@@ -184,6 +213,35 @@ impl Study {
         }
         Ok(out)
     }
+}
+
+/// Renders `scene` with `settings`, reporting progress (offset by the renders `Done` before
+/// it) to the function given, if any.
+fn render_reporting(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &RenderSettings,
+    progress: Option<(ProgressFn, Done)>,
+) -> Result<(Film, RenderStats), RenderError> {
+    let report = |p: Progress| {
+        if let Some((report, done)) = progress {
+            report(Progress {
+                samples_done: done.samples + p.samples_done,
+                samples_before: 0,
+                samples_planned: done.planned,
+                rays: done.rays + p.rays,
+                elapsed: done.since.elapsed(),
+                round: 1,
+                rounds: 1,
+            })
+        }
+    };
+    let control = RenderControl {
+        progress: progress.is_some().then_some(&report as &(dyn Fn(Progress) + Sync)),
+        ..RenderControl::default()
+    };
+    let r = render_controlled(scene, accel, &RenderPlan::new(scene, settings), control)?;
+    Ok((r.accum.film(), r.stats))
 }
 
 /// The scene `variant` renders: `scene` itself, or for `/env-uniform` a copy whose
