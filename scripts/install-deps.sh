@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # Installs what ember needs to build on Debian 12 (or Ubuntu): Embree 3 (headers and library)
-# libclang (bindgen generates the Embree bindings at build time) and the DejaVu font (text in
-# benchmark and convergence plots) from apt, and Intel Open Image Denoise for the denoiser
+# and libclang (bindgen generates the Embree bindings at build time) from apt, and Intel Open
+# Image Denoise for the denoiser
 # (scripts/fetch-oidn.sh: the CPU libraries from the pyoidn wheel on PyPI, into
 # ~/.cache/ember/oidn-2.5.1/lib, where ember looks for them at run time; pip from apt if
 # missing). Idempotent.
 set -euo pipefail
 
-packages=(libembree-dev libclang-dev fonts-dejavu-core)
+packages=(libembree-dev libclang-dev)
 # fetch-oidn.sh downloads a wheel with pip (no install) and unpacks it with python3.
 if ! { python3 -m pip --version || pip3 --version; } >/dev/null 2>&1; then
   packages+=(python3-pip)

@@ -6,14 +6,15 @@
 # leak not covered by scripts/valgrind.supp (which states what it suppresses and why).
 # Still-reachable blocks (Embree's, TBB's and rayon's globals) are not errors.
 #   scripts/valgrind.sh [extra ember render flags]     e.g. --accel naive, --threads 1
+# The profiling build: the release code with line tables, so reports name file and line.
 set -eu
 cd "$(dirname "$0")/.."
-cargo build --release --quiet
+cargo build --profile profiling --quiet
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 valgrind --tool=memcheck --error-exitcode=3 --leak-check=full \
     --errors-for-leak-kinds=definite,indirect,possible --show-leak-kinds=definite,indirect,possible \
     --track-origins=yes --num-callers=40 --suppressions=scripts/valgrind.supp \
-    target/release/ember render tests/data/valgrind.toml -o "$out/valgrind.png" "$@"
+    target/profiling/ember render tests/data/valgrind.toml -o "$out/valgrind.png" "$@"
 test -s "$out/valgrind.png"
 echo "valgrind: no errors"

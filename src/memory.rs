@@ -305,6 +305,24 @@ pub fn texture_bytes(width: u32, height: u32) -> u64 {
     width as u64 * height as u64 * TEXTURE_BYTES_PER_PIXEL
 }
 
+/// Bytes per pixel while an HDR image (OpenEXR, Radiance) is decoded: the decoded image (up to
+/// 16 bytes per pixel for f32 RGBA) and the linear RGB f32 image kept (12).
+pub const HDR_IMAGE_BYTES_PER_PIXEL: u64 = 28;
+
+/// Memory to load a `width` x `height` HDR image.
+pub fn hdr_image_bytes(width: u32, height: u32) -> u64 {
+    width as u64 * height as u64 * HDR_IMAGE_BYTES_PER_PIXEL
+}
+
+/// Bytes per pixel of an environment image's sampling distribution while it is built: the
+/// luminance (4, freed after) and the per-pixel density and cumulative sums kept (8).
+pub const ENVIRONMENT_SAMPLING_BYTES_PER_PIXEL: u64 = 12;
+
+/// Memory to build the sampling distribution of a `width` x `height` environment image.
+pub fn environment_sampling_bytes(width: u32, height: u32) -> u64 {
+    width as u64 * height as u64 * ENVIRONMENT_SAMPLING_BYTES_PER_PIXEL
+}
+
 /// Memory Embree needs for `triangles` triangles and `shapes` user primitives (spheres,
 /// cylinders): its copies of the vertex and index buffers and the BVH being built (measured,
 /// medium build quality: 114 bytes per triangle for a 1,000,000-triangle height field, 113

@@ -174,6 +174,8 @@ pub struct RenderSettings {
     /// the first non-specular surface each camera path reaches (`--denoise`, `--aux`). They
     /// never change the image: the path and its random numbers are the same either way.
     pub aux: bool,
+    /// Where a pixel's samples land: the pixel reconstruction filter, sampled.
+    pub filter: crate::film::PixelFilter,
     /// Render only this part of the image (`None`: all of it).
     pub shard: Option<Shard>,
     /// Where the samples get their numbers.
@@ -192,6 +194,7 @@ impl RenderSettings {
             rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
             seed: r.seed.unwrap_or(d.seed),
             aux: r.denoise.unwrap_or(d.aux),
+            filter: r.filter.unwrap_or(d.filter),
             sampler: r.sampler.unwrap_or(d.sampler),
             ..d
         }
@@ -219,6 +222,7 @@ impl Default for RenderSettings {
             specialize: true,
             target_error: None,
             aux: false,
+            filter: crate::film::PixelFilter::Box,
             shard: None,
             sampler: SamplerKind::default(),
         }
@@ -236,6 +240,10 @@ pub struct RenderDefaults {
     pub seed: Option<u64>,
     /// Denoise the image (which needs the auxiliary images).
     pub denoise: Option<bool>,
+    /// The look of 8-bit output (not a render setting: the image rendered is the same).
+    pub exposure: Option<f32>,
+    pub tonemap: Option<crate::film::Tonemap>,
+    pub filter: Option<crate::film::PixelFilter>,
     pub sampler: Option<SamplerKind>,
 }
 

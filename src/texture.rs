@@ -1,5 +1,6 @@
-//! Textures: constant colours, images (sRGB decoded to linear, bilinear filtering, wrapping)
-//! and a procedural checker. Looked up by surface coordinates (u, v) in [0, 1]².
+//! Textures: constant colours, images (sRGB decoded to linear, or HDR environment images read
+//! as they are; bilinear filtering, wrapping) and a procedural checker. Looked up by surface
+//! coordinates (u, v) in [0, 1]².
 
 use crate::film::srgb_to_linear;
 use crate::hash::Fingerprint;
@@ -20,6 +21,58 @@ fn ends_jpeg(bytes: &[u8]) -> bool {
     bytes[bytes.len().saturating_sub(1024)..].windows(2).any(|w| w == [0xFF, 0xD9])
 }
 
+/// Reads an image file's bytes within `budget`: a regular file only.
+fn read_image_file(path: &Path, budget: &LoadBudget) -> Result<Vec<u8>, TextureError> {
+    let io = |e: std::io::Error| match e.kind() {
+        std::io::ErrorKind::NotFound => TextureError("no such file".into()),
+        std::io::ErrorKind::PermissionDenied => TextureError("permission denied".into()),
+        _ => TextureError(format!("cannot read: {e}")),
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if meta.is_dir() {
+        return Err(TextureError("is a directory, expected a file".into()));
+    }
+    if !meta.is_file() {
+        return Err(TextureError("is not a regular file (a FIFO, socket or device?)".into()));
+    }
+    let what = format!("texture file of {}", memory::format_bytes(meta.len()));
+    budget.admit(what, meta.len()).map_err(|e| TextureError(e.to_string()))?;
+    std::fs::read(path).map_err(io)
+}
+
+/// An 8-bit image's pixels, decoded from sRGB to linear.
+fn srgb_pixels(decoded: image::DynamicImage) -> Vec<Vec3> {
+    decoded
+        .to_rgb8()
+        .pixels()
+        .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)
+        .map(|c| c.map(srgb_to_linear))
+        .collect()
+}
+
+/// An HDR image's pixels as they are (linear), without a copy of the decoded image: negative
+/// values become 0, a NaN or infinite one is an error naming the pixel.
+fn linear_pixels(decoded: image::DynamicImage) -> Result<Vec<Vec3>, TextureError> {
+    let width = decoded.width() as usize;
+    let (channels, values): (usize, Vec<f32>) = match decoded {
+        image::DynamicImage::ImageRgb32F(b) => (3, b.into_raw()),
+        image::DynamicImage::ImageRgba32F(b) => (4, b.into_raw()),
+        other => (3, other.to_rgb32f().into_raw()),
+    };
+    values
+        .chunks_exact(channels)
+        .enumerate()
+        .map(|(i, c)| {
+            let p = Vec3::new(c[0], c[1], c[2]);
+            if p.is_finite() {
+                Ok(p.max(Vec3::ZERO))
+            } else {
+                Err(TextureError(format!("pixel ({}, {}) is {p}: not a finite value", i % width, i / width)))
+            }
+        })
+        .collect()
+}
+
 /// A linear-RGB image.
 #[derive(Debug, PartialEq)]
 pub struct Image {
@@ -36,36 +89,52 @@ pub struct TextureError(pub String);
 impl Image {
     /// Loads an 8-bit image (PNG, JPEG), decoding sRGB to linear, within `budget`: an image
     /// that would not fit is refused before it is decoded. A truncated or damaged file is an
-    /// error, not a partly grey image.
+    /// error, not a partly grey image. HDR files are refused: a surface's colour is 8-bit.
     pub fn load(path: &Path, budget: &LoadBudget) -> Result<Image, TextureError> {
-        let io = |e: std::io::Error| match e.kind() {
-            std::io::ErrorKind::NotFound => TextureError("no such file".into()),
-            std::io::ErrorKind::PermissionDenied => TextureError("permission denied".into()),
-            _ => TextureError(format!("cannot read: {e}")),
-        };
-        let meta = std::fs::metadata(path).map_err(io)?;
-        if meta.is_dir() {
-            return Err(TextureError("is a directory, expected a file".into()));
-        }
-        if !meta.is_file() {
-            return Err(TextureError("is not a regular file (a FIFO, socket or device?)".into()));
-        }
-        let what = format!("texture file of {}", memory::format_bytes(meta.len()));
-        budget.admit(what, meta.len()).map_err(|e| TextureError(e.to_string()))?;
-        Image::from_memory(&std::fs::read(path).map_err(io)?, budget)
+        Image::from_memory(&read_image_file(path, budget)?, budget)
+    }
+
+    /// Loads an environment image: an 8-bit PNG or JPEG as [`Image::load`] does, or a
+    /// high-dynamic-range OpenEXR (`.exr`) or Radiance RGBE (`.hdr`) file, whose values are
+    /// linear radiance already: read as they are, neither decoded from sRGB nor clamped to 1
+    /// (negative values, which some tools write for colours out of gamut, are read as 0; NaN
+    /// and infinite ones are refused).
+    pub fn load_environment(path: &Path, budget: &LoadBudget) -> Result<Image, TextureError> {
+        Image::decode(&read_image_file(path, budget)?, budget, true)
     }
 
     /// Decodes an 8-bit image (PNG, JPEG) held in memory — a file's bytes, or an image
     /// embedded in a mesh file — as [`Image::load`] does.
     pub fn from_memory(bytes: &[u8], budget: &LoadBudget) -> Result<Image, TextureError> {
+        Image::decode(bytes, budget, false)
+    }
+
+    /// Decodes an 8-bit image from sRGB to linear, or, if `hdr` allows, an HDR image as it is.
+    fn decode(bytes: &[u8], budget: &LoadBudget, hdr: bool) -> Result<Image, TextureError> {
         let open = || {
             image::ImageReader::new(std::io::Cursor::new(bytes))
                 .with_guessed_format()
                 .map_err(|e| TextureError(format!("cannot read: {e}")))
         };
+        let format = open()?.format();
+        if format.is_none() {
+            return Err(TextureError(format!(
+                "not an image ember reads: {}",
+                if hdr { "expected OpenEXR, Radiance HDR, PNG or JPEG" } else { "expected PNG or JPEG" }
+            )));
+        }
+        let is_hdr = matches!(format, Some(image::ImageFormat::OpenExr | image::ImageFormat::Hdr));
+        if is_hdr && !hdr {
+            return Err(TextureError(format!(
+                "{} is a high-dynamic-range format, for [background] type = \"image\" only: \
+                 a surface's colour must be an 8-bit PNG or JPEG",
+                if format == Some(image::ImageFormat::OpenExr) { "OpenEXR" } else { "Radiance HDR" }
+            )));
+        }
         // The header gives the size; refuse what would not fit before decoding.
         let (w, h) = open()?.into_dimensions().map_err(|e| TextureError(e.to_string()))?;
-        let peak = memory::texture_bytes(w, h).saturating_add(bytes.len() as u64);
+        let per_pixel = if is_hdr { memory::hdr_image_bytes(w, h) } else { memory::texture_bytes(w, h) };
+        let peak = per_pixel.saturating_add(bytes.len() as u64);
         budget.admit(format!("{w}x{h} image"), peak).map_err(|e| TextureError(e.to_string()))?;
         let mut reader = open()?;
         if reader.format() == Some(image::ImageFormat::Jpeg) && !ends_jpeg(bytes) {
@@ -75,13 +144,15 @@ impl Image {
         let mut decode_limits = image::Limits::default();
         decode_limits.max_alloc = budget.limit().bytes;
         reader.limits(decode_limits);
-        let rgb = reader.decode().map_err(|e| TextureError(e.to_string()))?.to_rgb8();
-        let (width, height) = rgb.dimensions();
-        let pixels = rgb
-            .pixels()
-            .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)
-            .map(|c| c.map(srgb_to_linear))
-            .collect();
+        let decoded = reader.decode().map_err(|e| match e {
+            // The Radiance decoder reports a short file as a bare I/O error.
+            image::ImageError::IoError(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+                TextureError(format!("truncated or damaged: the file ends early ({e})"))
+            }
+            e => TextureError(e.to_string()),
+        })?;
+        let (width, height) = (decoded.width(), decoded.height());
+        let pixels = if is_hdr { linear_pixels(decoded)? } else { srgb_pixels(decoded) };
         budget.keep(pixels_bytes(width, height));
         Ok(Image { width, height, pixels })
     }

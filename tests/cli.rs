@@ -90,6 +90,123 @@ fn exr_output_is_linear_float_and_matches_png() {
 }
 
 #[test]
+fn exposure_and_tone_curve_change_the_png_only() {
+    use ember::film::{Film, Look, Tonemap};
+    let d = common::fresh_dir("cli", "look");
+    let scene = common::scene_path("cornell-area.toml");
+    let small = ["--width", "16", "--height", "16", "--spp", "4"];
+    let run = |scene: &Path, out: &Path, extra: &[&str]| {
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        args.extend(small);
+        args.extend(extra);
+        let o = ember(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    // EXR stays linear: the look changes nothing in it, and a note says so.
+    let (plain, looked) = (d.join("plain.exr"), d.join("looked.exr"));
+    run(&scene, &plain, &[]);
+    let e = run(&scene, &looked, &["--exposure", "-1.5", "--tonemap", "aces"]);
+    assert!(e.contains("note: exposure -1.5 and tone curve aces apply to 8-bit output only"), "{e}");
+    assert_eq!(std::fs::read(&plain).unwrap(), std::fs::read(&looked).unwrap());
+    let film = Film::load_exr(&plain).unwrap();
+    // PNG: exposure, then the curve, then sRGB.
+    let png = d.join("neutral.png");
+    let e = run(&scene, &png, &["--exposure", "1", "--tonemap", "neutral"]);
+    assert!(!e.contains("note:"), "{e}");
+    let look = Look { exposure: 1.0, tonemap: Tonemap::Neutral };
+    let pixels = image::open(&png).unwrap().to_rgb8().into_raw();
+    assert_eq!(pixels, film.to_rgb8_with(&look));
+    assert_ne!(pixels, film.to_rgb8());
+    // The same from the scene file's [render] keys; the command line wins over them.
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let text = text.replacen("[render]\n", "[render]\nexposure = 1.0\ntonemap = \"neutral\"\n", 1);
+    let keyed = write(&d, "keyed.toml", &text);
+    for asset in ["cornell_box.obj", "cornell_box.mtl"] {
+        let _ = std::fs::copy(common::scene_path(asset), d.join(asset));
+    }
+    let from_keys = d.join("keys.png");
+    run(&keyed, &from_keys, &[]);
+    assert_eq!(image::open(&from_keys).unwrap().to_rgb8().into_raw(), pixels);
+    let overridden = d.join("overridden.png");
+    run(&keyed, &overridden, &["--exposure", "0", "--tonemap", "clamp"]);
+    assert_eq!(image::open(&overridden).unwrap().to_rgb8().into_raw(), film.to_rgb8());
+}
+
+#[test]
+fn the_pixel_filter_from_the_command_line_or_the_scene() {
+    let d = common::fresh_dir("cli", "filter");
+    let scene = write(&d, "s.toml", &format!("[render]\nfilter = \"gaussian\"\n{SKY_SPHERE}"));
+    let plain = write(&d, "plain.toml", SKY_SPHERE);
+    let run = |scene: &Path, name: &str, extra: &[&str]| {
+        let out = d.join(name);
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        args.extend(["--width", "12", "--height", "12", "--spp", "4"]);
+        args.extend(extra);
+        let o = ember(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(&out).unwrap()
+    };
+    let from_scene = run(&scene, "scene.exr", &[]);
+    assert_eq!(run(&plain, "flag.exr", &["--filter", "gaussian"]), from_scene);
+    assert_ne!(run(&plain, "box.exr", &[]), from_scene);
+    assert_eq!(run(&scene, "box-over-scene.exr", &["--filter", "box"]), run(&plain, "box2.exr", &[]));
+}
+
+#[test]
+fn a_camera_on_the_command_line() {
+    let d = common::fresh_dir("cli", "camera");
+    let run = |scene: &Path, name: &str, extra: &[&str]| {
+        let out = d.join(name);
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        args.extend(["--width", "12", "--height", "8", "--spp", "2"]);
+        args.extend(extra);
+        let o = ember(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(&out).unwrap()
+    };
+    let camera = "[camera]\nposition = [0.5, 1.0, -4.0]\nlook_at = [0.0, 0.2, 0.0]\nup = [0.1, 1.0, 0.0]\nfov = 35.0\n";
+    let with = write(&d, "with.toml", &format!("{camera}{SKY_SPHERE}"));
+    let without = write(&d, "without.toml", SKY_SPHERE);
+    // A scene without a camera given one: the image of the scene with that camera in its file.
+    let from_file = run(&with, "file.exr", &[]);
+    let flags = ["--camera-position", "0.5,1,-4", "--look-at", "0,0.2,0", "--up", "0.1,1,0", "--fov", "35"];
+    assert_eq!(run(&without, "flags.exr", &flags), from_file);
+    // Embree's tutorials' names.
+    let aliases = ["--vp", "0.5,1,-4", "--vi", "0,0.2,0", "--vu", "0.1,1,0", "--fov", "35"];
+    assert_eq!(run(&without, "aliases.exr", &aliases), from_file);
+    // One part over a scene's camera.
+    let wide = write(&d, "wide.toml", &format!("{}{SKY_SPHERE}", camera.replace("35.0", "70.0")));
+    assert_eq!(run(&wide, "fov.exr", &["--fov", "35"]), from_file);
+    // A mesh, from the other side of the framing camera.
+    let teapot = common::scene_path("teapot.obj");
+    assert_ne!(run(&teapot, "framed.exr", &[]), run(&teapot, "behind.exr", &["--camera-position", "-3,-2,-6"]));
+}
+
+#[test]
+fn a_scene_without_light_is_said_before_rendering() {
+    let d = common::fresh_dir("cli", "dark");
+    let sphere = SKY_SPHERE.split("[materials.m]").nth(1).unwrap();
+    let scene = write(&d, "dark.toml", &format!("[materials.m]{sphere}"));
+    let out = d.join("dark.png");
+    let o = ember(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "8", "--height", "8"]);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    let warning = format!(
+        "warning: {}: nothing in the scene emits light: the image will be black; add a light, an emissive material or a [background]",
+        scene.display()
+    );
+    let lines: Vec<&str> = e.lines().collect();
+    let at = lines.iter().position(|l| *l == warning).unwrap_or_else(|| panic!("no warning line in {e}"));
+    let rendered = lines.iter().position(|l| l.starts_with("rendered ")).unwrap();
+    assert!(at < rendered && !lines[..at].iter().any(|l| l.starts_with("kernel:")), "{e}");
+    assert!(image::open(&out).unwrap().to_rgb8().into_raw().iter().all(|&c| c == 0));
+}
+
+/// A grey sphere under a sky gradient.
+const SKY_SPHERE: &str = "[background]\ntype = \"gradient\"\nzenith = [1.0, 1.0, 1.0]\nhorizon = [0.5, 0.6, 0.8]\n[materials.m]\ntype = \"diffuse\"\n[[spheres]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"m\"\n";
+
+#[test]
 fn environment_image_background_lights_the_scene() {
     let d = common::fresh_dir("cli", "env");
     std::fs::copy(common::scene_path("earthmap.jpg"), d.join("env.jpg")).unwrap();

@@ -291,6 +291,24 @@ fn out_of_range_values() {
         "must be between 1 and 16384, found 100000",
     );
     expect_scene_error(
+        "filter",
+        &format!("[render]\nfilter = \"tent\"\n{SPHERE_OK}"),
+        Some(2),
+        "unknown pixel filter \"tent\" (expected box or gaussian)",
+    );
+    expect_scene_error(
+        "tonemap",
+        &format!("[render]\ntonemap = \"filmic\"\n{SPHERE_OK}"),
+        Some(2),
+        "unknown tone curve \"filmic\" (expected clamp, aces or neutral)",
+    );
+    expect_scene_error(
+        "exposure",
+        &format!("[render]\nexposure = -70.0\n{SPHERE_OK}"),
+        Some(2),
+        "exposure must be a number of stops between -64 and 64, found -70",
+    );
+    expect_scene_error(
         "negative-depth",
         &format!("[render]\nmax_depth = -1\n{SPHERE_OK}"),
         Some(2),
@@ -518,6 +536,16 @@ fn texture_errors() {
 }
 
 #[test]
+fn strict_refuses_a_scene_without_light() {
+    let d = common::fresh_dir("cli-errors", "dark");
+    let scene = write(&d, "dark.toml", SPHERE_OK);
+    let out = d.join("out.png");
+    let needle = "nothing in the scene emits light: the image will be black; add a light, an emissive material or a \
+                  [background]; --strict refuses a black image, so";
+    expect_render_error(&scene, &out, &["--strict", "--spp", "1"], &[], &at(&scene, None), needle);
+}
+
+#[test]
 fn missing_mesh_file() {
     expect_scene_error("missing-obj", "[[meshes]]\nfile = \"nothere.obj\"\n", Some(2), "nothere.obj: no such file");
 }
@@ -538,8 +566,23 @@ fn bad_flags() {
         (&["--bvh-quality", "best"], "unknown BVH quality \"best\" (expected low, medium or high)"),
         (&["--rr-depth", "banana"], "--rr-depth: expected a number, \"off\" or \"auto\", found \"banana\""),
         (&["--seed", "x"], "--seed"),
+        (&["--fov", "0"], "expected a field of view in degrees between 0 and 180 (exclusive), found \"0\""),
+        (&["--fov", "180"], "between 0 and 180 (exclusive), found \"180\""),
+        (&["--camera-position", "1,2"], "expected three finite numbers x,y,z (e.g. 0,1.5,-4), found \"1,2\""),
+        (&["--up", "0,nan,1"], "expected three finite numbers x,y,z"),
+        (&["--look-at", "-1e16,0,0"], "coordinates must be between -1e15 and 1e15, found -1e16"),
+        (&["--filter", "tent"], "unknown pixel filter \"tent\" (expected box or gaussian)"),
+        (&["--tonemap", "filmic"], "unknown tone curve \"filmic\" (expected clamp, aces or neutral)"),
+        (&["--exposure", "100"], "exposure must be a number of stops between -64 and 64, found 100"),
+        (&["--exposure", "bright"], "expected a number of stops (e.g. 1.5 or -2), found \"bright\""),
     ] {
         expect_render_error(&scene, &out, args, &[], "error: ", needle);
+    }
+    // Each part is valid, but the camera would look at itself: from the scene's look_at, or
+    // from both given.
+    for args in [&["--camera-position", "0,1,0"][..], &["--vp", "1,1,1", "--vi", "1,1,1"]] {
+        let needle = "the camera position and the point it looks at are the same point";
+        expect_render_error(&scene, &out, args, &[], &at(&scene, None), needle);
     }
 }
 
@@ -692,7 +735,10 @@ fn damaged_checkpoint() {
         accum,
     };
     let mut bytes = c.to_bytes();
-    bytes[200] ^= 1;
+    // In the pixels (most of the file), not in the header, settings or sizes, whose length
+    // grows with the settings' words.
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 1;
     std::fs::write(&ckpt, bytes).unwrap();
     expect_render_error(
         &scene,

@@ -21,7 +21,7 @@ fn small(spp: u32) -> RenderSettings {
 
 #[test]
 fn sample_scenes_have_the_effects_they_use() {
-    let cases: [(&str, &[&str]); 8] = [
+    let cases: [(&str, &[&str]); 9] = [
         (
             "teapot.toml",
             &["triangles", "diffuse", "glossy", "emissive", "texture", "area lights", "sky", "indirect light"],
@@ -49,6 +49,7 @@ fn sample_scenes_have_the_effects_they_use() {
             "dof.toml",
             &["triangles", "spheres", "diffuse", "glossy", "texture", "sky", "depth of field", "indirect light"],
         ),
+        ("gltf-sky.toml", &["triangles", "diffuse", "glossy", "texture", "environment", "indirect light"]),
         ("teapot.obj", &["triangles", "diffuse", "sky", "indirect light"]),
         // Embree's file defines an emissive material whose light face is commented out: unused
         // materials do not count, so the mesh gets a sky.
@@ -169,7 +170,7 @@ fn specialised_and_general_kernels_give_bit_identical_images() {
     // Every scene in scenes/, plus the one-sphere scene (whose specialised kernel also uses a
     // shorter path depth). Bit-identical: each switch only removes work whose result is known.
     let mut scenes: Vec<(String, Scene)> =
-        ["teapot.toml", "cornell.toml", "cornell-area.toml", "spheres.toml", "dof.toml"]
+        ["teapot.toml", "cornell.toml", "cornell-area.toml", "spheres.toml", "dof.toml", "gltf-sky.toml"]
             .iter()
             .chain(["teapot.obj", "cornell_box.obj", "bunny.obj"].iter())
             .map(|n| (n.to_string(), Scene::load(&common::scene_path(n)).unwrap()))

@@ -69,6 +69,133 @@ fn white_furnace_sphere_in_uniform_sky_is_one_everywhere() {
     assert!((image_mean(&film) - 1.0).abs() < 0.002, "mean {}", image_mean(&film));
 }
 
+/// Writes a `width` x `height` OpenEXR image (f32 RGB) of `f(x, y)` with the `exr` crate.
+fn write_exr(path: &std::path::Path, width: usize, height: usize, f: impl Fn(usize, usize) -> Vec3 + Sync) {
+    exr::prelude::write_rgb_file(path, width, height, |x, y| {
+        let c = f(x, y);
+        (c.x, c.y, c.z)
+    })
+    .unwrap();
+}
+
+#[test]
+fn white_furnace_sphere_under_a_constant_environment_image_is_that_value_everywhere() {
+    // The furnace test above with the sky a 16x8 OpenEXR image of one value, 0.25, at strength
+    // 4 (radiance 1, above the 8-bit range's 1 in the image itself: read as it is) and rotated
+    // 30°: sampled by luminance, the map must give the same answer, 1 everywhere. Tolerance:
+    // 1% per pixel (16384 spp), 0.2% for the image mean.
+    let dir = common::fresh_dir("render", "env-furnace");
+    write_exr(&dir.join("constant.exr"), 16, 8, |_, _| Vec3::splat(0.25));
+    let p = dir.join("furnace.toml");
+    std::fs::write(
+        &p,
+        r#"
+        [camera]
+        position = [0.0, 0.0, 4.0]
+        look_at = [0.0, 0.0, 0.0]
+        fov = 40
+        [background]
+        type = "image"
+        file = "constant.exr"
+        strength = 4.0
+        rotate = 30
+        [materials.white]
+        type = "diffuse"
+        color = [1.0, 1.0, 1.0]
+        [[spheres]]
+        center = [0.0, 0.0, 0.0]
+        radius = 1.0
+        material = "white"
+        "#,
+    )
+    .unwrap();
+    let scene = Scene::load(&p).unwrap();
+    assert!(scene.inputs.contains(&dir.join("constant.exr")), "{:?}", scene.inputs);
+    let film = embree_render(&scene, &RenderSettings { max_depth: 50, ..settings(8, 8, 16384) });
+    let worst = film.pixels.iter().map(|p| (*p - Vec3::ONE).abs().max_element()).fold(0.0f32, f32::max);
+    assert!(worst < 0.01, "worst pixel off by {worst}");
+    assert!((image_mean(&film) - 1.0).abs() < 0.002, "mean {}", image_mean(&film));
+}
+
+#[test]
+fn hdr_environment_images_are_linear_and_unclamped() {
+    // A Radiance RGBE file (written by the image crate) and an OpenEXR file of values above 1
+    // are seen as they are (times the strength; `scale` is the older name of `strength`); a
+    // PNG environment is sRGB as before; an EXR is refused as a surface's texture.
+    let dir = common::fresh_dir("render", "env-hdr");
+    let hdr = image::Rgb32FImage::from_pixel(8, 4, image::Rgb([3.0, 1.5, 0.25]));
+    image::DynamicImage::ImageRgb32F(hdr).save(dir.join("sky.hdr")).unwrap();
+    write_exr(&dir.join("sky.exr"), 8, 4, |_, _| Vec3::new(3.0, 1.5, 0.25));
+    image::RgbImage::from_pixel(8, 4, image::Rgb([188, 188, 188])).save(dir.join("sky.png")).unwrap();
+    let scene = |background: &str, texture: &str| {
+        format!(
+            "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 10\n\
+             [background]\ntype = \"image\"\n{background}\n[materials.m]\ntype = \"diffuse\"\n{texture}\n\
+             [[spheres]]\ncenter = [0.0, 50.0, 0.0]\nradius = 0.5\nmaterial = \"m\"\n"
+        )
+    };
+    for (background, expected) in [
+        ("file = \"sky.hdr\"", Vec3::new(3.0, 1.5, 0.25)),
+        ("file = \"sky.exr\"\nstrength = 2.0", Vec3::new(6.0, 3.0, 0.5)),
+        ("file = \"sky.exr\"\nscale = 0.5\nrotate = -45", Vec3::new(1.5, 0.75, 0.125)),
+        ("file = \"sky.png\"", Vec3::splat(ember::film::srgb_to_linear(188.0 / 255.0))),
+    ] {
+        let p = dir.join("scene.toml");
+        std::fs::write(&p, scene(background, "")).unwrap();
+        let s = Scene::load(&p).unwrap_or_else(|e| panic!("{background}: {e}"));
+        let film = embree_render(&s, &settings(4, 4, 1));
+        for px in &film.pixels {
+            assert!((*px - expected).abs().max_element() <= 1e-5 * expected.max_element(), "{background}: {px}");
+        }
+    }
+    let p = dir.join("both.toml");
+    std::fs::write(&p, scene("file = \"sky.exr\"\nstrength = 2.0\nscale = 2.0", "")).unwrap();
+    let e = Scene::load(&p).unwrap_err().to_string();
+    assert!(e.contains("duplicate field"), "{e}");
+    std::fs::write(&p, scene("file = \"sky.exr\"", "texture = \"sky.exr\"")).unwrap();
+    let e = Scene::load(&p).unwrap_err().to_string();
+    assert!(e.contains("OpenEXR is a high-dynamic-range format, for [background]"), "{e}");
+    // A NaN in the file is refused, naming the pixel.
+    write_exr(&dir.join("nan.exr"), 8, 4, |x, y| if (x, y) == (5, 2) { Vec3::NAN } else { Vec3::ONE });
+    std::fs::write(&p, scene("file = \"nan.exr\"", "")).unwrap();
+    let e = Scene::load(&p).unwrap_err().to_string();
+    assert!(e.contains("nan.exr: pixel (5, 2) is [NaN, NaN, NaN]: not a finite value"), "{e}");
+}
+
+#[test]
+fn damaged_environment_files_are_refused_naming_the_file() {
+    // Truncated OpenEXR and Radiance files (the first half of a good one), a text file named
+    // .exr, an empty .hdr and a missing file: each an error naming the scene, the background
+    // section and the image file, with the decoder's reason.
+    let dir = common::fresh_dir("render", "env-bad");
+    write_exr(&dir.join("good.exr"), 32, 16, |x, y| Vec3::splat((x + y) as f32));
+    let hdr = image::Rgb32FImage::from_fn(32, 16, |x, y| image::Rgb([x as f32, y as f32, 1.0]));
+    image::DynamicImage::ImageRgb32F(hdr).save(dir.join("good.hdr")).unwrap();
+    for ext in ["exr", "hdr"] {
+        let bytes = std::fs::read(dir.join(format!("good.{ext}"))).unwrap();
+        std::fs::write(dir.join(format!("cut.{ext}")), &bytes[..bytes.len() / 2]).unwrap();
+    }
+    std::fs::write(dir.join("text.exr"), "not an image\n").unwrap();
+    std::fs::write(dir.join("empty.hdr"), "").unwrap();
+    let p = dir.join("scene.toml");
+    for (file, reason) in [
+        ("cut.exr", "Format error decoding OpenExr: invalid: reference to missing bytes"),
+        ("cut.hdr", "truncated or damaged: the file ends early"),
+        ("text.exr", "not an image ember reads: expected OpenEXR, Radiance HDR, PNG or JPEG"),
+        ("empty.hdr", "not an image ember reads"),
+        ("missing.exr", "no such file"),
+    ] {
+        std::fs::write(&p, format!("[background]\ntype = \"image\"\nfile = \"{file}\"\n")).unwrap();
+        let e = Scene::load(&p).unwrap_err().to_string();
+        eprintln!("{file}: {e}");
+        assert!(
+            e.contains("scene.toml:1") && e.contains(&format!("environment image {}", dir.join(file).display())),
+            "{e}"
+        );
+        assert!(e.contains(reason), "{file}: {e}");
+    }
+}
+
 #[test]
 fn diffuse_plane_under_point_light_matches_inverse_square_cosine() {
     // L = albedo/π · I cosθ / r² averaged over each pixel. Direct light only: the only noise
@@ -274,6 +401,89 @@ fn all_estimators_agree_in_the_mean() {
 }
 
 #[test]
+fn estimators_agree_under_an_environment_image() {
+    // NEE alone uses the environment's sampled directions and their density, BSDF sampling
+    // alone only the radiance rays that escape see, NEE+MIS both with `pdf` weighting the
+    // escapes: a density inconsistent with the sampling, or a rotation applied on one side
+    // only, would make them disagree. A plastic and a diffuse sphere on a diffuse ground under
+    // a 32×16 OpenEXR sky (0.3 to 0.9 from bottom to top) with a 3×3-texel patch of 40 (about
+    // half the light), rotated 70°. 24×24 pixels, depth 4, 8 independent seeds × 64 spp per
+    // estimator: the image means agree within 3 combined standard errors, and NEE+MIS spreads
+    // less than BSDF sampling alone.
+    let dir = common::fresh_dir("render", "env-estimators");
+    write_exr(&dir.join("patch.exr"), 32, 16, |x, y| {
+        if (20..23).contains(&x) && (4..7).contains(&y) {
+            Vec3::splat(40.0)
+        } else {
+            Vec3::splat(0.9 - 0.04 * y as f32)
+        }
+    });
+    let p = dir.join("scene.toml");
+    std::fs::write(
+        &p,
+        r#"
+        [camera]
+        position = [0.0, 2.5, 6.0]
+        look_at = [0.0, 0.8, 0.0]
+        fov = 45
+        [background]
+        type = "image"
+        file = "patch.exr"
+        rotate = 70
+        [materials.ground]
+        type = "diffuse"
+        color = [0.6, 0.6, 0.6]
+        [materials.red]
+        type = "plastic"
+        color = [0.7, 0.2, 0.1]
+        roughness = 0.3
+        [[quads]]
+        corner = [-8.0, 0.0, -8.0]
+        edge1 = [0.0, 0.0, 16.0]
+        edge2 = [16.0, 0.0, 0.0]
+        material = "ground"
+        [[spheres]]
+        center = [-1.1, 1.0, 0.0]
+        radius = 1.0
+        material = "red"
+        [[spheres]]
+        center = [1.1, 1.0, 0.0]
+        radius = 1.0
+        material = "ground"
+        "#,
+    )
+    .unwrap();
+    let scene = Scene::load(&p).unwrap();
+    let device = Device::new().unwrap();
+    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+    let stats = |estimator: Estimator| {
+        let means: Vec<f64> = (0..8)
+            .map(|seed| {
+                let s = RenderSettings {
+                    estimator,
+                    seed,
+                    max_depth: 4,
+                    sampler: SamplerKind::Independent,
+                    ..settings(24, 24, 64)
+                };
+                image_mean(&render(&scene, &accel, &s).unwrap().0)
+            })
+            .collect();
+        let m = means.iter().sum::<f64>() / means.len() as f64;
+        let var = means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (means.len() - 1) as f64;
+        (m, (var / means.len() as f64).sqrt())
+    };
+    let (m1, se1) = stats(Estimator::NeeMis);
+    let (m2, se2) = stats(Estimator::BsdfOnly);
+    let (m3, se3) = stats(Estimator::NeeOnly);
+    eprintln!("nee+mis {m1:.5} ± {se1:.5}, bsdf {m2:.5} ± {se2:.5}, nee {m3:.5} ± {se3:.5}");
+    assert!((m1 - m2).abs() < 3.0 * (se1 * se1 + se2 * se2).sqrt(), "NEE+MIS {m1} ± {se1} vs BSDF-only {m2} ± {se2}");
+    assert!((m1 - m3).abs() < 3.0 * (se1 * se1 + se3 * se3).sqrt(), "NEE+MIS {m1} ± {se1} vs NEE-only {m3} ± {se3}");
+    assert!((m2 - m3).abs() < 3.0 * (se2 * se2 + se3 * se3).sqrt(), "BSDF-only {m2} ± {se2} vs NEE-only {m3} ± {se3}");
+    assert!(se1 < se2, "NEE+MIS {se1} should spread less than BSDF sampling alone {se2}");
+}
+
+#[test]
 fn naive_and_embree_give_the_same_image() {
     // Same scene, seed and random streams: the images differ only where the two triangle
     // tests round differently. Tolerance: mean absolute difference below 0.5% of the mean,
@@ -319,26 +529,31 @@ fn every_bvh_build_gives_the_same_image() {
 
 #[test]
 fn image_is_bit_identical_for_one_and_two_threads() {
-    let scene = Scene::load(&common::scene_path("spheres.toml")).unwrap();
-    let device = Device::new().unwrap();
-    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
-    let one = render(&scene, &accel, &RenderSettings { threads: Some(1), ..settings(48, 30, 4) }).unwrap().0;
-    let two = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
-    let again = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
-    assert!(
-        one.pixels
-            .iter()
-            .zip(&two.pixels)
-            .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits))
-    );
-    assert_eq!(two, again);
-    let other_seed = render(&scene, &accel, &RenderSettings { seed: 1, ..settings(48, 30, 4) }).unwrap().0;
-    assert_ne!(one, other_seed, "the seed must matter");
+    // spheres.toml (a gradient sky) and gltf-sky.toml (an environment image sampled by
+    // luminance).
+    for name in ["spheres.toml", "gltf-sky.toml"] {
+        let scene = Scene::load(&common::scene_path(name)).unwrap();
+        let device = Device::new().unwrap();
+        let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+        let one = render(&scene, &accel, &RenderSettings { threads: Some(1), ..settings(48, 30, 4) }).unwrap().0;
+        let two = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
+        let again = render(&scene, &accel, &RenderSettings { threads: Some(2), ..settings(48, 30, 4) }).unwrap().0;
+        assert!(
+            one.pixels
+                .iter()
+                .zip(&two.pixels)
+                .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits)),
+            "{name}"
+        );
+        assert_eq!(two, again, "{name}");
+        let other_seed = render(&scene, &accel, &RenderSettings { seed: 1, ..settings(48, 30, 4) }).unwrap().0;
+        assert_ne!(one, other_seed, "{name}: the seed must matter");
+    }
 }
 
 #[test]
 fn every_sample_scene_renders_finite() {
-    for name in ["teapot.toml", "cornell.toml", "cornell-area.toml", "spheres.toml", "dof.toml"] {
+    for name in ["teapot.toml", "cornell.toml", "cornell-area.toml", "spheres.toml", "dof.toml", "gltf-sky.toml"] {
         let scene = Scene::load(&common::scene_path(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
         let film = embree_render(&scene, &settings(32, 24, 2));
         assert!(film.pixels.iter().all(|p| p.is_finite()), "{name}");

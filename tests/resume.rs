@@ -144,6 +144,18 @@ fn resume_refuses_other_settings_and_other_scenes() {
     }
     let other = Scene::load(&common::scene_path("cornell.toml")).unwrap();
     assert!(matches!(resume_with(&other, &settings), Err(RenderError::Checkpoint(CheckpointError::OtherScene(_)))));
+    // The pixel filter is a setting; a camera given on the command line makes another scene.
+    let gaussian = RenderSettings { filter: ember::film::PixelFilter::Gaussian, ..settings.clone() };
+    match resume_with(&scene, &gaussian) {
+        Err(RenderError::Checkpoint(e @ CheckpointError::OtherSettings(..))) => {
+            assert!(e.to_string().contains("filter=box in the checkpoint, filter=gaussian now"), "{e}")
+        }
+        other => panic!("expected a settings mismatch, got {:?}", other.map(|r| r.complete)),
+    }
+    let mut moved = scene.clone();
+    let fov = ember::scene::CameraOverride { fov: Some(30.0), ..Default::default() };
+    moved.override_camera(&fov, 16.0 / 12.0).unwrap();
+    assert!(matches!(resume_with(&moved, &settings), Err(RenderError::Checkpoint(CheckpointError::OtherScene(_)))));
     // The right scene and settings resume and give the uninterrupted image.
     let r = resume_with(&scene, &settings).unwrap();
     assert!(r.complete);

@@ -55,7 +55,7 @@ fn bits(f: &Film) -> Vec<[u32; 3]> {
 #[test]
 fn sample_scenes_start_roulette_where_their_albedo_says() {
     // (scene, largest albedo in use, automatic start at the scene's own max_depth)
-    let cases: [(&str, f32, Option<u32>); 8] = [
+    let cases: [(&str, f32, Option<u32>); 9] = [
         // Checker ground up to 0.75 (the plastic teapot: 0.04 + 0.96 · 0.62 ≈ 0.64).
         ("teapot.toml", 0.75, Some(3)),
         // The Cornell box's white walls have Kd 1: paths never lose throughput.
@@ -65,6 +65,8 @@ fn sample_scenes_start_roulette_where_their_albedo_says() {
         ("spheres.toml", 1.0, None),
         // Gold metal 0.95 would start at 14, past max_depth 6.
         ("dof.toml", 0.95, None),
+        // The glTF gold's base colour has red 1: a metal of albedo 1.
+        ("gltf-sky.toml", 1.0, None),
         // The default material (0.8): 0.8³ = 0.512, 0.8⁴ = 0.41.
         ("teapot.obj", 0.8, Some(4)),
         ("cornell_box.obj", 1.0, None),

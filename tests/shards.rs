@@ -32,10 +32,38 @@ fn shard(dir: &Path, scene: &Path, k: u32, n: u32, extra: &[&str]) -> PathBuf {
 }
 
 fn merge(parts: &[PathBuf], out: &Path) -> Output {
+    merge_with(parts, out, &[])
+}
+
+fn merge_with(parts: &[PathBuf], out: &Path, extra: &[&str]) -> Output {
     let mut args: Vec<&str> = vec!["merge"];
     args.extend(parts.iter().map(|p| s(p)));
     args.extend(["-o", s(out)]);
+    args.extend(extra);
     ember(&args)
+}
+
+/// The look of a PNG (exposure, tone curve) is the merge's to apply, as a whole render's; and
+/// Gaussian-filtered shards merge to the whole Gaussian render.
+#[test]
+fn merged_shards_take_the_look_and_filter_of_a_whole_render() {
+    let d = common::fresh_dir("shards", "look");
+    let scene = common::scene_path("spheres.toml");
+    let look = ["--exposure", "1.5", "--tonemap", "aces"];
+    let filter = ["--filter", "gaussian"];
+    let whole = d.join("whole.png");
+    ok(&ember(&[&["render", s(&scene), "-o", s(&whole)][..], &SIZE, &filter, &look].concat()));
+    let parts: Vec<PathBuf> = (0..3).map(|k| shard(&d, &scene, k, 3, &filter)).collect();
+    let merged = d.join("merged.png");
+    ok(&merge_with(&parts, &merged, &look));
+    assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "merged PNG differs");
+    // Without the look, a different PNG: the flags were not ignored.
+    let plain = d.join("plain.png");
+    ok(&merge(&parts, &plain));
+    assert!(std::fs::read(&plain).unwrap() != std::fs::read(&whole).unwrap());
+    // A shard of another filter is another image's (it replaces part 0, no longer needed).
+    let other = shard(&d, &scene, 0, 3, &[]);
+    refused(&d, &[other, parts[1].clone(), parts[2].clone()], "filter=box in ");
 }
 
 #[test]

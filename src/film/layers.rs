@@ -15,7 +15,7 @@
 //! All 32-bit float, lossless (the `exr` crate's default compression), written on one thread so
 //! the same images give the same bytes. A PNG gets the denoised image when there is one.
 
-use super::{Film, FilmError, ImageFormat};
+use super::{Film, FilmError, ImageFormat, Look};
 use std::path::Path;
 
 /// The images of a render to write (see the module documentation).
@@ -54,10 +54,16 @@ impl<'a> RenderImages<'a> {
     /// image there is as layers, or, with only the estimate, exactly what [`Film::save`]
     /// writes.
     pub fn save(&self, path: &Path) -> Result<(), FilmError> {
+        self.save_with(path, &Look::default())
+    }
+
+    /// [`RenderImages::save`] with a look (exposure, tone curve) for a PNG; EXR layers are
+    /// linear radiance whatever the look.
+    pub fn save_with(&self, path: &Path, look: &Look) -> Result<(), FilmError> {
         let format = ImageFormat::from_path(path)?;
         let only_image = self.denoised.is_none() && self.albedo.is_none() && self.normal.is_none();
         if format == ImageFormat::Png || (only_image && self.sample_count.is_none()) {
-            return self.main().save(path);
+            return self.main().save_with(path, look);
         }
         let (w, h) = (self.image.width as usize, self.image.height as usize);
         for f in [self.denoised, self.albedo, self.normal].into_iter().flatten() {

@@ -5,16 +5,20 @@
 mod accum;
 mod checkpoint;
 mod denoise;
+mod filter;
 mod layers;
+mod look;
 pub mod shard;
 
 pub use accum::{Accumulator, AuxSums, PixelState, RELATIVE_ERROR_FLOOR};
 pub use checkpoint::{Checkpoint, CheckpointError, CheckpointKey, checkpoint_path};
 pub use denoise::{AuxMode, denoise};
+pub use filter::{GAUSSIAN_RADIUS, GAUSSIAN_SIGMA, PixelFilter};
 pub use layers::{
     ALBEDO_LAYER, MAIN_LAYER, NOISY_LAYER, NORMAL_LAYER, RenderImages, SAMPLE_COUNT_CHANNEL, exr_channel_names,
     read_exr_channel,
 };
+pub use look::{Look, MAX_EXPOSURE, Tonemap, check_exposure};
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -83,18 +87,29 @@ impl Film {
         self.pixels.iter().fold(Vec3::ZERO, |a, &p| a + p) / self.pixels.len().max(1) as f32
     }
 
-    /// 8-bit sRGB (values clamped to [0, 1], no tone mapping).
+    /// 8-bit sRGB with the default look (values clamped to [0, 1], no exposure).
     pub fn to_rgb8(&self) -> Vec<u8> {
+        self.to_rgb8_with(&Look::default())
+    }
+
+    /// 8-bit sRGB with `look` (exposure and tone curve, then the sRGB encoding).
+    pub fn to_rgb8_with(&self, look: &Look) -> Vec<u8> {
         self.pixels
             .iter()
-            .flat_map(|p| p.to_array())
-            .map(|c| (linear_to_srgb(c.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
+            .flat_map(|p| look.display_linear(p.to_array()))
+            .map(|c| (linear_to_srgb(c) * 255.0 + 0.5) as u8)
             .collect()
     }
 
-    /// Writes the image, format chosen by extension, atomically: nothing appears at `path`
-    /// unless the whole file was written.
+    /// Writes the image with the default look ([`Film::save_with`]).
     pub fn save(&self, path: &Path) -> Result<(), FilmError> {
+        self.save_with(path, &Look::default())
+    }
+
+    /// Writes the image, format chosen by extension, atomically: nothing appears at `path`
+    /// unless the whole file was written. PNG is 8-bit sRGB with `look`; OpenEXR is the
+    /// linear radiance itself (the look does not apply).
+    pub fn save_with(&self, path: &Path, look: &Look) -> Result<(), FilmError> {
         let format = ImageFormat::from_path(path)?;
         crate::atomic_write::write_atomically(path, |file| {
             let mut out = std::io::BufWriter::new(file);
@@ -102,7 +117,7 @@ impl Film {
                 ImageFormat::Png => {
                     use image::ImageEncoder;
                     image::codecs::png::PngEncoder::new(&mut out)
-                        .write_image(&self.to_rgb8(), self.width, self.height, image::ExtendedColorType::Rgb8)
+                        .write_image(&self.to_rgb8_with(look), self.width, self.height, image::ExtendedColorType::Rgb8)
                         .map_err(|e| e.to_string())?
                 }
                 ImageFormat::Exr => {

@@ -142,7 +142,10 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     let cam = ctx.camera;
     let mut camera_rays = [Ray::new(cam.position, Vec3::Z); LANES];
     for (ray, rng) in camera_rays.iter_mut().zip(rngs.iter_mut()).take(n) {
-        let film = Vec2::new((x as f32 + rng.next_f32()) / w as f32, (y as f32 + rng.next_f32()) / h as f32);
+        // Where on the film, in pixels, drawn from the pixel filter (weight 1); for the box
+        // filter exactly x + u as always, so box images do not change.
+        let p = ctx.settings.filter.film_position(x, y, rng.next_2d());
+        let film = Vec2::new(p.x / w as f32, p.y / h as f32);
         // Drawn in every kernel, so all kernels consume the same random numbers.
         let lens = rng.next_2d();
         *ray = if LENS { cam.ray(film, lens) } else { Ray::new(cam.position, cam.pinhole_dir(film)) };

@@ -79,7 +79,7 @@ pub(crate) fn radiance<
             if HIT_LIGHTS {
                 let le = ctx.lights.background().radiance(ray.d);
                 if le != Vec3::ZERO
-                    && let Some(w) = found.weight(specular, prev_pdf, || ctx.lights.pdf_background(&choice))
+                    && let Some(w) = found.weight(specular, prev_pdf, || ctx.lights.pdf_background(&choice, ray.d))
                 {
                     l += beta * le * w;
                 }

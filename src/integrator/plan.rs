@@ -60,7 +60,8 @@ impl RenderPlan {
 
     /// What a checkpoint of this render must match: the scene's fingerprint
     /// ([`Scene::fingerprint`]), the image size and spp, and everything else that changes the
-    /// image as `key=value` words — the requests that matter, the roulette start in force and
+    /// image as `key=value` words — the requests that matter (the pixel filter among them), the
+    /// roulette start in force and
     /// the accelerator with its build options (`accel`: [`crate::accel::Accel::image_key`]);
     /// the thread count and kernel choice do not change the image — and, for a shard, which
     /// one. A render that takes the auxiliary images adds `aux=albedo+normal` (not an image
@@ -85,8 +86,8 @@ impl RenderPlan {
         let rr = self.roulette_start.map_or("off".to_string(), |d| d.to_string());
         let te = s.target_error.map_or("none".to_string(), |e| e.to_string());
         format!(
-            "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} sampler={} target-error={te} {accel}",
-            s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator, s.sampler
+            "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} sampler={} target-error={te} filter={} {accel}",
+            s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator, s.sampler, s.filter
         )
     }
 
@@ -190,10 +191,15 @@ mod tests {
         let key = plan(scattering(0.75), RrDepth::Auto, true).checkpoint_key(7, "accel=naive");
         assert_eq!(
             key.settings,
-            "width=640 height=480 spp=64 max-depth=8 rr-depth=3 seed=0 estimator=nee-mis sampler=sobol target-error=none accel=naive"
+            "width=640 height=480 spp=64 max-depth=8 rr-depth=3 seed=0 estimator=nee-mis sampler=sobol target-error=none \
+             filter=box accel=naive"
         );
         assert_eq!((key.scene, key.width, key.height, key.spp), (7, 640, 480, 64));
         // The kernel does not change the image, so it is not in the key.
         assert_eq!(plan(scattering(0.75), RrDepth::After(3), false).checkpoint_key(7, "accel=naive"), key);
+        // The pixel filter does.
+        let gaussian = RenderSettings { filter: crate::film::PixelFilter::Gaussian, ..RenderSettings::default() };
+        let other = RenderPlan::for_effects(scattering(0.75), &gaussian).checkpoint_key(7, "accel=naive");
+        assert!(other.settings.contains(" filter=gaussian "), "{}", other.settings);
     }
 }

@@ -1,5 +1,10 @@
 //! The render loop: rounds of samples over 16×16 tiles in parallel, accumulated per pixel.
 //!
+//! Tiles are taken in a fixed shuffled order ([`tile_order`]), not row by row: the tiles done
+//! at any moment are then a fair sample of the image, so the share of samples done follows the
+//! share of time spent (row by row, the cheap tiles of a sky come first and a progress bar
+//! runs ahead of the work). The order changes no pixel: a pixel's samples depend only on it.
+//!
 //! Without a target error there is one round: every pixel goes to `spp`. With one, rounds
 //! double the sample count (16, 32, 64, … up to `spp`) of the pixels whose estimated error is
 //! still above the target. A pixel's samples are always taken in index order and its decision
@@ -13,6 +18,7 @@ use super::surface::FaceNormals;
 use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
 use crate::film::{Accumulator, Checkpoint, PixelState};
+use crate::sampler::mix64;
 use crate::scene::Scene;
 use crate::settings::TILE;
 use rayon::prelude::*;
@@ -43,6 +49,9 @@ pub struct RenderControl<'a> {
 pub struct Progress {
     /// Samples taken so far, earlier sessions of a resumed render included.
     pub samples_done: u64,
+    /// Of those, the samples taken by earlier sessions (read from the checkpoint resumed):
+    /// `samples_done - samples_before` were taken in `elapsed`.
+    pub samples_before: u64,
     /// Samples the render will have taken when the current round ends: the total, without a
     /// target error; with one, later rounds may add more (only pixels still above the target
     /// take part in them).
@@ -95,6 +104,15 @@ fn round_target(settings: &RenderSettings, round: u32, p: &PixelState) -> Option
     let target = min.saturating_mul(1u32.checked_shl(round).unwrap_or(u32::MAX)).min(settings.spp);
     let needs = p.count < min || p.relative_error() > e as f64;
     (p.count < target && needs).then_some(target)
+}
+
+/// The tiles of a `w`×`h` image, as (column, row) of 16×16 tiles, in the order they are
+/// rendered: shuffled by a fixed hash, the same for every render of that size.
+pub fn tile_order(w: u32, h: u32) -> Vec<(u32, u32)> {
+    let mut tiles: Vec<(u32, u32)> =
+        (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
+    tiles.sort_by_key(|&(tx, ty)| mix64(((ty as u64) << 32 | tx as u64) ^ 0x7469_6c65_6f72_6465));
+    tiles
 }
 
 fn rounds(settings: &RenderSettings) -> u32 {
@@ -171,13 +189,12 @@ pub(super) fn run(
         roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
     };
     // A shard renders only its own tiles.
-    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
-        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty)))
-        .filter(|&(tx, ty)| settings.shard.is_none_or(|s| s.owns_tile(tx, ty)))
-        .collect();
+    let tiles: Vec<(u32, u32)> =
+        tile_order(w, h).into_iter().filter(|&(tx, ty)| settings.shard.is_none_or(|s| s.owns_tile(tx, ty))).collect();
     let n_rounds = rounds(settings);
     let rays_total = AtomicU64::new(0);
-    let samples_done = AtomicU64::new(accum.samples());
+    let samples_before = accum.samples();
+    let samples_done = AtomicU64::new(samples_before);
     let nonfinite = AtomicU64::new(0);
     let stopped = AtomicBool::new(false);
     let shared = Mutex::new(accum);
@@ -286,6 +303,7 @@ pub(super) fn run(
             if let Some(report) = control.progress {
                 report(Progress {
                     samples_done: done,
+                    samples_before,
                     samples_planned: planned,
                     rays,
                     elapsed: start.elapsed(),

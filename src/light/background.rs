@@ -1,11 +1,12 @@
 //! The background: what a ray that leaves the scene sees (a constant or gradient sky, or an
-//! environment image), and, unless black, a light that next-event estimation samples
-//! (uniformly over the sphere of directions).
+//! environment image), and, unless black, a light that next-event estimation samples: the
+//! skies uniformly over the sphere of directions, an environment image by its luminance
+//! (`environment.rs`).
 
 use super::choice::LightBounds;
+use super::environment::Environment;
 use super::{LightSample, luminance, uniform_sphere};
 use crate::hash::Fingerprint;
-use crate::texture::Image;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
@@ -22,11 +23,8 @@ pub enum Background {
         horizon: Vec3,
         ground: Vec3,
     },
-    /// An equirectangular (latitude-longitude) environment image, scaled.
-    Image {
-        image: Arc<Image>,
-        scale: f32,
-    },
+    /// An equirectangular (latitude-longitude) environment image, rotated and scaled.
+    Image(Arc<Environment>),
 }
 
 impl Background {
@@ -42,12 +40,7 @@ impl Background {
                 let y = d.y;
                 if y >= 0.0 { horizon.lerp(*zenith, y.min(1.0)) } else { horizon.lerp(*ground, (-y).min(1.0)) }
             }
-            Background::Image { image, scale } => {
-                let d = d.normalize();
-                let u = 0.5 + d.x.atan2(-d.z) / (2.0 * PI);
-                let v = 1.0 - d.y.clamp(-1.0, 1.0).acos() / PI;
-                image.bilinear(Vec2::new(u, v)) * *scale
-            }
+            Background::Image(env) => env.radiance(d),
         }
     }
 
@@ -58,17 +51,18 @@ impl Background {
             Background::Gradient { zenith, horizon, ground } => {
                 zenith.max_element() <= 0.0 && horizon.max_element() <= 0.0 && ground.max_element() <= 0.0
             }
-            Background::Image { scale, .. } => *scale <= 0.0,
+            Background::Image(env) => env.average().max_element() <= 0.0,
         }
     }
 
-    /// Average radiance over the sphere (approximate for images), for light selection.
+    /// Average radiance over the sphere (for images: texels weighted by their solid angle),
+    /// for light selection.
     pub fn average(&self) -> Vec3 {
         match self {
             Background::Black => Vec3::ZERO,
             Background::Constant(c) => *c,
             Background::Gradient { zenith, horizon, ground } => 0.5 * *horizon + 0.25 * (*zenith + *ground),
-            Background::Image { image, scale } => image.mean() * *scale,
+            Background::Image(env) => env.average(),
         }
     }
 
@@ -82,9 +76,13 @@ impl Background {
         LightBounds::background(luminance(self.average()))
     }
 
-    /// A direction uniform over the sphere; the background was chosen with probability `sel`.
+    /// A direction toward the background, chosen with probability `sel`: uniform over the
+    /// sphere for the skies, by luminance for an environment image.
     #[inline(never)]
     pub(super) fn sample(&self, sel: f32, u: Vec2) -> Option<LightSample> {
+        if let Background::Image(env) = self {
+            return env.sample(sel, u);
+        }
         let wi = uniform_sphere(u);
         Some(LightSample {
             wi,
@@ -96,17 +94,21 @@ impl Background {
         })
     }
 
-    /// Solid-angle density of [`Background::sample`], chosen with probability `sel`.
-    pub(super) fn pdf(sel: f32) -> f32 {
-        sel / (4.0 * PI)
+    /// Solid-angle density with which [`Background::sample`], chosen with probability `sel`,
+    /// picks the unit direction `d`.
+    #[inline]
+    pub(super) fn pdf(&self, sel: f32, d: Vec3) -> f32 {
+        match self {
+            Background::Image(env) => sel * env.pdf(d),
+            _ => sel / (4.0 * PI),
+        }
     }
 
     pub fn fingerprint(&self, h: &mut Fingerprint) {
         match self {
-            Background::Image { image, scale } => {
+            Background::Image(env) => {
                 h.str("image");
-                image.fingerprint(h);
-                h.f32s(&[*scale]);
+                env.fingerprint(h);
             }
             other => h.str(&format!("{other:?}")),
         }

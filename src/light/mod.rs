@@ -4,19 +4,22 @@
 //! `choice`) and samples a direction toward it, for next-event estimation; its `pdf_*`
 //! methods give the matching densities for multiple importance sampling.
 //!
-//! Each kind is a file: `point.rs`, `background.rs` (sky and environment), `triangle.rs` and
-//! `sphere.rs` (emitting surfaces), with how it is sampled, its density, its power and its
-//! bounds for the choice by importance. Adding a kind: its file, a [`Light`] variant (if a
+//! Each kind is a file: `point.rs`, `background.rs` (sky and environment; an environment
+//! image and its sampling by luminance in `environment.rs`), `triangle.rs` and `sphere.rs`
+//! (emitting surfaces), with how it is sampled, its density, its power and its bounds for the
+//! choice by importance. Adding a kind: its file, a [`Light`] variant (if a
 //! scene describes it) and an [`Emitter`] variant with their arms here, and its `[[lights]]`
 //! section (`scene/format.rs`) with the arm that builds it (`scene/toml_file.rs`).
 
 mod background;
 mod choice;
+mod environment;
 mod point;
 mod sphere;
 mod triangle;
 
 pub use background::Background;
+pub use environment::Environment;
 pub use point::PointLight;
 
 use crate::geometry::{Geometry, bounds_of};
@@ -394,9 +397,10 @@ impl LightSet {
         }
     }
 
-    /// Density with which `sample` (with `choice`) picks a direction toward the background.
-    pub fn pdf_background(&self, choice: &LightChoice) -> f32 {
-        self.background_index.map_or(0.0, |i| Background::pdf(self.choice_probability(choice, i)))
+    /// Density with which `sample` (with `choice`) picks the unit direction `d` toward the
+    /// background.
+    pub fn pdf_background(&self, choice: &LightChoice, d: Vec3) -> f32 {
+        self.background_index.map_or(0.0, |i| self.background.pdf(self.choice_probability(choice, i), d))
     }
 }
 

@@ -134,7 +134,7 @@ impl Effects {
         e.point_lights = scene.lights.iter().any(|l| l.is_delta() && l.emits());
         match scene.background() {
             b if b.is_black() => {}
-            Background::Image { .. } => e.environment = true,
+            Background::Image(_) => e.environment = true,
             _ => e.sky = true,
         }
         e.depth_of_field = scene.camera.is_some_and(|c| c.aperture > 0.0);

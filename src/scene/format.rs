@@ -159,6 +159,39 @@ impl<'de> Deserialize<'de> for RrDepthValue {
     }
 }
 
+/// `exposure`: stops, within ±[`crate::film::MAX_EXPOSURE`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Exposure(pub f32);
+
+impl<'de> Deserialize<'de> for Exposure {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let Num(v) = Num::deserialize(d)?;
+        crate::film::check_exposure(v).map(Exposure).map_err(de::Error::custom)
+    }
+}
+
+/// `tonemap`: `"clamp"`, `"aces"` or `"neutral"`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TonemapValue(pub crate::film::Tonemap);
+
+impl<'de> Deserialize<'de> for TonemapValue {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map(TonemapValue).map_err(de::Error::custom)
+    }
+}
+
+/// `filter`: `"box"` or `"gaussian"`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FilterValue(pub crate::film::PixelFilter);
+
+impl<'de> Deserialize<'de> for FilterValue {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map(FilterValue).map_err(de::Error::custom)
+    }
+}
+
 /// Largest accepted image side.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
@@ -222,6 +255,12 @@ pub struct RenderSection {
     pub seed: Option<u64>,
     /// Denoise the image with Open Image Denoise (as `--denoise`).
     pub denoise: Option<bool>,
+    /// Stops of exposure for 8-bit output.
+    pub exposure: Option<Exposure>,
+    /// The tone curve of 8-bit output.
+    pub tonemap: Option<TonemapValue>,
+    /// The pixel reconstruction filter.
+    pub filter: Option<FilterValue>,
     pub sampler: Option<SamplerName>,
 }
 
@@ -263,7 +302,11 @@ pub enum BackgroundSection {
     /// Not `Spanned`: serde buffers tagged enums, losing spans; errors point at the section.
     Image {
         file: String,
-        scale: Option<Positive>,
+        /// Multiplies the image's radiance; `scale` is its older name.
+        #[serde(alias = "scale")]
+        strength: Option<Positive>,
+        /// Degrees about +Y.
+        rotate: Option<Num>,
     },
 }
 

@@ -55,6 +55,28 @@ pub struct CameraSpec {
     pub focus_distance: Option<f32>,
 }
 
+/// The vertical field of view, in degrees, of a camera that does not say (and of the camera
+/// that frames a scene without one).
+pub const DEFAULT_FOV: f32 = 40.0;
+
+/// Parts of a camera given over a scene's (`ember render --camera-position`, `--look-at`,
+/// `--up`, `--fov`): each part given replaces the scene's; see [`Scene::override_camera`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CameraOverride {
+    pub position: Option<Vec3>,
+    pub look_at: Option<Vec3>,
+    pub up: Option<Vec3>,
+    /// Vertical field of view, degrees.
+    pub fov: Option<f32>,
+}
+
+impl CameraOverride {
+    /// Whether nothing is overridden.
+    pub fn is_empty(&self) -> bool {
+        *self == CameraOverride::default()
+    }
+}
+
 /// A loaded scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -138,7 +160,8 @@ impl Scene {
         })
     }
 
-    /// Bytes held by the geometry arrays and the texture images (each image once).
+    /// Bytes held by the geometry arrays, the texture and environment images (each image once)
+    /// and the environment's sampling distribution.
     pub fn data_bytes(&self) -> u64 {
         let geometry: u64 = self
             .geometry
@@ -157,12 +180,14 @@ impl Scene {
                 _ => None,
             })
             .collect();
-        if let Background::Image { image, .. } = self.background() {
-            images.push(image);
+        let mut sampling = 0;
+        if let Background::Image(env) = self.background() {
+            images.push(env.image());
+            sampling = env.sampling_bytes();
         }
         images.sort_by_key(|i| Arc::as_ptr(i));
         images.dedup_by(|a, b| Arc::ptr_eq(a, b));
-        geometry + images.iter().map(|i| (i.pixels.capacity() * size_of::<Vec3>()) as u64).sum::<u64>()
+        geometry + sampling + images.iter().map(|i| (i.pixels.capacity() * size_of::<Vec3>()) as u64).sum::<u64>()
     }
 
     /// (triangles, spheres, cylinders)
@@ -185,8 +210,50 @@ impl Scene {
                 let focus = c.focus_distance.unwrap_or_else(|| (c.look_at - c.position).length());
                 Camera::look_at(c.position, c.look_at, c.up, c.fov, aspect, c.aperture, focus)
             }
-            None => Camera::fitting(self.outline_points(), &self.bounds(), 40.0, aspect),
+            None => Camera::fitting(self.outline_points(), &self.bounds(), DEFAULT_FOV, aspect),
         }
+    }
+
+    /// Puts the parts of `o` over the scene's camera. A scene without a camera first gets the
+    /// one that would frame it in an image of aspect `aspect` (with `o`'s field of view, if
+    /// given): it looks at the centre of the bounds, up is +Y. The result is the scene's camera
+    /// (so it is part of the fingerprint). Refused: a position equal to the point looked at.
+    /// The parts' ranges (coordinates within ±[`format::MAX_COORDINATE`], 0 < fov < 180) are
+    /// checked where they are read.
+    pub fn override_camera(&mut self, o: &CameraOverride, aspect: f32) -> Result<(), String> {
+        if o.is_empty() {
+            return Ok(());
+        }
+        let base = match self.camera {
+            Some(c) => c,
+            None => {
+                let fov = o.fov.unwrap_or(DEFAULT_FOV);
+                let framing = Camera::fitting(self.outline_points(), &self.bounds(), fov, aspect);
+                CameraSpec {
+                    position: framing.position,
+                    look_at: self.bounds().center(),
+                    up: Vec3::Y,
+                    fov,
+                    aperture: 0.0,
+                    focus_distance: None,
+                }
+            }
+        };
+        let c = CameraSpec {
+            position: o.position.unwrap_or(base.position),
+            look_at: o.look_at.unwrap_or(base.look_at),
+            up: o.up.unwrap_or(base.up),
+            fov: o.fov.unwrap_or(base.fov),
+            ..base
+        };
+        if c.position == c.look_at {
+            return Err(format!(
+                "the camera position and the point it looks at are the same point ({}, {}, {})",
+                c.position.x, c.position.y, c.position.z
+            ));
+        }
+        self.camera = Some(c);
+        Ok(())
     }
 
     /// What rays leaving the scene see (black if the scene has no background).

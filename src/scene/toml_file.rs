@@ -5,7 +5,7 @@
 use super::format::{self, BackgroundSection, ColorSource, LightSection, MaterialSection, ScaleSpec, SceneFile};
 use super::{CameraSpec, MaterialBinding, Scene, SceneError, mesh_file};
 use crate::geometry::{Cylinder, Geometry, Sphere, TriMesh};
-use crate::light::{Background, Light, PointLight};
+use crate::light::{Background, Environment, Light, PointLight};
 use crate::material::{
     DiffuseMaterial, EmissiveMaterial, GlassMaterial, Material, MaterialKind, MetalMaterial, PlasticMaterial,
 };
@@ -54,6 +54,19 @@ impl SceneFileReader<'_> {
         self.inputs.push(p.clone());
         self.images.insert(p, img.clone());
         Ok(img)
+    }
+
+    /// The environment image `file`: 8-bit (sRGB) or HDR (linear). One a texture already
+    /// loaded is shared.
+    fn environment_image(&mut self, file: &str, span: std::ops::Range<usize>) -> Result<Arc<Image>, SceneError> {
+        let p = self.resolve(file);
+        if let Some(img) = self.images.get(&p) {
+            return Ok(img.clone());
+        }
+        let img = Image::load_environment(&p, self.budget)
+            .map_err(|e| self.err_at(span, format!("environment image {}: {e}", p.display())))?;
+        self.inputs.push(p);
+        Ok(Arc::new(img))
     }
 
     fn texture(&mut self, c: ColorSource, at: std::ops::Range<usize>) -> Result<Texture, SceneError> {
@@ -207,16 +220,26 @@ pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<S
             horizon: horizon.0,
             ground: ground.map_or(horizon.0, |g| g.0),
         }),
-        Some(BackgroundSection::Image { file, scale }) => Some(Background::Image {
-            image: ctx.image(&file, background_span.unwrap_or(0..0))?,
-            scale: scale.map_or(1.0, |s| s.0),
-        }),
+        Some(BackgroundSection::Image { file, strength, rotate }) => {
+            let span = background_span.unwrap_or(0..0);
+            let image = ctx.environment_image(&file, span.clone())?;
+            let sampling = memory::environment_sampling_bytes(image.width, image.height);
+            budget
+                .admit(
+                    format!("sampling distribution of the {}x{} environment image", image.width, image.height),
+                    sampling,
+                )
+                .map_err(|e| ctx.err_at(span, e.to_string()))?;
+            let env = Environment::new(image, strength.map_or(1.0, |s| s.0), rotate.map_or(0.0, |r| r.0));
+            budget.keep(env.sampling_bytes());
+            Some(Background::Image(Arc::new(env)))
+        }
     };
     if let Some(b) = background {
         scene.set_background(b);
     }
     if let Some(c) = file.camera {
-        let fov = c.fov.as_ref().map_or(40.0, |f| f.get_ref().0);
+        let fov = c.fov.as_ref().map_or(super::DEFAULT_FOV, |f| f.get_ref().0);
         if fov >= 180.0 {
             return Err(ctx.err_at(c.fov.unwrap().span(), format!("fov must be below 180 degrees, found {fov}")));
         }
@@ -249,6 +272,9 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
         rr_depth: r.rr_depth.map(|v| v.0),
         seed: r.seed,
         denoise: r.denoise,
+        exposure: r.exposure.map(|e| e.0),
+        tonemap: r.tonemap.map(|t| t.0),
+        filter: r.filter.map(|f| f.0),
         sampler: r.sampler.map(|v| v.0),
     }
 }

@@ -1,3 +1,4 @@
+use super::progress::ProgressBar;
 use crate::accel::AccelKind;
 use crate::atomic_write::write_file;
 use crate::film::Film;
@@ -39,8 +40,9 @@ pub struct ConvergeArgs {
     /// Comma-separated variants: groups estimators, no-rr, depth, denoise (NEE+MIS and its
     /// denoised variants: Open Image Denoise given colour only, or albedo and normal noisy,
     /// prefiltered or clean), all (the four), or single variants
-    /// ESTIMATOR[/no-rr][/depth=D][/denoise[=color|noisy|prefilter|clean]] with ESTIMATOR one
-    /// of nee-mis, nee, bsdf, bsdf-uniform.
+    /// ESTIMATOR[/no-rr][/depth=D][/env-uniform][/denoise[=color|noisy|prefilter|clean]] with
+    /// ESTIMATOR one of nee-mis, nee, bsdf, bsdf-uniform (/env-uniform: an environment image
+    /// sampled uniformly, not by luminance).
     #[arg(long, default_value = "all")]
     pub variants: String,
     /// Full depth: bounce limit of the reference and of every variant without /depth=D.
@@ -116,6 +118,9 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
         None => None,
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create folder", args.out.display()))?;
+    if !scene.effects().lit {
+        eprintln!("warning: {}: {}", args.scene.display(), super::render::UNLIT);
+    }
 
     let accel = args.accel.build(&scene.geometry)?;
 
@@ -130,7 +135,10 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
         }
         None => {
             let spp = args.reference_spp.unwrap_or(largest.saturating_mul(REFERENCE_FACTOR));
-            let (film, stats) = study.render_reference(&scene, accel.as_ref(), spp)?;
+            let bar = ProgressBar::new("reference                    ");
+            let rendered = study.render_reference(&scene, accel.as_ref(), spp, Some(&|p| bar.update(p)));
+            bar.finish();
+            let (film, stats) = rendered?;
             let path = args.out.join("reference.exr");
             film.save(&path)?;
             eprintln!(
@@ -149,7 +157,10 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     let mut all: Vec<ConvergencePoint> = Vec::new();
     let mut per_variant: Vec<Vec<ConvergencePoint>> = Vec::new();
     for &v in &variants {
-        let points = study.measure(&scene, accel.as_ref(), &reference, v, |_| {})?;
+        let bar = ProgressBar::new(&format!("{:<28} ", v.name()));
+        let measured = study.measure(&scene, accel.as_ref(), &reference, v, |_| {}, Some(&|p| bar.update(p)));
+        bar.finish();
+        let points = measured?;
         let secs: f64 = points.iter().map(|m| m.seconds).sum::<f64>() * study.repeats as f64;
         let (first, last) = (&points[0], &points[points.len() - 1]);
         eprintln!(

@@ -5,7 +5,7 @@
 //! nothing is written. Memory: one image's accumulator, the files read one at a time.
 
 use crate::film::shard::{ShardHeader, ShardReader, mismatch};
-use crate::film::{Accumulator, ImageFormat};
+use crate::film::{Accumulator, ImageFormat, Look, Tonemap, check_exposure};
 use crate::memory::{self, MemoryLimit};
 use clap::Args;
 use std::path::PathBuf;
@@ -22,10 +22,31 @@ pub struct MergeArgs {
     /// is not finite.
     #[arg(long)]
     pub strict: bool,
+    /// Exposure in stops for PNG output, as `ember render --exposure` (a scene's
+    /// render.exposure is not in the shards: give it here) [0].
+    #[arg(long, value_name = "EV", allow_negative_numbers = true, value_parser = parse_exposure)]
+    pub exposure: Option<f32>,
+    /// Tone curve for PNG output, as `ember render --tonemap`: clamp, aces or neutral [clamp].
+    #[arg(long)]
+    pub tonemap: Option<Tonemap>,
+}
+
+fn parse_exposure(s: &str) -> Result<f32, String> {
+    let v: f32 = s.trim().parse().map_err(|_| format!("expected a number of stops (e.g. 1.5 or -2), found {s:?}"))?;
+    check_exposure(v)
 }
 
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
-    ImageFormat::from_path(&args.output)?;
+    let format = ImageFormat::from_path(&args.output)?;
+    let look = Look { exposure: args.exposure.unwrap_or(0.0), tonemap: args.tonemap.unwrap_or_default() };
+    if format != ImageFormat::Png && !look.is_default() {
+        eprintln!(
+            "note: exposure {} and tone curve {} apply to 8-bit output only; {} is linear, unscaled radiance",
+            look.exposure,
+            look.tonemap,
+            args.output.display()
+        );
+    }
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
     crate::atomic_write::check_writable(&args.output)?;
     // Every header first: refuse a wrong set before reading a pixel.
@@ -79,7 +100,7 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
-    film.save(&args.output)?;
+    film.save_with(&args.output, &look)?;
     let (min, mean, max) = accum.spp_range();
     eprintln!(
         "merged {count} shards into {width}x{height} at {} ({:.2} s of rendering in all), {nonfinite} non-finite samples dropped -> {}",

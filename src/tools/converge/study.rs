@@ -16,12 +16,31 @@ use super::variant::Variant;
 use crate::accel::Accel;
 use crate::film::{Accumulator, AuxMode, Film};
 use crate::integrator::{
-    Estimator, RenderControl, RenderError, RenderPlan, RenderSettings, RenderStats, RrDepth, render, render_controlled,
+    Estimator, Progress, RenderControl, RenderError, RenderPlan, RenderSettings, RenderStats, RrDepth,
+    render_controlled,
 };
+use crate::light::{Background, Light};
 use crate::oidn::{DenoiseError, Denoiser};
 use crate::sampler::mix64;
 use crate::scene::Scene;
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Where a study reports the progress of its renders (called from the worker threads): for the
+/// reference, its render's; for a variant, one count over all the renders of its ladder and
+/// repeats (samples done of all of them, rays and time since the first began), so that a
+/// progress bar of it runs once from 0 to 100%. The study draws nothing itself.
+pub type ProgressFn<'a> = &'a (dyn Fn(Progress) + Sync);
+
+/// The renders of a study already done when the next one starts, for [`ProgressFn`].
+#[derive(Clone, Copy)]
+struct Done {
+    samples: u64,
+    rays: u64,
+    planned: u64,
+    since: Instant,
+}
 
 /// 1, 2, 4, … up to `max_spp` (and `max_spp` itself when it is not a power of two).
 pub fn spp_ladder(max_spp: u32) -> Vec<u32> {
@@ -129,14 +148,19 @@ impl Study {
         mix64(self.seed ^ 0x636f_6e76_6572_6765).wrapping_add(rung as u64 * self.repeats as u64 + repeat as u64)
     }
 
-    /// Renders the reference at `spp`.
+    /// Renders the reference at `spp`, reporting its progress to `progress`.
     pub fn render_reference(
         &self,
         scene: &Scene,
         accel: &dyn Accel,
         spp: u32,
+        progress: Option<ProgressFn>,
     ) -> Result<(Film, RenderStats), RenderError> {
-        render(scene, accel, &self.reference_settings(spp))
+        let planned = self.width as u64 * self.height as u64 * spp as u64;
+        let done = Done { samples: 0, rays: 0, planned, since: Instant::now() };
+        let (accum, stats) =
+            render_reporting(scene, accel, &self.reference_settings(spp), progress.map(|p| (p, done)))?;
+        Ok((accum.film(), stats))
     }
 
     /// Refuses a reference (read from `path`) that does not fit the study: another size, or a
@@ -157,8 +181,9 @@ impl Study {
     }
 
     /// Renders `variant` at every rung of the ladder and measures it against `reference`;
-    /// `on_point` sees each point as it is measured. A denoised variant loads Open Image
-    /// Denoise (and fails with [`ConvergeError::Denoise`] without it).
+    /// `on_point` sees each point as it is measured, `progress` the progress of all the
+    /// variant's renders together. A denoised variant loads Open Image Denoise (and fails with
+    /// [`ConvergeError::Denoise`] without it).
     pub fn measure(
         &self,
         scene: &Scene,
@@ -166,12 +191,17 @@ impl Study {
         reference: &Film,
         variant: Variant,
         mut on_point: impl FnMut(&ConvergencePoint),
+        progress: Option<ProgressFn>,
     ) -> Result<Vec<ConvergencePoint>, ConvergeError> {
         let repeats = self.repeats.max(1);
         let denoiser = match variant.denoise {
             Some(_) => Some(Denoiser::new()?),
             None => None,
         };
+        let pixels = self.width as u64 * self.height as u64;
+        let planned = self.ladder.iter().map(|&spp| spp as u64 * pixels * repeats as u64).sum();
+        let mut done = Done { samples: 0, rays: 0, planned, since: Instant::now() };
+        let scene = variant_scene(scene, &variant);
         let mut out = Vec::with_capacity(self.ladder.len());
         for (rung, &spp) in self.ladder.iter().enumerate() {
             let mut m = ConvergencePoint {
@@ -185,7 +215,9 @@ impl Study {
             };
             for repeat in 0..repeats {
                 let settings = self.settings(&variant, spp, self.render_seed(rung, repeat));
-                let (accum, stats) = render_accum(scene, accel, &settings)?;
+                let (accum, stats) = render_reporting(&scene, accel, &settings, progress.map(|p| (p, done)))?;
+                done.samples += stats.samples;
+                done.rays += stats.rays;
                 let film = match (&denoiser, variant.denoise) {
                     (Some(d), Some(mode)) => {
                         let start = std::time::Instant::now();
@@ -214,16 +246,50 @@ impl Study {
     }
 }
 
-/// Renders with `settings`, returning the accumulated samples (with the auxiliary images if
-/// the settings take them).
-fn render_accum(
+/// Renders `scene` with `settings`, reporting progress (offset by the renders `Done` before
+/// it) to the function given, if any; returns the accumulated samples (with the auxiliary
+/// images if the settings take them).
+fn render_reporting(
     scene: &Scene,
     accel: &dyn Accel,
     settings: &RenderSettings,
+    progress: Option<(ProgressFn, Done)>,
 ) -> Result<(Accumulator, RenderStats), RenderError> {
-    let plan = RenderPlan::new(scene, settings);
-    let r = render_controlled(scene, accel, &plan, RenderControl::default())?;
+    let report = |p: Progress| {
+        if let Some((report, done)) = progress {
+            report(Progress {
+                samples_done: done.samples + p.samples_done,
+                samples_before: 0,
+                samples_planned: done.planned,
+                rays: done.rays + p.rays,
+                elapsed: done.since.elapsed(),
+                round: 1,
+                rounds: 1,
+            })
+        }
+    };
+    let control = RenderControl {
+        progress: progress.is_some().then_some(&report as &(dyn Fn(Progress) + Sync)),
+        ..RenderControl::default()
+    };
+    let r = render_controlled(scene, accel, &RenderPlan::new(scene, settings), control)?;
     Ok((r.accum, r.stats))
+}
+
+/// The scene `variant` renders: `scene` itself, or for `/env-uniform` a copy whose
+/// environment image is sampled uniformly over the sphere (the lights in the same order, so
+/// the choice among them is the same; the geometry, and so `accel`, unchanged).
+fn variant_scene<'a>(scene: &'a Scene, variant: &Variant) -> Cow<'a, Scene> {
+    if !variant.uniform_environment || !matches!(scene.background(), Background::Image(_)) {
+        return Cow::Borrowed(scene);
+    }
+    let mut s = scene.clone();
+    for light in &mut s.lights {
+        if let Light::Background(Background::Image(env)) = light {
+            *env = std::sync::Arc::new(env.uniformly_sampled());
+        }
+    }
+    Cow::Owned(s)
 }
 
 #[cfg(test)]

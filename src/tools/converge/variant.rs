@@ -1,6 +1,6 @@
 //! The estimator variants a study compares, and the syntax that names them
-//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/denoise[=MODE]]` and the groups
-//! `estimators`, `no-rr`, `depth`, `samplers`, `denoise`, `all`).
+//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/denoise[=MODE]]` and the
+//! groups `estimators`, `no-rr`, `depth`, `samplers`, `denoise`, `all`).
 
 use crate::film::AuxMode;
 use crate::integrator::Estimator;
@@ -18,6 +18,9 @@ pub struct Variant {
     pub russian_roulette: bool,
     /// Bounce limit; `None`: the study's full depth (that of the reference).
     pub max_depth: Option<u32>,
+    /// Next-event estimation samples an environment image uniformly over the sphere instead
+    /// of by luminance (no effect on other backgrounds): what importance sampling gains.
+    pub uniform_environment: bool,
     /// Where samples get their numbers; `None`: the default sampler.
     pub sampler: Option<SamplerKind>,
     /// Denoised with Open Image Denoise, given the auxiliary images as this says; `None`: the
@@ -27,12 +30,20 @@ pub struct Variant {
 
 impl Variant {
     pub const fn new(estimator: Estimator) -> Variant {
-        Variant { estimator, russian_roulette: true, max_depth: None, sampler: None, denoise: None }
+        Variant {
+            estimator,
+            russian_roulette: true,
+            max_depth: None,
+            sampler: None,
+            uniform_environment: false,
+            denoise: None,
+        }
     }
 
-    /// `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/denoise=MODE]`, e.g. `nee-mis`, `bsdf/no-rr`,
-    /// `nee-mis/depth=3`, `nee-mis/sobol`, `nee-mis/denoise=prefilter`; the same syntax is
-    /// accepted by [`parse_variants`] (where `/denoise` alone is the default mode).
+    /// `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform][/denoise=MODE]`, e.g. `nee-mis`,
+    /// `bsdf/no-rr`, `nee-mis/depth=3`, `nee-mis/sobol`, `nee-mis/env-uniform`,
+    /// `nee-mis/denoise=prefilter`; the same syntax is accepted by [`parse_variants`] (where
+    /// `/denoise` alone is the default mode).
     pub fn name(&self) -> String {
         let mut s = self.estimator.name().to_string();
         if !self.russian_roulette {
@@ -43,6 +54,9 @@ impl Variant {
         }
         if let Some(k) = self.sampler {
             s.push_str(&format!("/{k}"));
+        }
+        if self.uniform_environment {
+            s.push_str("/env-uniform");
         }
         if let Some(m) = self.denoise {
             s.push_str(&format!("/denoise={m}"));
@@ -71,6 +85,8 @@ impl std::str::FromStr for Variant {
         for part in parts {
             if part == "no-rr" {
                 v.russian_roulette = false;
+            } else if part == "env-uniform" {
+                v.uniform_environment = true;
             } else if let Some(d) = part.strip_prefix("depth=") {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
             } else if let Ok(k) = part.parse::<SamplerKind>() {
@@ -81,7 +97,7 @@ impl std::str::FromStr for Variant {
                 v.denoise = Some(m.parse().map_err(|e| format!("variant {s:?}: {e}"))?);
             } else {
                 return Err(format!(
-                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, denoise or denoise=MODE)"
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, env-uniform, denoise or denoise=MODE)"
                 ));
             }
         }
@@ -97,8 +113,8 @@ impl std::str::FromStr for Variant {
 /// - `denoise`: NEE+MIS, and NEE+MIS denoised in each [`AuxMode`] (colour only; albedo and
 ///   normal noisy, prefiltered, clean);
 /// - `all`: `estimators`, `no-rr`, `depth` and `denoise`;
-/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/denoise[=MODE]]` (see
-///   [`Variant::name`]).
+/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform][/denoise[=MODE]]`
+///   (see [`Variant::name`]).
 ///
 /// Duplicates are dropped; the order is kept.
 pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, String> {
@@ -151,6 +167,7 @@ mod tests {
                 russian_roulette: false,
                 max_depth: Some(3),
                 sampler: None,
+                uniform_environment: false,
                 denoise: None
             }
         );
@@ -164,6 +181,11 @@ mod tests {
         assert_eq!("nee-mis/denoise=color".parse::<Variant>().unwrap().denoise, Some(AuxMode::ColorOnly));
         assert!("nee-mis/denoise=fast".parse::<Variant>().unwrap_err().contains("unknown auxiliary mode"));
         let v: Variant = "nee-mis/independent/denoise=clean".parse().unwrap();
+        assert_eq!(v.name().parse::<Variant>().unwrap(), v);
+        let v: Variant = "nee-mis/env-uniform".parse().unwrap();
+        assert_eq!(v, Variant { uniform_environment: true, ..Variant::new(Estimator::NeeMis) });
+        assert_eq!(v.name(), "nee-mis/env-uniform");
+        let v: Variant = "nee-mis/independent/env-uniform".parse().unwrap();
         assert_eq!(v.name().parse::<Variant>().unwrap(), v);
     }
 

@@ -2,11 +2,12 @@
 
 use crate::accel::AccelKind;
 use crate::embree::BuildQuality;
-use crate::film::AuxMode;
-use crate::scene::Scene;
-use crate::scene::format::MAX_IMAGE_SIDE;
+use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
+use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
+use crate::scene::{CameraOverride, Scene};
 use crate::settings::{Estimator, RenderSettings, RrDepth, SamplerKind, Shard};
 use clap::Args;
+use glam::Vec3;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -90,15 +91,92 @@ pub struct RenderArgs {
     /// or independent [scene's render.sampler, else sobol].
     #[arg(long)]
     pub sampler: Option<SamplerKind>,
-    /// Fail (exit 2, no image written) if any sample was NaN or infinite.
+    /// Fail (exit 2, no image written) if any sample was NaN or infinite, or if nothing in the
+    /// scene emits light (the image would be black).
     #[arg(long)]
     pub strict: bool,
+    /// Exposure in stops for PNG output: linear values are multiplied by 2^EV before the tone
+    /// curve (EXR output stays linear and unscaled) [scene's render.exposure, else 0].
+    #[arg(long, value_name = "EV", allow_negative_numbers = true, value_parser = parse_exposure)]
+    pub exposure: Option<f32>,
+    /// Tone curve for PNG output: clamp (values above 1 clipped), aces (Narkowicz's ACES fit)
+    /// or neutral (Khronos PBR Neutral) [scene's render.tonemap, else clamp].
+    #[arg(long)]
+    pub tonemap: Option<Tonemap>,
+    /// Pixel reconstruction filter: box (uniform over the pixel) or gaussian (σ 0.5 pixel,
+    /// radius 1.5: smoother edges, slightly softer), by filter importance sampling
+    /// [scene's render.filter, else box].
+    #[arg(long)]
+    pub filter: Option<PixelFilter>,
+    /// Camera position x,y,z, over the scene's [camera] (or the camera that frames a scene or
+    /// mesh without one); the aliases are those of Embree's tutorials.
+    #[arg(long, value_name = "X,Y,Z", visible_alias = "vp", allow_hyphen_values = true, value_parser = parse_point)]
+    pub camera_position: Option<Vec3>,
+    /// The point the camera looks at, x,y,z.
+    #[arg(long, value_name = "X,Y,Z", visible_alias = "vi", allow_hyphen_values = true, value_parser = parse_point)]
+    pub look_at: Option<Vec3>,
+    /// The camera's up direction, x,y,z.
+    #[arg(long, value_name = "X,Y,Z", visible_alias = "vu", allow_hyphen_values = true, value_parser = parse_direction)]
+    pub up: Option<Vec3>,
+    /// Vertical field of view in degrees, between 0 and 180 (exclusive).
+    #[arg(long, value_name = "DEG", value_parser = parse_fov)]
+    pub fov: Option<f32>,
     /// Render only shard K of N (0-based) of the image, to a shard file (-o NAME.shard) that
     /// `ember merge` puts together with the others; "auto" takes K and N from Slurm
     /// (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT), "auto/N" K from Slurm or a Kubernetes
     /// Indexed Job (JOB_COMPLETION_INDEX).
     #[arg(long, value_name = "K/N|auto|auto/N")]
     pub shard: Option<String>,
+}
+
+/// Three comma-separated finite numbers.
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let numbers: Option<Vec<f32>> = parts.iter().map(|p| p.parse::<f32>().ok().filter(|v| v.is_finite())).collect();
+    match numbers {
+        Some(v) if v.len() == 3 => Ok(Vec3::new(v[0], v[1], v[2])),
+        _ => Err(format!("expected three finite numbers x,y,z (e.g. 0,1.5,-4), found {s:?}")),
+    }
+}
+
+/// A point: as in a scene file, each coordinate within ±MAX_COORDINATE.
+fn parse_point(s: &str) -> Result<Vec3, String> {
+    let v = parse_vec3(s)?;
+    match v.to_array().into_iter().find(|c| c.abs() > MAX_COORDINATE) {
+        Some(c) => Err(format!("coordinates must be between -{MAX_COORDINATE:e} and {MAX_COORDINATE:e}, found {c:e}")),
+        None => Ok(v),
+    }
+}
+
+/// A direction: as a scene file's `up`, three finite numbers.
+fn parse_direction(s: &str) -> Result<Vec3, String> {
+    parse_vec3(s)
+}
+
+/// A vertical field of view: as in a scene file, 0 < fov < 180 degrees.
+fn parse_fov(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v < 180.0 => Ok(v),
+        _ => Err(format!("expected a field of view in degrees between 0 and 180 (exclusive), found {s:?}")),
+    }
+}
+
+/// The camera parts given on the command line.
+pub(super) fn camera_override(args: &RenderArgs) -> CameraOverride {
+    CameraOverride { position: args.camera_position, look_at: args.look_at, up: args.up, fov: args.fov }
+}
+
+fn parse_exposure(s: &str) -> Result<f32, String> {
+    let v: f32 = s.trim().parse().map_err(|_| format!("expected a number of stops (e.g. 1.5 or -2), found {s:?}"))?;
+    check_exposure(v)
+}
+
+/// The look of 8-bit output: the command line, then the scene file, then the default.
+pub(super) fn look(args: &RenderArgs, scene: &Scene) -> Look {
+    Look {
+        exposure: args.exposure.or(scene.render.exposure).unwrap_or(0.0),
+        tonemap: args.tonemap.or(scene.render.tonemap).unwrap_or_default(),
+    }
 }
 
 /// The shard `--shard` asks for: `K/N`, or K (and N) from the job engine's environment.
@@ -161,6 +239,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         specialize: !args.no_specialize,
         target_error: args.target_error,
         aux: s.aux || args.denoise || args.aux,
+        filter: args.filter.unwrap_or(s.filter),
         sampler: args.sampler.unwrap_or(s.sampler),
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
     })

@@ -19,8 +19,12 @@ use crate::scene::Scene;
 use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 
+/// Why a scene without light renders black, and what to do about it.
+pub(super) const UNLIT: &str =
+    "nothing in the scene emits light: the image will be black; add a light, an emissive material or a [background]";
+
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    // An image format, or None for a shard file.
+    // A shard file holds the linear sums for `ember merge`; an image has its format.
     let format = if args.shard.is_some() {
         if !args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("shard")) {
             anyhow::bail!(
@@ -50,7 +54,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     interrupt::install_handler();
     let embree = args.accel == crate::accel::AccelKind::Embree;
     let budget = LoadBudget::for_render(limit, embree, args.width, args.height);
-    let scene = Scene::load_within(&args.scene, &budget)?;
+    let mut scene = Scene::load_within(&args.scene, &budget)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -63,15 +67,38 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     // The library is loaded before rendering: a render is not spent on a denoise that fails.
     let denoiser = if args::denoise(&args, &scene) { Some(crate::oidn::Denoiser::new()?) } else { None };
+    scene
+        .override_camera(&args::camera_override(&args), settings.width as f32 / settings.height as f32)
+        .map_err(|e| anyhow::anyhow!("{}: {e} (--camera-position, --look-at)", args.scene.display()))?;
+    let look = args::look(&args, &scene);
+    if format != Some(ImageFormat::Png) && !look.is_default() {
+        eprintln!(
+            "note: exposure {} and tone curve {} apply to 8-bit output only; {} is linear, unscaled radiance",
+            look.exposure,
+            look.tonemap,
+            args.output.display()
+        );
+    }
     let checkpoint = checkpoint_path(&args.output);
     refuse_overwriting_inputs(
         &scene,
         &[(&args.output, "the image"), (&checkpoint, "the checkpoint"), (&lock_path(&args.output), "the lock file")],
     )?;
+    let plan = RenderPlan::new(&scene, &settings);
+    if !plan.effects.lit {
+        // Said before anything is rendered or written, on its own line.
+        if args.strict {
+            anyhow::bail!(
+                "{}: {UNLIT}; --strict refuses a black image, so {} was not written",
+                args.scene.display(),
+                args.output.display()
+            );
+        }
+        eprintln!("warning: {}: {UNLIT}", args.scene.display());
+    }
     // Held until this function returns, whichever way; removes OUT.lock then.
     let _lock = OutputLock::acquire(&args.output)?;
     let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
-    let plan = RenderPlan::new(&scene, &settings);
     let resume = if args.resume {
         // Checked against this render before anything is read: size, scene, settings,
         // accelerator, contents.
@@ -170,7 +197,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 normal: normal.as_ref(),
                 sample_count: counts.as_deref(),
             };
-            images.save(&args.output)?;
+            images.save_with(&args.output, &look)?;
         }
     }
     // Only a regular file: a folder or a link someone put there is not ours to remove.
