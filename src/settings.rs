@@ -170,6 +170,10 @@ pub struct RenderSettings {
     /// error of its mean falls below this (see [`crate::film::PixelState::relative_error`]);
     /// `spp` is then the most any pixel gets.
     pub target_error: Option<f32>,
+    /// Also accumulate the auxiliary images a denoiser uses: the albedo and shading normal of
+    /// the first non-specular surface each camera path reaches (`--denoise`, `--aux`). They
+    /// never change the image: the path and its random numbers are the same either way.
+    pub aux: bool,
     /// Where a pixel's samples land: the pixel reconstruction filter, sampled.
     pub filter: crate::film::PixelFilter,
     /// Render only this part of the image (`None`: all of it).
@@ -189,6 +193,7 @@ impl RenderSettings {
             max_depth: r.max_depth.unwrap_or(d.max_depth),
             rr_depth: r.rr_depth.unwrap_or(d.rr_depth),
             seed: r.seed.unwrap_or(d.seed),
+            aux: r.denoise.unwrap_or(d.aux),
             filter: r.filter.unwrap_or(d.filter),
             sampler: r.sampler.unwrap_or(d.sampler),
             ..d
@@ -216,6 +221,7 @@ impl Default for RenderSettings {
             estimator: Estimator::NeeMis,
             specialize: true,
             target_error: None,
+            aux: false,
             filter: crate::film::PixelFilter::Box,
             shard: None,
             sampler: SamplerKind::default(),
@@ -232,6 +238,8 @@ pub struct RenderDefaults {
     pub max_depth: Option<u32>,
     pub rr_depth: Option<RrDepth>,
     pub seed: Option<u64>,
+    /// Denoise the image (which needs the auxiliary images).
+    pub denoise: Option<bool>,
     /// The look of 8-bit output (not a render setting: the image rendered is the same).
     pub exposure: Option<f32>,
     pub tonemap: Option<crate::film::Tonemap>,

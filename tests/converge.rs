@@ -176,22 +176,43 @@ fn cli_writes_table_plots_and_a_reusable_reference() {
     let scene = common::scene_path("cornell-area.toml");
     let out = common::fresh_path("converge", "run");
     let small = ["--width", "16", "--height", "12", "--max-spp", "4", "--reference-spp", "16"];
-    let variants = ["--variants", "nee-mis,bsdf-uniform/no-rr,nee-mis/depth=1"];
+    let variants = ["--variants", "nee-mis,bsdf-uniform/no-rr,nee-mis/depth=1,nee-mis/denoise"];
     let o = ember(&[&["converge", s(&scene), "--out", s(&out)][..], &small, &variants].concat());
     assert!(o.status.success(), "{}", stderr(&o));
 
     let csv = std::fs::read_to_string(out.join("converge.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines[0], CSV_HEADER);
-    assert_eq!(lines.len(), 1 + 3 * 3, "{csv}"); // 3 variants × (1, 2, 4 spp)
+    assert_eq!(lines.len(), 1 + 4 * 3, "{csv}"); // 4 variants × (1, 2, 4 spp)
     assert!(lines[1].starts_with("nee-mis,nee-mis,true,64,1,1,"), "{}", lines[1]);
     assert!(lines[4].starts_with("bsdf-uniform/no-rr,bsdf-uniform,false,64,1,1,"), "{}", lines[4]);
     assert!(lines[9].starts_with("nee-mis/depth=1,nee-mis,true,1,4,1,"), "{}", lines[9]);
+    assert!(lines[10].starts_with("nee-mis/denoise=prefilter,nee-mis,true,64,1,1,"), "{}", lines[10]);
     for l in &lines[1..] {
-        let f: Vec<f64> = l.split(',').skip(6).map(|x| x.parse().unwrap()).collect();
+        // seconds, rays, rel_mse, mae, nonfinite | denoise | denoise_seconds, flip
+        let cells: Vec<&str> = l.split(',').collect();
+        let f: Vec<f64> = cells[6..11].iter().chain(&cells[12..]).map(|x| x.parse().unwrap()).collect();
         assert!(f.iter().all(|x| x.is_finite() && *x >= 0.0) && f[2] > 0.0, "{l}");
+        let (denoised, flip) = (cells[11] != "none", f[6]);
+        assert_eq!(cells[11], if l.starts_with("nee-mis/denoise") { "prefilter" } else { "none" }, "{l}");
+        // FLIP is in (0, 1]; a denoised variant's time includes its denoising time.
+        assert!(flip > 0.0 && flip <= 1.0, "{l}");
+        assert_eq!(f[5] > 0.0, denoised, "{l}");
+        assert!(f[0] >= f[5], "{l}");
     }
-    for png in ["error_vs_spp.png", "error_vs_time.png", "depth_error_vs_spp.png", "depth_error_vs_time.png"] {
+    // The denoised variant renders what nee-mis renders, then denoises: closer at every spp.
+    for (n, d) in lines[1..4].iter().zip(&lines[10..13]) {
+        let rel = |l: &str| l.split(',').nth(8).unwrap().parse::<f64>().unwrap();
+        assert!(rel(d) < rel(n), "{n}\n{d}");
+    }
+    for png in [
+        "error_vs_spp.png",
+        "error_vs_time.png",
+        "flip_vs_spp.png",
+        "flip_vs_time.png",
+        "depth_error_vs_spp.png",
+        "depth_error_vs_time.png",
+    ] {
         let img = image::open(out.join(png)).unwrap();
         assert_eq!((img.width(), img.height()), (900, 600), "{png}");
     }
@@ -200,6 +221,11 @@ fn cli_writes_table_plots_and_a_reusable_reference() {
     let table = String::from_utf8_lossy(&o.stdout);
     assert!(table.contains("time to reach relMSE 0.01"), "{table}");
     assert!(table.contains("not reached within 4 spp"), "{table}");
+    assert!(table.contains("time to reach FLIP 0.05"), "{table}");
+    let row = |name: &str| table.lines().find(|l| l.starts_with(&format!("{name} "))).unwrap().to_string();
+    assert!(row("nee-mis").ends_with(" unbiased"), "{table}");
+    assert!(row("nee-mis/depth=1").ends_with(" biased: depth limit"), "{table}");
+    assert!(row("nee-mis/denoise=prefilter").ends_with(" biased: denoised"), "{table}");
     // No temporary files left behind.
     let mut names: Vec<String> =
         std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
@@ -212,6 +238,8 @@ fn cli_writes_table_plots_and_a_reusable_reference() {
             "depth_error_vs_time.png",
             "error_vs_spp.png",
             "error_vs_time.png",
+            "flip_vs_spp.png",
+            "flip_vs_time.png",
             "reference.exr"
         ]
     );

@@ -1,5 +1,6 @@
 //! The checkpoint loader, fed arbitrary bytes as the checkpoint of a small render. The first
-//! byte chooses the render (bits 1-2) and whether the checksum at the end of the rest is
+//! byte chooses the render (bits 1-2), whether it takes the auxiliary images (bit 3: the
+//! checkpoint then holds their sums) and whether the checksum at the end of the rest is
 //! recomputed first (bit 0), as someone forging a checkpoint would: without that almost every
 //! input would stop at the checksum. Loading must return `Ok` or `Err`, never panic, and what
 //! it accepts must fit the render and write back to the same bytes.
@@ -15,8 +16,10 @@ fn key(choice: u8) -> CheckpointKey {
         1 => (1, 1, 1),
         _ => (2, 3, 1024),
     };
-    let settings = format!("width={width} height={height} spp={spp} seed=1");
-    CheckpointKey { scene: 42, settings, width, height, spp }
+    let aux = choice & 4 != 0;
+    let settings =
+        format!("width={width} height={height} spp={spp} seed=1{}", if aux { " aux=albedo+normal" } else { "" });
+    CheckpointKey { scene: 42, settings, width, height, spp, aux }
 }
 
 fuzz_target!(|data: &[u8]| {
@@ -35,6 +38,7 @@ fuzz_target!(|data: &[u8]| {
         for p in &a.pixels {
             assert!(p.count <= key.spp && p.sum.is_finite() && p.sum_lum_sq.is_finite() && p.sum_lum_sq >= 0.0);
         }
+        assert_eq!(a.aux.as_ref().map(Vec::len), key.aux.then_some(a.pixels.len()));
         assert_eq!(c.to_bytes(), bytes);
     }
 });

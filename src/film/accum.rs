@@ -52,6 +52,35 @@ impl PixelState {
     }
 }
 
+/// The sums of a pixel's auxiliary samples (for a denoiser): the albedo and the shading normal
+/// of the first non-specular surface each sample's camera path reached. They have one sample
+/// per sample of the pixel's [`PixelState`] (its `count`), added in the same order.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AuxSums {
+    /// Sum of the albedos, each in [0, 1].
+    pub albedo: DVec3,
+    /// Sum of the unit shading normals (zero where the path found no surface).
+    pub normal: DVec3,
+}
+
+impl AuxSums {
+    #[inline]
+    pub fn add(&mut self, albedo: Vec3, normal: Vec3) {
+        self.albedo += albedo.as_dvec3();
+        self.normal += normal.as_dvec3();
+    }
+
+    /// The mean albedo and normal over `count` samples (zero without samples). The mean
+    /// normal is not renormalised: it stays in [-1, 1], as OIDN asks.
+    pub fn mean(&self, count: u32) -> (Vec3, Vec3) {
+        if count == 0 {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        let n = count as f64;
+        ((self.albedo / n).as_vec3(), (self.normal / n).as_vec3())
+    }
+}
+
 /// Accumulated samples of a whole image.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Accumulator {
@@ -59,11 +88,42 @@ pub struct Accumulator {
     pub height: u32,
     /// Row-major, top row first.
     pub pixels: Vec<PixelState>,
+    /// The auxiliary images' sums, pixel by pixel as `pixels`, when the render takes them
+    /// ([`crate::integrator::RenderSettings::aux`]).
+    pub aux: Option<Vec<AuxSums>>,
 }
 
 impl Accumulator {
     pub fn new(width: u32, height: u32) -> Accumulator {
-        Accumulator { width, height, pixels: vec![PixelState::default(); width as usize * height as usize] }
+        Accumulator { width, height, pixels: vec![PixelState::default(); width as usize * height as usize], aux: None }
+    }
+
+    /// An empty accumulator that also takes the auxiliary images.
+    pub fn with_aux(width: u32, height: u32) -> Accumulator {
+        let n = width as usize * height as usize;
+        Accumulator { aux: Some(vec![AuxSums::default(); n]), ..Accumulator::new(width, height) }
+    }
+
+    /// The mean albedo image, if the auxiliary images were taken.
+    pub fn albedo(&self) -> Option<Film> {
+        self.aux_film(|a, n| a.mean(n).0)
+    }
+
+    /// The mean shading-normal image (world space, components in [-1, 1]), if the auxiliary
+    /// images were taken.
+    pub fn normal(&self) -> Option<Film> {
+        self.aux_film(|a, n| a.mean(n).1)
+    }
+
+    fn aux_film(&self, f: impl Fn(&AuxSums, u32) -> Vec3) -> Option<Film> {
+        let aux = self.aux.as_ref()?;
+        let pixels = aux.iter().zip(&self.pixels).map(|(a, p)| f(a, p.count)).collect();
+        Some(Film { width: self.width, height: self.height, pixels })
+    }
+
+    /// Samples taken by each pixel, row-major.
+    pub fn sample_counts(&self) -> Vec<u32> {
+        self.pixels.iter().map(|p| p.count).collect()
     }
 
     /// The image: each pixel's mean.

@@ -12,9 +12,11 @@
 //!
 //! Layout: `EMBERCK\x01`, scene (u64), settings length (u32) and text, non-finite samples
 //! (u64), elapsed nanoseconds (u64), width and height (u32), then per pixel its count (u32)
-//! and sums r, g, b and of squared luminance (f64), and the FNV-1a hash of all that (u64).
+//! and sums r, g, b and of squared luminance (f64) — followed, in a render that takes the
+//! auxiliary images (its settings then hold `aux=albedo+normal`), by the sums of its albedo
+//! r, g, b and normal x, y, z (f64) — and the FNV-1a hash of all that (u64).
 
-use super::accum::{Accumulator, PixelState};
+use super::accum::{Accumulator, AuxSums, PixelState};
 use crate::hash::Fnv1a;
 use glam::DVec3;
 use std::io::{Read, Write};
@@ -24,6 +26,8 @@ use std::time::Duration;
 const MAGIC: &[u8; 8] = b"EMBERCK\x01";
 /// Bytes of a pixel: count (u32) and four f64 sums.
 pub(super) const PIXEL_BYTES: u64 = 36;
+/// Bytes of a pixel's auxiliary sums, when the render takes them: six f64 (albedo, normal).
+const AUX_BYTES: u64 = 48;
 /// Magic, scene and settings length: what comes before the settings text.
 const PREFIX_BYTES: u64 = 8 + 8 + 4;
 /// Non-finite count, elapsed time, width and height: between the settings and the pixels.
@@ -57,6 +61,8 @@ pub struct CheckpointKey {
     pub height: u32,
     /// The most samples any pixel takes.
     pub spp: u32,
+    /// Whether the render takes the auxiliary images (and its checkpoint holds their sums).
+    pub aux: bool,
 }
 
 impl CheckpointKey {
@@ -65,8 +71,13 @@ impl CheckpointKey {
         PREFIX_BYTES
             + self.settings.len() as u64
             + FIELDS_BYTES
-            + self.width as u64 * self.height as u64 * PIXEL_BYTES
+            + self.width as u64 * self.height as u64 * self.pixel_bytes()
             + CHECKSUM_BYTES
+    }
+
+    /// The bytes of one pixel's record.
+    fn pixel_bytes(&self) -> u64 {
+        PIXEL_BYTES + if self.aux { AUX_BYTES } else { 0 }
     }
 }
 
@@ -119,6 +130,7 @@ impl Checkpoint {
             width: self.accum.width,
             height: self.accum.height,
             spp,
+            aux: self.accum.aux.is_some(),
         }
     }
 
@@ -133,8 +145,14 @@ impl Checkpoint {
         w.write_all(&(self.elapsed.as_nanos().min(u64::MAX as u128) as u64).to_le_bytes())?;
         w.write_all(&self.accum.width.to_le_bytes())?;
         w.write_all(&self.accum.height.to_le_bytes())?;
-        for p in &self.accum.pixels {
+        for (i, p) in self.accum.pixels.iter().enumerate() {
             w.write_all(&encode_pixel(p))?;
+            if let Some(aux) = &self.accum.aux {
+                let a = aux[i];
+                for x in [a.albedo.x, a.albedo.y, a.albedo.z, a.normal.x, a.normal.y, a.normal.z] {
+                    w.write_all(&x.to_le_bytes())?;
+                }
+            }
         }
         let sum = w.hash.finish();
         w.inner.write_all(&sum.to_le_bytes())?;
@@ -232,14 +250,24 @@ impl Checkpoint {
             // Same size, other layout: say what the header claims.
             return Err(header.mismatch(path, key).unwrap_or_else(|| corrupt("damaged header".into())));
         }
-        let mut accum = Accumulator::new(header.width, header.height);
-        let mut chunk = vec![0u8; 4096 * PIXEL_BYTES as usize];
-        for pixels in accum.pixels.chunks_mut(4096) {
-            let bytes = &mut chunk[..pixels.len() * PIXEL_BYTES as usize];
+        let mut accum = if key.aux {
+            Accumulator::with_aux(header.width, header.height)
+        } else {
+            Accumulator::new(header.width, header.height)
+        };
+        let record = key.pixel_bytes() as usize;
+        let mut chunk = vec![0u8; 4096 * record];
+        for (c, pixels) in accum.pixels.chunks_mut(4096).enumerate() {
+            let bytes = &mut chunk[..pixels.len() * record];
             r.read_exact(bytes).map_err(io)?;
             hash.write(bytes);
-            for (p, b) in pixels.iter_mut().zip(bytes.chunks_exact(PIXEL_BYTES as usize)) {
+            for (j, (p, b)) in pixels.iter_mut().zip(bytes.chunks_exact(record)).enumerate() {
                 *p = decode_pixel(b);
+                if let Some(aux) = &mut accum.aux {
+                    let f = |i: usize| f64::from_le_bytes(b[4 + 8 * i..12 + 8 * i].try_into().unwrap());
+                    aux[c * 4096 + j] =
+                        AuxSums { albedo: DVec3::new(f(4), f(5), f(6)), normal: DVec3::new(f(7), f(8), f(9)) };
+                }
             }
         }
         let mut tail = [0u8; CHECKSUM_BYTES as usize];
@@ -262,7 +290,8 @@ impl Checkpoint {
     /// the error names every setting that differs) and that its contents could have come from
     /// it: every sum finite, the sums of squares not negative, no pixel with more than
     /// `key.spp` samples, none without samples but with sums, no more non-finite samples than
-    /// samples.
+    /// samples; and, with auxiliary sums, that there are as many as pixels, each albedo sum
+    /// within [0, count] and each normal sum within [−count, count].
     pub fn check_matches(&self, path: &Path, key: &CheckpointKey) -> Result<(), CheckpointError> {
         if self.scene != key.scene {
             return Err(CheckpointError::OtherScene(path.to_path_buf()));
@@ -284,9 +313,24 @@ impl Checkpoint {
         if a.pixels.len() as u64 != a.width as u64 * a.height as u64 {
             return Err(corrupt(format!("{} pixels for a {}x{} image", a.pixels.len(), a.width, a.height)));
         }
+        match (&a.aux, key.aux) {
+            (Some(aux), true) if aux.len() == a.pixels.len() => {}
+            (Some(aux), true) => {
+                return Err(corrupt(format!("{} auxiliary sums for {} pixels", aux.len(), a.pixels.len())));
+            }
+            (None, false) => {}
+            (had, _) => {
+                let (was, now) = if had.is_some() { ("with", "without") } else { ("without", "with") };
+                return Err(corrupt(format!(
+                    "it was saved {was} the auxiliary images (albedo, normal), this render takes them {now}"
+                )));
+            }
+        }
         let mut samples = 0u64;
         for (i, p) in a.pixels.iter().enumerate() {
-            if let Some(why) = pixel_problem(p, key.spp) {
+            let problem = pixel_problem(p, key.spp);
+            let problem = problem.or_else(|| a.aux.as_ref().and_then(|aux| check_aux(&aux[i], p.count).err()));
+            if let Some(why) = problem {
                 let (x, y) = (i % a.width as usize, i / a.width as usize);
                 return Err(corrupt(format!("pixel ({x}, {y}): {why}")));
             }
@@ -297,6 +341,22 @@ impl Checkpoint {
         }
         Ok(())
     }
+}
+
+/// Whether a pixel's auxiliary sums could come from `count` samples: finite, each albedo in
+/// [0, 1] and each normal component in [−1, 1] (with room for rounding in the sums).
+fn check_aux(a: &AuxSums, count: u32) -> Result<(), String> {
+    let n = count as f64 * (1.0 + 1e-9);
+    if !(a.albedo.is_finite() && a.normal.is_finite()) {
+        return Err(format!("its auxiliary sums are not finite (albedo {}, normal {})", a.albedo, a.normal));
+    }
+    if a.albedo.min_element() < 0.0 || a.albedo.max_element() > n {
+        return Err(format!("the sum of its albedos {} is outside [0, {count}]", a.albedo));
+    }
+    if a.normal.abs().max_element() > n {
+        return Err(format!("the sum of its normals {} is outside [-{count}, {count}]", a.normal));
+    }
+    Ok(())
 }
 
 /// A pixel's state as stored: its count (u32) and sums r, g, b and of squared luminance (f64),
@@ -577,6 +637,53 @@ mod tests {
         );
         // The sample itself is fine.
         assert_eq!(Checkpoint::from_bytes(&sample().to_bytes(), Path::new("x"), &key()).unwrap(), sample());
+    }
+
+    /// [`sample`] with auxiliary sums (albedo 0.5, normal +Z per sample).
+    fn sample_with_aux() -> Checkpoint {
+        let mut c = sample();
+        c.settings.push_str(" aux=albedo+normal");
+        let aux = c.accum.pixels.iter().map(|p| {
+            let mut a = AuxSums::default();
+            for _ in 0..p.count {
+                a.add(Vec3::splat(0.5), Vec3::Z);
+            }
+            a
+        });
+        c.accum.aux = Some(aux.collect());
+        c
+    }
+
+    #[test]
+    fn auxiliary_sums_round_trip_and_are_checked() {
+        let c = sample_with_aux();
+        let key = c.key(16);
+        assert!(key.aux);
+        let bytes = c.to_bytes();
+        assert_eq!(bytes.len() as u64, key.file_size());
+        assert_eq!(key.file_size(), sample().key(16).file_size() + " aux=albedo+normal".len() as u64 + 6 * 48);
+        let p = Path::new("x.checkpoint");
+        assert_eq!(Checkpoint::from_bytes(&bytes, p, &key).unwrap(), c);
+        let refused_aux = |f: fn(&mut AuxSums)| {
+            let mut c = sample_with_aux();
+            f(&mut c.accum.aux.as_mut().unwrap()[4]);
+            Checkpoint::from_bytes(&c.to_bytes(), p, &key).unwrap_err().to_string()
+        };
+        let e = refused_aux(|a| a.albedo.x = f64::NAN);
+        assert!(e.contains("pixel (1, 1): its auxiliary sums are not finite"), "{e}");
+        let e = refused_aux(|a| a.albedo.y = 5.0);
+        assert!(e.contains("pixel (1, 1): the sum of its albedos [2, 5, 2] is outside [0, 4]"), "{e}");
+        let e = refused_aux(|a| a.albedo.z = -0.5);
+        assert!(e.contains("is outside [0, 4]"), "{e}");
+        let e = refused_aux(|a| a.normal.x = -4.5);
+        assert!(e.contains("the sum of its normals [-4.5, 0, 4] is outside [-4, 4]"), "{e}");
+        // With and without aux: the settings say which, and so does the size.
+        let e = Checkpoint::from_bytes(&bytes, p, &sample().key(16)).unwrap_err().to_string();
+        assert!(e.ends_with("different settings: aux=albedo+normal in the checkpoint, (absent) now"), "{e}");
+        let mut no_aux = sample_with_aux();
+        no_aux.accum.aux = None;
+        let e = no_aux.check_matches(p, &key).unwrap_err().to_string();
+        assert!(e.contains("saved without the auxiliary images"), "{e}");
     }
 
     #[test]

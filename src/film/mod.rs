@@ -1,15 +1,23 @@
 //! The film: per-pixel radiance, and its output as PNG (8-bit sRGB) or OpenEXR (linear float),
-//! written atomically (temporary file in the same folder, then rename).
+//! written atomically (temporary file in the same folder, then rename); with a denoised image
+//! or auxiliary images, an EXR holds them all as layers (`layers.rs`).
 
 mod accum;
 mod checkpoint;
+mod denoise;
 mod filter;
+mod layers;
 mod look;
 pub mod shard;
 
-pub use accum::{Accumulator, PixelState, RELATIVE_ERROR_FLOOR};
+pub use accum::{Accumulator, AuxSums, PixelState, RELATIVE_ERROR_FLOOR};
 pub use checkpoint::{Checkpoint, CheckpointError, CheckpointKey, checkpoint_path};
+pub use denoise::{AuxMode, denoise};
 pub use filter::{GAUSSIAN_RADIUS, GAUSSIAN_SIGMA, PixelFilter};
+pub use layers::{
+    ALBEDO_LAYER, MAIN_LAYER, NOISY_LAYER, NORMAL_LAYER, RenderImages, SAMPLE_COUNT_CHANNEL, exr_channel_names,
+    read_exr_channel,
+};
 pub use look::{Look, MAX_EXPOSURE, Tonemap, check_exposure};
 
 use glam::Vec3;

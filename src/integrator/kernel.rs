@@ -28,6 +28,7 @@
 //! is known (zero emission, constant colours, a Lambertian BSDF) and random numbers are drawn
 //! identically in both.
 
+use super::aux::{AuxSample, aux_sample};
 use super::path::{PathContext, radiance};
 use crate::accel::{Accel, AccelError, LANES};
 use crate::geometry::Ray;
@@ -101,9 +102,17 @@ impl fmt::Display for KernelChoice {
 }
 
 /// Samples `samples` (at most [`LANES`], within one group of `LANES` aligned on sample
-/// index 0) of pixel (x, y), written to `out[..samples.len()]`; `rays` counts the rays traced.
-pub(crate) type SampleFn =
-    fn(&PathContext, u32, u32, Range<u32>, &mut [Vec3; LANES], &mut u64) -> Result<(), AccelError>;
+/// index 0) of pixel (x, y), written to `out[..samples.len()]`, and their auxiliary samples to
+/// `aux[..samples.len()]` if given; `rays` counts the rays traced.
+pub(crate) type SampleFn = fn(
+    &PathContext,
+    u32,
+    u32,
+    Range<u32>,
+    &mut [Vec3; LANES],
+    Option<&mut [AuxSample; LANES]>,
+    &mut u64,
+) -> Result<(), AccelError>;
 
 /// The samples of a pixel go together: their camera rays are coherent (one origin, directions
 /// within the pixel), so they are traced as one packet; each path then continues alone. Every
@@ -114,6 +123,7 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     y: u32,
     samples: Range<u32>,
     out: &mut [Vec3; LANES],
+    aux: Option<&mut [AuxSample; LANES]>,
     rays: &mut u64,
 ) -> Result<(), AccelError> {
     let (w, h) = (ctx.settings.width, ctx.settings.height);
@@ -141,14 +151,33 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
         *ray = if LENS { cam.ray(film, lens) } else { Ray::new(cam.position, cam.pinhole_dir(film)) };
     }
     let active: [bool; LANES] = std::array::from_fn(|i| i < n);
+    let first = (pixel, samples.start as u64);
     match ctx.accel.as_embree() {
-        Some(embree) => {
-            trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, embree, &camera_rays, active, &mut rngs, out, rays)
-        }
-        None => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, ctx.accel, &camera_rays, active, &mut rngs, out, rays),
+        Some(embree) => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
+            ctx,
+            embree,
+            &camera_rays,
+            active,
+            &mut rngs,
+            out,
+            aux.map(|a| (a, first)),
+            rays,
+        ),
+        None => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
+            ctx,
+            ctx.accel,
+            &camera_rays,
+            active,
+            &mut rngs,
+            out,
+            aux.map(|a| (a, first)),
+            rays,
+        ),
     }
 }
 
+// The packet's state and the kernel's switches: grouping them would only rename them.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const HIT_LIGHTS: bool>(
     ctx: &PathContext,
@@ -157,12 +186,20 @@ fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     active: [bool; LANES],
     rngs: &mut [SampleStream; LANES],
     out: &mut [Vec3; LANES],
+    aux: Option<(&mut [AuxSample; LANES], (u64, u64))>,
     rays: &mut u64,
 ) -> Result<(), AccelError> {
     let hits = accel.intersect_packet_deferred(camera_rays, active, 0.0, f32::INFINITY);
     for i in (0..LANES).filter(|&i| active[i]) {
         *rays += 1;
         out[i] = radiance::<A, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, accel, camera_rays[i], hits[i], &mut rngs[i], rays);
+    }
+    // Beside the paths, from the same camera rays and first hits (see `super::aux`).
+    if let Some((aux, (pixel, first_sample))) = aux {
+        for i in (0..LANES).filter(|&i| active[i]) {
+            let sample = first_sample + i as u64;
+            aux[i] = aux_sample::<A, TEX, GLOSSY, GLASS>(ctx, accel, camera_rays[i], hits[i], pixel, sample, rays);
+        }
     }
     // Queries report errors (a panicked user-geometry callback) once per packet of paths.
     accel.deferred_error()

@@ -2,6 +2,7 @@
 //! numbers from a stream keyed by (seed, pixel, sample index), so the image is bit-identical
 //! whatever the thread count or tile order.
 
+mod aux;
 mod kernel;
 mod path;
 mod plan;
@@ -9,6 +10,7 @@ mod progressive;
 pub mod roulette;
 mod surface;
 
+pub use aux::AuxSample;
 pub use kernel::KernelChoice;
 pub use plan::RenderPlan;
 pub use progressive::{Progress, RenderControl, RenderResult, tile_order};

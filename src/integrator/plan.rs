@@ -64,14 +64,19 @@ impl RenderPlan {
     /// roulette start in force and
     /// the accelerator with its build options (`accel`: [`crate::accel::Accel::image_key`]);
     /// the thread count and kernel choice do not change the image — and, for a shard, which
-    /// one. A checkpoint records this and resumes only against the same.
+    /// one. A render that takes the auxiliary images adds `aux=albedo+normal` (not an image
+    /// setting, but its checkpoint holds their sums too). A checkpoint records this and resumes
+    /// only against the same.
     pub fn checkpoint_key(&self, scene_fingerprint: u64, accel: &str) -> CheckpointKey {
         let s = &self.settings;
         let mut settings = self.image_key(accel);
         if let Some(shard) = s.shard {
             settings += &format!(" shard={shard}");
         }
-        CheckpointKey { scene: scene_fingerprint, settings, width: s.width, height: s.height, spp: s.spp }
+        if s.aux {
+            settings.push_str(" aux=albedo+normal");
+        }
+        CheckpointKey { scene: scene_fingerprint, settings, width: s.width, height: s.height, spp: s.spp, aux: s.aux }
     }
 
     /// The settings that change the image (all but the shard), as `key=value` words; `accel`

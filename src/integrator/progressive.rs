@@ -12,6 +12,7 @@
 //! whether or not the render was interrupted and resumed: work stops only at pixel boundaries
 //! (a pixel finishes the samples of its round), and each pixel's state is saved exactly.
 
+use super::aux::AuxSample;
 use super::path::PathContext;
 use super::surface::FaceNormals;
 use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
@@ -142,6 +143,7 @@ pub(super) fn run(
             c.check_matches(path, key())?;
             (c.accum, c.elapsed, c.nonfinite)
         }
+        None if settings.aux => (Accumulator::with_aux(w, h), Duration::ZERO, 0),
         None => (Accumulator::new(w, h), Duration::ZERO, 0),
     };
     let camera = scene.camera(w as f32 / h as f32);
@@ -161,9 +163,9 @@ pub(super) fn run(
         };
         RenderResult { accum, stats, complete, warnings }
     };
-    if plan.traces_nothing() {
+    if plan.traces_nothing() && !settings.aux {
         // Nothing emits: every path carries zero radiance, so none is traced; each pixel's
-        // samples are all exactly zero.
+        // samples are all exactly zero. (The auxiliary images need the paths traced.)
         for (i, p) in accum.pixels.iter_mut().enumerate() {
             if !owned(i) {
                 continue;
@@ -234,6 +236,7 @@ pub(super) fn run(
             let mut rays = 0u64;
             let mut taken = 0u64;
             let mut values = [glam::Vec3::ZERO; LANES];
+            let mut aux_values = [AuxSample::default(); LANES];
             'pixels: for y in y0..y1 {
                 for x in x0..x1 {
                     if stop_requested() {
@@ -242,7 +245,10 @@ pub(super) fn run(
                     }
                     let i = (y * w + x) as usize;
                     // During a round, a pixel belongs to the one task rendering its tile.
-                    let mut p = shared.lock().unwrap_or_else(|e| e.into_inner()).pixels[i];
+                    let (mut p, mut pa) = {
+                        let a = shared.lock().unwrap_or_else(|e| e.into_inner());
+                        (a.pixels[i], a.aux.as_ref().map(|aux| aux[i]))
+                    };
                     let Some(target) = round_target(settings, round, &p) else { continue };
                     let mut pixel_bad = 0;
                     let mut s = p.count;
@@ -251,7 +257,8 @@ pub(super) fn run(
                         // Samples go in groups of LANES aligned on sample 0, whatever the
                         // rounds: a sample's packet mates never depend on when it is taken.
                         let end = target.min((s / LANES as u32 + 1) * LANES as u32);
-                        sample(&ctx, x, y, s..end, &mut values, &mut rays).map_err(RenderError::from)?;
+                        let aux_out = pa.is_some().then_some(&mut aux_values);
+                        sample(&ctx, x, y, s..end, &mut values, aux_out, &mut rays).map_err(RenderError::from)?;
                         for &v in &values[..(end - s) as usize] {
                             if v.is_finite() {
                                 p.add(v);
@@ -260,10 +267,20 @@ pub(super) fn run(
                                 p.add(glam::Vec3::ZERO);
                             }
                         }
+                        if let Some(pa) = &mut pa {
+                            // In sample order, like the radiance: the same sums whatever the
+                            // threads, rounds or sessions.
+                            for a in &aux_values[..(end - s) as usize] {
+                                pa.add(a.albedo, a.normal);
+                            }
+                        }
                         s = end;
                     }
                     let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
                     a.pixels[i] = p;
+                    if let (Some(aux), Some(pa)) = (&mut a.aux, pa) {
+                        aux[i] = pa;
+                    }
                     // Counted under the lock, so a checkpoint's count matches its pixels.
                     let total_bad = nonfinite.fetch_add(pixel_bad, Ordering::Relaxed) + pixel_bad;
                     // A periodic checkpoint that cannot be written (a full disk) does not stop

@@ -322,6 +322,23 @@ impl Bsdf {
     pub fn is_transmissive(&self) -> bool {
         matches!(self, Bsdf::Dielectric { .. })
     }
+
+    /// The albedo a denoiser is given for this surface (Open Image Denoise's guidance: the
+    /// surface's colour independent of lighting and view, in [0, 1]): a diffuse colour; a
+    /// metal's reflectance at normal incidence (its colour); plastic's coating reflectance at
+    /// normal incidence (4 %) plus its base colour times what passes the coating; 1 for glass
+    /// (used only where a path ends on it: renders follow glass and mirrors to the surface
+    /// seen through them).
+    #[inline]
+    pub fn denoise_albedo(&self) -> Vec3 {
+        match *self {
+            Bsdf::Diffuse { albedo } => albedo,
+            Bsdf::Conductor { color, .. } => color,
+            Bsdf::Plastic { diffuse, .. } => Vec3::splat(plastic::COATING_F0) + (1.0 - plastic::COATING_F0) * diffuse,
+            Bsdf::Dielectric { .. } => Vec3::ONE,
+        }
+        .clamp(Vec3::ZERO, Vec3::ONE)
+    }
 }
 
 /// True if both directions are strictly above the surface (the domain of opaque BSDFs).

@@ -112,7 +112,7 @@ impl Plastic {
 }
 
 /// Reflectance at normal incidence of the coating (IOR 1.5).
-const COATING_F0: f32 = 0.04;
+pub(super) const COATING_F0: f32 = 0.04;
 
 /// Glossy plastic: a base of colour `color` under a coating of roughness `roughness` (scene
 /// files: `type = "plastic"`).

@@ -253,6 +253,8 @@ pub struct RenderSection {
     pub max_depth: Option<u32>,
     pub rr_depth: Option<RrDepthValue>,
     pub seed: Option<u64>,
+    /// Denoise the image with Open Image Denoise (as `--denoise`).
+    pub denoise: Option<bool>,
     /// Stops of exposure for 8-bit output.
     pub exposure: Option<Exposure>,
     /// The tone curve of 8-bit output.

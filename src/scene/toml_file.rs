@@ -271,6 +271,7 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
         max_depth: r.max_depth,
         rr_depth: r.rr_depth.map(|v| v.0),
         seed: r.seed,
+        denoise: r.denoise,
         exposure: r.exposure.map(|e| e.0),
         tonemap: r.tonemap.map(|t| t.0),
         filter: r.filter.map(|f| f.0),

@@ -37,9 +37,12 @@ pub struct ConvergeArgs {
     /// Samples per pixel of the rendered reference [16 × --max-spp].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub reference_spp: Option<u32>,
-    /// Comma-separated variants: groups estimators, no-rr, depth, all, or single variants
-    /// ESTIMATOR[/no-rr][/depth=D][/env-uniform] with ESTIMATOR one of nee-mis, nee, bsdf,
-    /// bsdf-uniform (/env-uniform: an environment image sampled uniformly, not by luminance).
+    /// Comma-separated variants: groups estimators, no-rr, depth, denoise (NEE+MIS and its
+    /// denoised variants: Open Image Denoise given colour only, or albedo and normal noisy,
+    /// prefiltered or clean), all (the four), or single variants
+    /// ESTIMATOR[/no-rr][/depth=D][/env-uniform][/denoise[=color|noisy|prefilter|clean]] with
+    /// ESTIMATOR one of nee-mis, nee, bsdf, bsdf-uniform (/env-uniform: an environment image
+    /// sampled uniformly, not by luminance).
     #[arg(long, default_value = "all")]
     pub variants: String,
     /// Full depth: bounce limit of the reference and of every variant without /depth=D.
@@ -54,6 +57,9 @@ pub struct ConvergeArgs {
     /// Target relMSE for the "time to reach" table.
     #[arg(long, default_value_t = 0.01)]
     pub target: f64,
+    /// Target mean FLIP error (perceptual, 0 to 1) for the "time to reach" table.
+    #[arg(long, default_value_t = 0.05)]
+    pub target_flip: f64,
     /// Random seed [scene's render.seed, else 0].
     #[arg(long)]
     pub seed: Option<u64>,
@@ -69,7 +75,25 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     if !(args.target > 0.0 && args.target.is_finite()) {
         anyhow::bail!("--target: expected a positive number, found {}", args.target);
     }
-    let variants = parse_variants(&args.variants, args.max_depth).map_err(|e| anyhow::anyhow!("--variants: {e}"))?;
+    if !(args.target_flip > 0.0 && args.target_flip <= 1.0) {
+        anyhow::bail!("--target-flip: expected a number in (0, 1], found {}", args.target_flip);
+    }
+    let mut variants =
+        parse_variants(&args.variants, args.max_depth).map_err(|e| anyhow::anyhow!("--variants: {e}"))?;
+    if variants.iter().any(|v| v.denoise.is_some()) {
+        // Before anything is rendered. Without the library, the default `all` runs the
+        // variants that need none; denoised variants asked for by name fail, saying how to
+        // install it.
+        if let Err(e) = crate::oidn::Denoiser::new() {
+            if args.variants != "all" {
+                anyhow::bail!(
+                    "{e}\n(the denoised variants need it; --variants estimators,no-rr,depth runs without it)"
+                );
+            }
+            eprintln!("warning: the denoised variants are left out: {e}");
+            variants.retain(|v| v.denoise.is_none());
+        }
+    }
     let scene = Scene::load(&args.scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
@@ -140,13 +164,15 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
         let secs: f64 = points.iter().map(|m| m.seconds).sum::<f64>() * study.repeats as f64;
         let (first, last) = (&points[0], &points[points.len() - 1]);
         eprintln!(
-            "{:<28} {:>4}..{} spp in {:>6.1} s: relMSE {:.3e} -> {:.3e}",
+            "{:<28} {:>4}..{} spp in {:>6.1} s: relMSE {:.3e} -> {:.3e}, FLIP {:.4} -> {:.4}",
             v.name(),
             first.spp,
             last.spp,
             secs,
             first.error.rel_mse,
-            last.error.rel_mse
+            last.error.rel_mse,
+            first.error.flip,
+            last.error.flip
         );
         all.extend(points.iter().cloned());
         per_variant.push(points);
@@ -154,9 +180,9 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
 
     let csv = args.out.join("converge.csv");
     write_file(&csv, to_csv(&all, study.max_depth, study.repeats).as_bytes())?;
-    let plots = write_plots(&args.out, &all, study.max_depth, args.target)?;
+    let plots = write_plots(&args.out, &all, study.max_depth, args.target, args.target_flip)?;
 
-    print!("{}", time_to_reach_table(&per_variant, largest, args.target));
+    print!("{}", time_to_reach_table(&per_variant, largest, args.target, args.target_flip));
     let files: Vec<String> = std::iter::once(&csv).chain(&plots).map(|p| p.display().to_string()).collect();
     eprintln!("wrote {}", files.join(", "));
     Ok(())

@@ -32,9 +32,10 @@ pub enum Command {
     /// Measure intersection strategies and the path tracer against Embree alone (with
     /// --specialize: the specialised kernels against the general one).
     Bench(bench::BenchArgs),
-    /// Measure error against a high-spp reference at 1, 2, 4, … spp for several estimator
-    /// variants: converge.csv, plots of error against spp and against time, and a table of the
-    /// time each variant takes to reach a target relMSE.
+    /// Measure error (relMSE and FLIP) against a high-spp reference at 1, 2, 4, … spp for
+    /// several estimator variants, noisy and denoised: converge.csv, plots of error against spp
+    /// and against time, and a table of the time each variant takes to reach a target relMSE
+    /// and FLIP, saying which variants are biased.
     Converge(converge::ConvergeArgs),
     /// Run the hard-case suite (numerical robustness) and print a table; exit code 1 if a
     /// case fails.

@@ -1,6 +1,7 @@
 //! What a study's points say: how fast the error falls (the slope of log error against log
 //! spp) and when a variant first reaches a target relMSE.
 
+use super::metrics::ImageDifference;
 use super::study::ConvergencePoint;
 
 /// Where a variant first reaches a target relMSE.
@@ -18,7 +19,16 @@ pub enum TimeToReach {
 /// first measured point at or below it and the one before are joined by a straight line in
 /// log(error) against log(spp) and log(seconds).
 pub fn time_to_reach(points: &[ConvergencePoint], target: f64) -> TimeToReach {
-    let Some(i) = points.iter().position(|m| m.error.rel_mse <= target) else {
+    time_to_reach_by(points, target, |e| e.rel_mse)
+}
+
+/// [`time_to_reach`] by another measure of the error (e.g. `|e| e.flip`).
+pub fn time_to_reach_by(
+    points: &[ConvergencePoint],
+    target: f64,
+    metric: impl Fn(&ImageDifference) -> f64,
+) -> TimeToReach {
+    let Some(i) = points.iter().position(|m| metric(&m.error) <= target) else {
         return TimeToReach::NotReached { max_spp: points.last().map_or(0, |m| m.spp) };
     };
     let b = &points[i];
@@ -26,10 +36,11 @@ pub fn time_to_reach(points: &[ConvergencePoint], target: f64) -> TimeToReach {
         return TimeToReach::AtFirst { spp: b.spp, seconds: b.seconds };
     }
     let a = &points[i - 1];
-    if b.error.rel_mse <= 0.0 || a.seconds <= 0.0 || b.seconds <= 0.0 {
+    let (ea, eb) = (metric(&a.error), metric(&b.error));
+    if eb <= 0.0 || ea <= eb || a.seconds <= 0.0 || b.seconds <= 0.0 {
         return TimeToReach::Interpolated { spp: b.spp as f64, seconds: b.seconds };
     }
-    let f = (target.ln() - a.error.rel_mse.ln()) / (b.error.rel_mse.ln() - a.error.rel_mse.ln());
+    let f = (target.ln() - ea.ln()) / (eb.ln() - ea.ln());
     let lerp = |x0: f64, x1: f64| (x0.ln() + f * (x1.ln() - x0.ln())).exp();
     TimeToReach::Interpolated { spp: lerp(a.spp as f64, b.spp as f64), seconds: lerp(a.seconds, b.seconds) }
 }

@@ -12,7 +12,9 @@ mod metrics;
 mod study;
 mod variant;
 
-pub use analysis::{TimeToReach, log_log_slope, time_to_reach};
-pub use metrics::{ImageDifference, REL_MSE_EPSILON, SizeMismatch, image_difference};
+pub use analysis::{TimeToReach, log_log_slope, time_to_reach, time_to_reach_by};
+pub use metrics::{
+    FLIP_PIXELS_PER_DEGREE, ImageDifference, REL_MSE_EPSILON, SizeMismatch, flip_error, image_difference,
+};
 pub use study::{ConvergeError, ConvergencePoint, ProgressFn, Study, spp_ladder};
 pub use variant::{DEPTH_GROUP, Variant, parse_variants};

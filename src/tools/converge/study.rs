@@ -6,16 +6,21 @@
 //! shares random numbers with the reference (a render whose samples were a prefix of the
 //! reference's would look more accurate than it is). All variants use the same seed at the
 //! same rung (common random numbers), which makes their curves easier to compare.
+//!
+//! A denoised variant renders as its noisy twin does (taking the auxiliary images changes no
+//! random number, so its noisy image is the twin's, bit for bit), then denoises; its time is
+//! the render's plus the denoiser's.
 
 use super::metrics::{ImageDifference, SizeMismatch, image_difference};
 use super::variant::Variant;
 use crate::accel::Accel;
-use crate::film::Film;
+use crate::film::{Accumulator, AuxMode, Film};
 use crate::integrator::{
     Estimator, Progress, RenderControl, RenderError, RenderPlan, RenderSettings, RenderStats, RrDepth,
     render_controlled,
 };
 use crate::light::{Background, Light};
+use crate::oidn::{DenoiseError, Denoiser};
 use crate::sampler::mix64;
 use crate::scene::Scene;
 use std::borrow::Cow;
@@ -69,8 +74,11 @@ pub struct Study {
 pub struct ConvergencePoint {
     pub variant: Variant,
     pub spp: u32,
-    /// Mean render time ([`RenderStats::elapsed`]: the render only, not the BVH build).
+    /// Mean time to the image: the render ([`RenderStats::elapsed`], not the BVH build) and,
+    /// for a denoised variant, the denoiser (`denoise_seconds`).
     pub seconds: f64,
+    /// Of `seconds`, the mean time the denoiser took (0 for a noisy variant).
+    pub denoise_seconds: f64,
     /// Mean rays traced per render.
     pub rays: f64,
     /// Mean error against the reference.
@@ -88,8 +96,9 @@ impl ConvergencePoint {
             variant: Variant::new(Estimator::NeeMis),
             spp,
             seconds,
+            denoise_seconds: 0.0,
             rays: 0.0,
-            error: ImageDifference { rel_mse, mae: 0.0 },
+            error: ImageDifference { rel_mse, mae: 0.0, flip: 0.0 },
             nonfinite: 0,
         }
     }
@@ -106,6 +115,8 @@ pub enum ConvergeError {
     Render(#[from] RenderError),
     #[error(transparent)]
     Size(#[from] SizeMismatch),
+    #[error(transparent)]
+    Denoise(#[from] DenoiseError),
 }
 
 impl Study {
@@ -120,6 +131,7 @@ impl Study {
             seed,
             threads: self.threads,
             estimator: variant.estimator,
+            aux: matches!(variant.denoise, Some(AuxMode::With(_))),
             sampler: variant.sampler.unwrap_or_default(),
             ..RenderSettings::default()
         }
@@ -146,7 +158,9 @@ impl Study {
     ) -> Result<(Film, RenderStats), RenderError> {
         let planned = self.width as u64 * self.height as u64 * spp as u64;
         let done = Done { samples: 0, rays: 0, planned, since: Instant::now() };
-        render_reporting(scene, accel, &self.reference_settings(spp), progress.map(|p| (p, done)))
+        let (accum, stats) =
+            render_reporting(scene, accel, &self.reference_settings(spp), progress.map(|p| (p, done)))?;
+        Ok((accum.film(), stats))
     }
 
     /// Refuses a reference (read from `path`) that does not fit the study: another size, or a
@@ -168,7 +182,8 @@ impl Study {
 
     /// Renders `variant` at every rung of the ladder and measures it against `reference`;
     /// `on_point` sees each point as it is measured, `progress` the progress of all the
-    /// variant's renders together.
+    /// variant's renders together. A denoised variant loads Open Image Denoise (and fails with
+    /// [`ConvergeError::Denoise`] without it).
     pub fn measure(
         &self,
         scene: &Scene,
@@ -179,6 +194,10 @@ impl Study {
         progress: Option<ProgressFn>,
     ) -> Result<Vec<ConvergencePoint>, ConvergeError> {
         let repeats = self.repeats.max(1);
+        let denoiser = match variant.denoise {
+            Some(_) => Some(Denoiser::new()?),
+            None => None,
+        };
         let pixels = self.width as u64 * self.height as u64;
         let planned = self.ladder.iter().map(|&spp| spp as u64 * pixels * repeats as u64).sum();
         let mut done = Done { samples: 0, rays: 0, planned, since: Instant::now() };
@@ -189,25 +208,37 @@ impl Study {
                 variant,
                 spp,
                 seconds: 0.0,
+                denoise_seconds: 0.0,
                 rays: 0.0,
                 error: ImageDifference::default(),
                 nonfinite: 0,
             };
             for repeat in 0..repeats {
                 let settings = self.settings(&variant, spp, self.render_seed(rung, repeat));
-                let (film, stats) = render_reporting(&scene, accel, &settings, progress.map(|p| (p, done)))?;
+                let (accum, stats) = render_reporting(&scene, accel, &settings, progress.map(|p| (p, done)))?;
                 done.samples += stats.samples;
                 done.rays += stats.rays;
+                let film = match (&denoiser, variant.denoise) {
+                    (Some(d), Some(mode)) => {
+                        let start = std::time::Instant::now();
+                        let film = crate::film::denoise(d, &accum, mode)?;
+                        m.denoise_seconds += start.elapsed().as_secs_f64();
+                        film
+                    }
+                    _ => accum.film(),
+                };
                 let e = image_difference(&film, reference)?;
                 m.seconds += stats.elapsed.as_secs_f64();
                 m.rays += stats.rays as f64;
                 m.error.rel_mse += e.rel_mse;
                 m.error.mae += e.mae;
+                m.error.flip += e.flip;
                 m.nonfinite += stats.nonfinite;
             }
             let r = repeats as f64;
-            (m.seconds, m.rays, m.error.rel_mse, m.error.mae) =
-                (m.seconds / r, m.rays / r, m.error.rel_mse / r, m.error.mae / r);
+            m.seconds += m.denoise_seconds;
+            (m.seconds, m.denoise_seconds, m.rays) = (m.seconds / r, m.denoise_seconds / r, m.rays / r);
+            (m.error.rel_mse, m.error.mae, m.error.flip) = (m.error.rel_mse / r, m.error.mae / r, m.error.flip / r);
             on_point(&m);
             out.push(m);
         }
@@ -216,13 +247,14 @@ impl Study {
 }
 
 /// Renders `scene` with `settings`, reporting progress (offset by the renders `Done` before
-/// it) to the function given, if any.
+/// it) to the function given, if any; returns the accumulated samples (with the auxiliary
+/// images if the settings take them).
 fn render_reporting(
     scene: &Scene,
     accel: &dyn Accel,
     settings: &RenderSettings,
     progress: Option<(ProgressFn, Done)>,
-) -> Result<(Film, RenderStats), RenderError> {
+) -> Result<(Accumulator, RenderStats), RenderError> {
     let report = |p: Progress| {
         if let Some((report, done)) = progress {
             report(Progress {
@@ -241,7 +273,7 @@ fn render_reporting(
         ..RenderControl::default()
     };
     let r = render_controlled(scene, accel, &RenderPlan::new(scene, settings), control)?;
-    Ok((r.accum.film(), r.stats))
+    Ok((r.accum, r.stats))
 }
 
 /// The scene `variant` renders: `scene` itself, or for `/env-uniform` a copy whose

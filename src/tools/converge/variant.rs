@@ -1,7 +1,8 @@
 //! The estimator variants a study compares, and the syntax that names them
-//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform]` and the groups
-//! `estimators`, `no-rr`, `depth`, `samplers`, `all`).
+//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/denoise[=MODE]]` and the
+//! groups `estimators`, `no-rr`, `depth`, `samplers`, `denoise`, `all`).
 
+use crate::film::AuxMode;
 use crate::integrator::Estimator;
 use crate::sampler::SamplerKind;
 
@@ -22,16 +23,27 @@ pub struct Variant {
     pub uniform_environment: bool,
     /// Where samples get their numbers; `None`: the default sampler.
     pub sampler: Option<SamplerKind>,
+    /// Denoised with Open Image Denoise, given the auxiliary images as this says; `None`: the
+    /// render's own (noisy) estimate.
+    pub denoise: Option<AuxMode>,
 }
 
 impl Variant {
     pub const fn new(estimator: Estimator) -> Variant {
-        Variant { estimator, russian_roulette: true, max_depth: None, sampler: None, uniform_environment: false }
+        Variant {
+            estimator,
+            russian_roulette: true,
+            max_depth: None,
+            sampler: None,
+            uniform_environment: false,
+            denoise: None,
+        }
     }
 
-    /// `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform]`, e.g. `nee-mis`, `bsdf/no-rr`,
-    /// `nee-mis/depth=3`, `nee-mis/sobol`, `nee-mis/env-uniform`; the same syntax is accepted by
-    /// [`parse_variants`].
+    /// `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform][/denoise=MODE]`, e.g. `nee-mis`,
+    /// `bsdf/no-rr`, `nee-mis/depth=3`, `nee-mis/sobol`, `nee-mis/env-uniform`,
+    /// `nee-mis/denoise=prefilter`; the same syntax is accepted by [`parse_variants`] (where
+    /// `/denoise` alone is the default mode).
     pub fn name(&self) -> String {
         let mut s = self.estimator.name().to_string();
         if !self.russian_roulette {
@@ -46,7 +58,21 @@ impl Variant {
         if self.uniform_environment {
             s.push_str("/env-uniform");
         }
+        if let Some(m) = self.denoise {
+            s.push_str(&format!("/denoise={m}"));
+        }
         s
+    }
+
+    /// Why its images do not converge to the reference, if they do not: a depth limit cuts
+    /// light off, a denoiser smooths (its error stops falling as 1/spp and keeps a bias).
+    pub fn bias(&self) -> Option<&'static str> {
+        match (self.max_depth, self.denoise) {
+            (Some(_), Some(_)) => Some("biased: depth limit, denoised"),
+            (Some(_), None) => Some("biased: depth limit"),
+            (None, Some(_)) => Some("biased: denoised"),
+            (None, None) => None,
+        }
     }
 }
 
@@ -65,9 +91,13 @@ impl std::str::FromStr for Variant {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
             } else if let Ok(k) = part.parse::<SamplerKind>() {
                 v.sampler = Some(k);
+            } else if part == "denoise" {
+                v.denoise = Some(AuxMode::DEFAULT);
+            } else if let Some(m) = part.strip_prefix("denoise=") {
+                v.denoise = Some(m.parse().map_err(|e| format!("variant {s:?}: {e}"))?);
             } else {
                 return Err(format!(
-                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent or env-uniform)"
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, env-uniform, denoise or denoise=MODE)"
                 ));
             }
         }
@@ -80,8 +110,11 @@ impl std::str::FromStr for Variant {
 /// - `no-rr`: the four estimators at full depth without Russian roulette;
 /// - `depth`: NEE+MIS with Russian roulette at each depth of [`DEPTH_GROUP`] below `full_depth`;
 /// - `samplers`: NEE+MIS with each sampler;
-/// - `all`: the three groups above `samplers`;
-/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform]` (see [`Variant::name`]).
+/// - `denoise`: NEE+MIS, and NEE+MIS denoised in each [`AuxMode`] (colour only; albedo and
+///   normal noisy, prefiltered, clean);
+/// - `all`: `estimators`, `no-rr`, `depth` and `denoise`;
+/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform][/denoise[=MODE]]`
+///   (see [`Variant::name`]).
 ///
 /// Duplicates are dropped; the order is kept.
 pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, String> {
@@ -100,7 +133,11 @@ pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, Strin
                 .into_iter()
                 .map(|k| Variant { sampler: Some(k), ..Variant::new(Estimator::NeeMis) })
                 .collect(),
-            "all" => parse_variants("estimators,no-rr,depth", full_depth)?,
+            "denoise" => std::iter::once(None)
+                .chain(AuxMode::ALL.into_iter().map(Some))
+                .map(|denoise| Variant { denoise, ..Variant::new(Estimator::NeeMis) })
+                .collect(),
+            "all" => parse_variants("estimators,no-rr,depth,denoise", full_depth)?,
             "" => return Err("empty variant in the list".into()),
             spec => vec![spec.parse()?],
         };
@@ -130,13 +167,21 @@ mod tests {
                 russian_roulette: false,
                 max_depth: Some(3),
                 sampler: None,
-                uniform_environment: false
+                uniform_environment: false,
+                denoise: None
             }
         );
         let v: Variant = "nee-mis/sobol".parse().unwrap();
         assert_eq!(v.sampler, Some(SamplerKind::Sobol));
         assert_eq!(v.name(), "nee-mis/sobol");
         assert_eq!(parse_variants("samplers", 64).unwrap().len(), 2);
+        let v: Variant = "nee-mis/denoise".parse().unwrap();
+        assert_eq!(v.name(), "nee-mis/denoise=prefilter");
+        assert_eq!(v.bias(), Some("biased: denoised"));
+        assert_eq!("nee-mis/denoise=color".parse::<Variant>().unwrap().denoise, Some(AuxMode::ColorOnly));
+        assert!("nee-mis/denoise=fast".parse::<Variant>().unwrap_err().contains("unknown auxiliary mode"));
+        let v: Variant = "nee-mis/independent/denoise=clean".parse().unwrap();
+        assert_eq!(v.name().parse::<Variant>().unwrap(), v);
         let v: Variant = "nee-mis/env-uniform".parse().unwrap();
         assert_eq!(v, Variant { uniform_environment: true, ..Variant::new(Estimator::NeeMis) });
         assert_eq!(v.name(), "nee-mis/env-uniform");
@@ -147,7 +192,8 @@ mod tests {
     #[test]
     fn groups_expand_and_duplicates_are_dropped() {
         let all = parse_variants("all", 64).unwrap();
-        assert_eq!(all.len(), 4 + 4 + 10);
+        assert_eq!(all.len(), 4 + 4 + 10 + 4);
+        assert_eq!(parse_variants("denoise", 64).unwrap().len(), 5);
         assert_eq!(parse_variants("nee-mis,estimators,nee-mis", 64).unwrap().len(), 4);
         // Depths at or beyond the full depth are not in the group.
         assert_eq!(parse_variants("depth", 4).unwrap().len(), 3);

@@ -2,7 +2,7 @@
 
 use crate::accel::AccelKind;
 use crate::embree::BuildQuality;
-use crate::film::{Look, PixelFilter, Tonemap, check_exposure};
+use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
 use crate::scene::{CameraOverride, Scene};
 use crate::settings::{Estimator, RenderSettings, RrDepth, SamplerKind, Shard};
@@ -53,8 +53,26 @@ pub struct RenderArgs {
     pub no_robust: bool,
     /// Adaptive sampling: stop sampling a pixel once its estimated relative error is below
     /// this (e.g. 0.01); --spp is then the most a pixel gets [scene's render.spp, else 1024].
+    /// With --denoise, sampling stops on the noisy image's estimated error: that image meets
+    /// the target (its estimate of it), and the denoised one is made from it, with no error
+    /// bound of its own (it is usually closer, but biased).
     #[arg(long, value_parser = parse_target_error)]
     pub target_error: Option<f32>,
+    /// Denoise the image with Intel Open Image Denoise, given the albedo and normal of the first
+    /// non-specular surface each path reaches [scene's render.denoise, else off]. A PNG gets
+    /// the denoised image; an EXR gets it as its main layer, with the noisy image, albedo,
+    /// normal and sample count as layers.
+    #[arg(long)]
+    pub denoise: bool,
+    /// How the denoiser uses the albedo and normal images: prefilter (denoised first, OIDN's
+    /// advice for final frames), noisy (as they are), clean (as noise-free), or color (not
+    /// given: colour only).
+    #[arg(long, default_value = "prefilter")]
+    pub denoise_aux: AuxMode,
+    /// Write the albedo, normal and sample count layers to an .exr output without denoising
+    /// (for a denoiser or compositor later).
+    #[arg(long)]
+    pub aux: bool,
     /// Continue the interrupted render whose checkpoint is next to the output
     /// (<output>.checkpoint); scene and settings must be the same.
     #[arg(long)]
@@ -197,6 +215,11 @@ fn parse_target_error(s: &str) -> Result<f32, String> {
     }
 }
 
+/// Whether the render is denoised: `--denoise`, or the scene's `[render] denoise = true`.
+pub(super) fn denoise(args: &RenderArgs, scene: &Scene) -> bool {
+    args.denoise || scene.render.denoise == Some(true)
+}
+
 /// Settings from the command line, then the scene file, then built-in defaults.
 pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<RenderSettings> {
     let s = RenderSettings::from_scene(&scene.render);
@@ -215,6 +238,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         estimator: args.estimator,
         specialize: !args.no_specialize,
         target_error: args.target_error,
+        aux: s.aux || args.denoise || args.aux,
         filter: args.filter.unwrap_or(s.filter),
         sampler: args.sampler.unwrap_or(s.sampler),
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,

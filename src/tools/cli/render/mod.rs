@@ -11,7 +11,7 @@ pub use interrupt::Interrupted;
 use super::progress::ProgressBar;
 use crate::embree::BuildOptions;
 use crate::film::shard::ShardHeader;
-use crate::film::{Checkpoint, ImageFormat, checkpoint_path};
+use crate::film::{Checkpoint, ImageFormat, RenderImages, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
 use crate::memory::{LoadBudget, MemoryLimit};
 use crate::output_lock::{OutputLock, lock_path};
@@ -32,10 +32,21 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 args.output.display()
             );
         }
+        if args.denoise || args.aux {
+            anyhow::bail!(
+                "--shard cannot be combined with --denoise or --aux: shard files hold no albedo or normal images, and a shard is not a whole image to denoise"
+            );
+        }
         None
     } else {
         Some(ImageFormat::from_path(&args.output)?)
     };
+    if args.aux && format != Some(ImageFormat::Exr) {
+        anyhow::bail!(
+            "{}: --aux writes the albedo, normal and sample count as EXR layers; a PNG cannot hold them (use .exr)",
+            args.output.display()
+        );
+    }
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
     crate::atomic_write::check_writable(&args.output)?;
     // From here a signal stops the render cleanly (or, before it starts, ends ember without
@@ -48,6 +59,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     let settings = args::settings(&args, &scene)?;
+    if settings.shard.is_some() && settings.aux {
+        anyhow::bail!(
+            "{}: the scene asks for denoising ([render] denoise = true), which --shard cannot do (a shard file holds no albedo or normal images)",
+            args.scene.display()
+        );
+    }
+    // The library is loaded before rendering: a render is not spent on a denoise that fails.
+    let denoiser = if args::denoise(&args, &scene) { Some(crate::oidn::Denoiser::new()?) } else { None };
     scene
         .override_camera(&args::camera_override(&args), settings.width as f32 / settings.height as f32)
         .map_err(|e| anyhow::anyhow!("{}: {e} (--camera-position, --look-at)", args.scene.display()))?;
@@ -148,6 +167,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
+    let mut denoised = None;
     match settings.shard {
         Some(shard) => {
             let header = ShardHeader {
@@ -162,7 +182,23 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             };
             crate::film::shard::save(&args.output, &header, &result.accum)?;
         }
-        None => film.save_with(&args.output, &look)?,
+        None => {
+            let (albedo, normal) = (result.accum.albedo(), result.accum.normal());
+            let counts = result.accum.aux.is_some().then(|| result.accum.sample_counts());
+            if let Some(d) = &denoiser {
+                let start = std::time::Instant::now();
+                let image = crate::film::denoise(d, &result.accum, args.denoise_aux)?;
+                denoised = Some((image, start.elapsed()));
+            }
+            let images = RenderImages {
+                image: &film,
+                denoised: denoised.as_ref().map(|(f, _)| f),
+                albedo: albedo.as_ref(),
+                normal: normal.as_ref(),
+                sample_count: counts.as_deref(),
+            };
+            images.save_with(&args.output, &look)?;
+        }
     }
     // Only a regular file: a folder or a link someone put there is not ours to remove.
     if is_file(&checkpoint) {
@@ -174,6 +210,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         crate::accel::AccelKind::Naive => "naive accel".to_string(),
     };
     eprintln!("{}", summary::rendered(&stats, &accel_text, &args.output));
+    if let (Some((_, took)), Some(d), Some(format)) = (&denoised, &denoiser, format) {
+        eprintln!("{}", summary::denoised(*took, d, args.denoise_aux, format));
+    }
     eprintln!("{}", summary::error_estimate(&stats));
     Ok(())
 }

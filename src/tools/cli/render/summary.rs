@@ -29,11 +29,35 @@ pub(super) fn rendered(stats: &RenderStats, accel: &str, output: &Path) -> Strin
     )
 }
 
+/// `denoised in T s (Open Image Denoise 2.5.1, albedo + normal, prefiltered; the EXR's main
+/// layer, the noisy image in layer noisy)`
+pub(super) fn denoised(
+    took: std::time::Duration,
+    denoiser: &crate::oidn::Denoiser,
+    mode: crate::film::AuxMode,
+    format: crate::film::ImageFormat,
+) -> String {
+    let whereto = match format {
+        crate::film::ImageFormat::Png => "the PNG holds the denoised image",
+        crate::film::ImageFormat::Exr => "the EXR's main layer; the noisy image is layer noisy",
+    };
+    format!(
+        "denoised in {:.2} s (Open Image Denoise {}, {}; {whereto})",
+        took.as_secs_f64(),
+        denoiser.version(),
+        mode.describe()
+    )
+}
+
 /// `estimated relative error: mean M, max X` (with the target, if adaptive).
 pub(super) fn error_estimate(stats: &RenderStats) -> String {
     let settings = &stats.plan.settings;
     let (mean_err, max_err) = stats.error_estimate;
     match settings.target_error {
+        Some(e) if settings.aux => format!(
+            "estimated relative error of the noisy image: mean {mean_err:.4}, max {max_err:.4} (target {e}; pixels stop at {} spp at most)",
+            settings.spp
+        ),
         Some(e) => format!(
             "estimated relative error: mean {mean_err:.4}, max {max_err:.4} (target {e}; pixels stop at {} spp at most)",
             settings.spp
