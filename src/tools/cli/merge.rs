@@ -4,8 +4,9 @@
 //! another scene or other settings, or a damaged file is refused, naming the files, and
 //! nothing is written. Memory: one image's accumulator, the files read one at a time.
 
+use super::render::parse_exposure;
 use crate::film::shard::{ShardHeader, ShardReader, mismatch};
-use crate::film::{Accumulator, ImageFormat, Look, Tonemap, check_exposure};
+use crate::film::{Accumulator, ImageFormat, Look, Tonemap};
 use crate::memory::{self, MemoryLimit};
 use clap::Args;
 use std::path::PathBuf;
@@ -29,11 +30,6 @@ pub struct MergeArgs {
     /// Tone curve for PNG output, as `ember render --tonemap`: clamp, aces or neutral [clamp].
     #[arg(long)]
     pub tonemap: Option<Tonemap>,
-}
-
-fn parse_exposure(s: &str) -> Result<f32, String> {
-    let v: f32 = s.trim().parse().map_err(|_| format!("expected a number of stops (e.g. 1.5 or -2), found {s:?}"))?;
-    check_exposure(v)
 }
 
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {

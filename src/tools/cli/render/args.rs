@@ -166,7 +166,8 @@ pub(super) fn camera_override(args: &RenderArgs) -> CameraOverride {
     CameraOverride { position: args.camera_position, look_at: args.look_at, up: args.up, fov: args.fov }
 }
 
-fn parse_exposure(s: &str) -> Result<f32, String> {
+/// `--exposure` of `ember render` and `ember merge`: a number of stops in the allowed range.
+pub(crate) fn parse_exposure(s: &str) -> Result<f32, String> {
     let v: f32 = s.trim().parse().map_err(|_| format!("expected a number of stops (e.g. 1.5 or -2), found {s:?}"))?;
     check_exposure(v)
 }

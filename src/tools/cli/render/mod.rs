@@ -6,6 +6,7 @@ mod interrupt;
 mod summary;
 
 pub use args::RenderArgs;
+pub(crate) use args::parse_exposure;
 pub use interrupt::Interrupted;
 
 use super::progress::ProgressBar;
