@@ -50,17 +50,8 @@ fi
 
 [ "$(uname -m)" = x86_64 ] || die "the pyoidn wheel used here is for x86_64 Linux only (this is $(uname -m)); install Open Image Denoise 2.x from a release archive and set EMBER_OIDN_DIR to its lib folder"
 
-pip=()
-for py in python3 python; do
-  if command -v "$py" >/dev/null 2>&1 && "$py" -m pip --version >/dev/null 2>&1; then pip=("$py" -m pip); break; fi
-done
-if [ ${#pip[@]} -eq 0 ]; then
-  for p in pip3 pip; do
-    if command -v "$p" >/dev/null 2>&1; then pip=("$p"); break; fi
-  done
-fi
-[ ${#pip[@]} -gt 0 ] || die "pip was not found; install it (sudo apt-get install python3-pip) and run this again"
-command -v python3 >/dev/null 2>&1 || die "python3 was not found (needed to unpack the wheel); sudo apt-get install python3"
+# shellcheck source=find-pip.sh
+. "$(dirname "$0")/find-pip.sh"
 
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/fetch-oidn.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
