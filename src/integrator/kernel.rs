@@ -151,28 +151,14 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
         *ray = if LENS { cam.ray(film, lens) } else { Ray::new(cam.position, cam.pinhole_dir(film)) };
     }
     let active: [bool; LANES] = std::array::from_fn(|i| i < n);
-    let first = (pixel, samples.start as u64);
+    let aux = aux.map(|a| (a, (pixel, samples.start as u64)));
     match ctx.accel.as_embree() {
-        Some(embree) => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
-            ctx,
-            embree,
-            &camera_rays,
-            active,
-            &mut rngs,
-            out,
-            aux.map(|a| (a, first)),
-            rays,
-        ),
-        None => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
-            ctx,
-            ctx.accel,
-            &camera_rays,
-            active,
-            &mut rngs,
-            out,
-            aux.map(|a| (a, first)),
-            rays,
-        ),
+        Some(embree) => {
+            trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, embree, &camera_rays, active, &mut rngs, out, aux, rays)
+        }
+        None => {
+            trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, ctx.accel, &camera_rays, active, &mut rngs, out, aux, rays)
+        }
     }
 }
 
