@@ -135,7 +135,7 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     let streams = PixelSampler::new(ctx.settings.sampler, ctx.settings.seed, pixel);
     // Plain loops, not `array::from_fn`, whose per-element closure calls did not inline.
     let first = streams.sample(samples.start as u64);
-    let mut rngs: [SampleStream; LANES] = std::array::from_fn(|_| first.clone());
+    let mut rngs: [SampleStream<'_>; LANES] = std::array::from_fn(|_| first.clone());
     for (i, rng) in rngs.iter_mut().enumerate().take(n).skip(1) {
         *rng = streams.sample(samples.start as u64 + i as u64);
     }
@@ -170,7 +170,7 @@ fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     accel: &A,
     camera_rays: &[Ray; LANES],
     active: [bool; LANES],
-    rngs: &mut [SampleStream; LANES],
+    rngs: &mut [SampleStream<'_>; LANES],
     out: &mut [Vec3; LANES],
     aux: Option<(&mut [AuxSample; LANES], (u64, u64))>,
     rays: &mut u64,

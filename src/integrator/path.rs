@@ -53,7 +53,7 @@ pub(crate) fn radiance<
     accel: &A,
     mut ray: Ray,
     first: Option<Hit>,
-    rng: &mut SampleStream,
+    rng: &mut SampleStream<'_>,
     rays: &mut u64,
 ) -> Vec3 {
     let s = ctx.settings;
