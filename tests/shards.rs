@@ -92,6 +92,43 @@ fn merged_shards_are_the_whole_render_byte_for_byte() {
     }
 }
 
+/// Shards rendered with --aux keep the albedo and normal sums: merged, the EXR with its
+/// layers is a whole --aux render's, byte for byte; rendered with --denoise, the merge
+/// denoises and gives the whole --denoise render's EXR. Without the sums, --denoise at the
+/// merge is refused, and shards with and without them are not merged together.
+#[test]
+fn shards_with_aux_sums_merge_and_denoise_as_a_whole_render() {
+    let d = common::fresh_dir("shards", "aux");
+    let scene = common::scene_path("spheres.toml");
+    for flag in ["--aux", "--denoise"] {
+        let whole = d.join(format!("whole{flag}.exr"));
+        ok(&ember(&[&["render", s(&scene), "-o", s(&whole), flag][..], &SIZE].concat()));
+        let parts: Vec<PathBuf> = (0..3).map(|k| shard(&d, &scene, k, 3, &[flag])).collect();
+        let merged = d.join(format!("merged{flag}.exr"));
+        let o = merge(&parts, &merged);
+        ok(&o);
+        let said = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(said.lines().any(|l| l.starts_with("denoised in ")), flag == "--denoise", "{said}");
+        assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "{flag}: merged EXR differs");
+    }
+    // --aux shards denoised at the merge: the --denoise render's image.
+    let parts: Vec<PathBuf> = (0..2).map(|k| shard(&d, &scene, k, 2, &["--aux"])).collect();
+    let merged = d.join("merged-then-denoised.exr");
+    ok(&merge_with(&parts, &merged, &["--denoise"]));
+    assert!(std::fs::read(&merged).unwrap() == std::fs::read(d.join("whole--denoise.exr")).unwrap());
+    // Without the sums there is nothing to denoise with; and a mixed set is refused.
+    let plain_dir = d.join("plain");
+    std::fs::create_dir_all(&plain_dir).unwrap();
+    let plain: Vec<PathBuf> = (0..2).map(|k| shard(&plain_dir, &scene, k, 2, &[])).collect();
+    let out = d.join("refused.exr");
+    let o = merge_with(&plain, &out, &["--denoise"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("--denoise needs the albedo and normal sums"), "{e}");
+    assert!(!out.exists());
+    refused(&d, &[plain[0].clone(), parts[1].clone()], "rendered with --aux");
+}
+
 /// `ember merge PARTS -o out.png` fails with exit code 2, `needle` in its error, and writes
 /// nothing.
 fn refused(dir: &Path, parts: &[PathBuf], needle: &str) {

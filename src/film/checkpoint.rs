@@ -27,7 +27,7 @@ const MAGIC: &[u8; 8] = b"EMBERCK\x01";
 /// Bytes of a pixel: count (u32) and four f64 sums.
 pub(super) const PIXEL_BYTES: u64 = 36;
 /// Bytes of a pixel's auxiliary sums, when the render takes them: six f64 (albedo, normal).
-const AUX_BYTES: u64 = 48;
+pub(super) const AUX_BYTES: u64 = 48;
 /// Magic, scene and settings length: what comes before the settings text.
 const PREFIX_BYTES: u64 = 8 + 8 + 4;
 /// Non-finite count, elapsed time, width and height: between the settings and the pixels.
@@ -148,10 +148,7 @@ impl Checkpoint {
         for (i, p) in self.accum.pixels.iter().enumerate() {
             w.write_all(&encode_pixel(p))?;
             if let Some(aux) = &self.accum.aux {
-                let a = aux[i];
-                for x in [a.albedo.x, a.albedo.y, a.albedo.z, a.normal.x, a.normal.y, a.normal.z] {
-                    w.write_all(&x.to_le_bytes())?;
-                }
+                w.write_all(&encode_aux(&aux[i]))?;
             }
         }
         let sum = w.hash.finish();
@@ -264,9 +261,7 @@ impl Checkpoint {
             for (j, (p, b)) in pixels.iter_mut().zip(bytes.chunks_exact(record)).enumerate() {
                 *p = decode_pixel(b);
                 if let Some(aux) = &mut accum.aux {
-                    let f = |i: usize| f64::from_le_bytes(b[4 + 8 * i..12 + 8 * i].try_into().unwrap());
-                    aux[c * 4096 + j] =
-                        AuxSums { albedo: DVec3::new(f(4), f(5), f(6)), normal: DVec3::new(f(7), f(8), f(9)) };
+                    aux[c * 4096 + j] = decode_aux(&b[PIXEL_BYTES as usize..]);
                 }
             }
         }
@@ -345,7 +340,7 @@ impl Checkpoint {
 
 /// Whether a pixel's auxiliary sums could come from `count` samples: finite, each albedo in
 /// [0, 1] and each normal component in [−1, 1] (with room for rounding in the sums).
-fn check_aux(a: &AuxSums, count: u32) -> Result<(), String> {
+pub(super) fn check_aux(a: &AuxSums, count: u32) -> Result<(), String> {
     let n = count as f64 * (1.0 + 1e-9);
     if !(a.albedo.is_finite() && a.normal.is_finite()) {
         return Err(format!("its auxiliary sums are not finite (albedo {}, normal {})", a.albedo, a.normal));
@@ -361,6 +356,23 @@ fn check_aux(a: &AuxSums, count: u32) -> Result<(), String> {
 
 /// A pixel's state as stored: its count (u32) and sums r, g, b and of squared luminance (f64),
 /// little-endian.
+/// A pixel's auxiliary sums as stored: albedo then normal, six f64, little-endian.
+pub(super) fn encode_aux(a: &AuxSums) -> [u8; AUX_BYTES as usize] {
+    let mut b = [0u8; AUX_BYTES as usize];
+    for (chunk, x) in
+        b.chunks_exact_mut(8).zip([a.albedo.x, a.albedo.y, a.albedo.z, a.normal.x, a.normal.y, a.normal.z])
+    {
+        chunk.copy_from_slice(&x.to_le_bytes());
+    }
+    b
+}
+
+/// [`encode_aux`] read back from the first [`AUX_BYTES`] of `b`.
+pub(super) fn decode_aux(b: &[u8]) -> AuxSums {
+    let f = |i: usize| f64::from_le_bytes(b[8 * i..8 * i + 8].try_into().unwrap());
+    AuxSums { albedo: DVec3::new(f(0), f(1), f(2)), normal: DVec3::new(f(3), f(4), f(5)) }
+}
+
 pub(super) fn encode_pixel(p: &PixelState) -> [u8; PIXEL_BYTES as usize] {
     let mut b = [0u8; PIXEL_BYTES as usize];
     b[..4].copy_from_slice(&p.count.to_le_bytes());

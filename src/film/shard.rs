@@ -8,25 +8,38 @@
 //! missing shard. Its pixels are those [`Shard::pixels`] lists, in that order; the file is
 //! binary (little-endian), ends with a checksum and is written atomically.
 //!
-//! Layout: `EMBERSH\x01`, scene (u64), settings length (u32) and text, shard index and count,
-//! width, height and spp (u32 each), non-finite samples (u64), render nanoseconds (u64), then
-//! per pixel of the shard its count (u32) and sums r, g, b and of squared luminance (f64), and
-//! the FNV-1a hash of all that (u64). A file is read only if it is a regular file of exactly
-//! the size its header implies, and every pixel must be one the render could have produced.
+//! A shard rendered with `--aux` or `--denoise` also holds each pixel's albedo and normal sums,
+//! so that the merged image can be denoised (`ember merge --denoise`, or by default when the
+//! shards were rendered with `--denoise`): the flags say which.
+//!
+//! Layout: `EMBERSH\x02`, scene (u64), settings length (u32) and text, shard index and count,
+//! width, height and spp (u32 each), non-finite samples (u64), render nanoseconds (u64), flags
+//! (u32: 1 = auxiliary sums, 2 = denoising asked for), then per pixel of the shard its count
+//! (u32) and sums r, g, b and of squared luminance (f64), and with auxiliary sums those of the
+//! albedo and normal (six f64), and the FNV-1a hash of all that (u64). A file is read only if
+//! it is a regular file of exactly the size its header implies, and every pixel must be one
+//! the render could have produced.
 
 use super::accum::{Accumulator, PixelState};
-use super::checkpoint::{Hashing, PIXEL_BYTES, decode_pixel, encode_pixel, pixel_problem, words_diff};
+use super::checkpoint::{
+    AUX_BYTES, Hashing, PIXEL_BYTES, check_aux, decode_aux, decode_pixel, encode_aux, encode_pixel, pixel_problem,
+    words_diff,
+};
 use crate::hash::Fnv1a;
 use crate::settings::Shard;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-const MAGIC: &[u8; 8] = b"EMBERSH\x01";
+const MAGIC: &[u8; 8] = b"EMBERSH\x02";
+/// The first format's magic (no flags, no auxiliary sums), to name it when refused.
+const MAGIC_V1: &[u8; 8] = b"EMBERSH\x01";
 /// Magic, scene and settings length: before the settings text.
 const PREFIX_BYTES: u64 = 8 + 8 + 4;
-/// Shard index and count, width, height, spp, non-finite samples, nanoseconds.
-const FIELDS_BYTES: u64 = 5 * 4 + 8 + 8;
+/// Shard index and count, width, height, spp, non-finite samples, nanoseconds, flags.
+const FIELDS_BYTES: u64 = 5 * 4 + 8 + 8 + 4;
+const FLAG_AUX: u32 = 1;
+const FLAG_DENOISE: u32 = 2;
 const CHECKSUM_BYTES: u64 = 8;
 /// The longest settings text accepted.
 const MAX_SETTINGS: u64 = 64 * 1024;
@@ -47,6 +60,11 @@ pub struct ShardHeader {
     pub nonfinite: u64,
     /// Time the shard's render took (all its sessions).
     pub elapsed: Duration,
+    /// The file holds each pixel's auxiliary sums (albedo, normal): the render took them.
+    pub aux: bool,
+    /// The render was asked to denoise (`--denoise` or the scene's `denoise = true`), which is
+    /// the merge's to do; implies `aux`.
+    pub denoise: bool,
 }
 
 impl ShardHeader {
@@ -57,7 +75,16 @@ impl ShardHeader {
 
     /// The size in bytes of the shard file.
     pub fn file_size(&self) -> u64 {
-        PREFIX_BYTES + self.settings.len() as u64 + FIELDS_BYTES + self.pixel_count() * PIXEL_BYTES + CHECKSUM_BYTES
+        PREFIX_BYTES
+            + self.settings.len() as u64
+            + FIELDS_BYTES
+            + self.pixel_count() * self.pixel_bytes()
+            + CHECKSUM_BYTES
+    }
+
+    /// Bytes of one pixel's record.
+    fn pixel_bytes(&self) -> u64 {
+        PIXEL_BYTES + if self.aux { AUX_BYTES } else { 0 }
     }
 }
 
@@ -75,6 +102,8 @@ pub enum ShardError {
 /// image) to `path`, atomically.
 pub fn save(path: &Path, header: &ShardHeader, accum: &Accumulator) -> Result<(), ShardError> {
     assert_eq!((accum.width, accum.height), (header.width, header.height), "the accumulator is the image's");
+    assert_eq!(accum.aux.is_some(), header.aux, "the header says whether the render took auxiliary sums");
+    assert!(header.aux || !header.denoise, "denoising needs the auxiliary sums");
     crate::atomic_write::write_atomically(path, |file| {
         let mut out = std::io::BufWriter::new(file);
         write(&mut out, header, accum).map_err(|e| e.to_string())?;
@@ -94,8 +123,13 @@ fn write(out: impl Write, h: &ShardHeader, accum: &Accumulator) -> std::io::Resu
     }
     w.write_all(&h.nonfinite.to_le_bytes())?;
     w.write_all(&(h.elapsed.as_nanos().min(u64::MAX as u128) as u64).to_le_bytes())?;
+    let flags = if h.aux { FLAG_AUX } else { 0 } | if h.denoise { FLAG_DENOISE } else { 0 };
+    w.write_all(&flags.to_le_bytes())?;
     for i in h.shard.pixels(h.width, h.height) {
         w.write_all(&encode_pixel(&accum.pixels[i]))?;
+        if let Some(aux) = &accum.aux {
+            w.write_all(&encode_aux(&aux[i]))?;
+        }
     }
     let sum = w.hash.finish();
     w.inner.write_all(&sum.to_le_bytes())?;
@@ -141,6 +175,8 @@ impl ShardReader {
                 spp: 0,
                 nonfinite: 0,
                 elapsed: Duration::ZERO,
+                aux: false,
+                denoise: false,
             },
             reader: std::io::BufReader::with_capacity(1 << 16, file),
             hash: Fnv1a::default(),
@@ -149,6 +185,9 @@ impl ShardReader {
             return Err(corrupt(format!("{len} bytes: too short")));
         }
         let prefix = r.take(PREFIX_BYTES as usize)?;
+        if &prefix[..8] == MAGIC_V1 {
+            return Err(corrupt("a shard file of an earlier ember (format 1): render the shard again".into()));
+        }
         if &prefix[..8] != MAGIC {
             return Err(corrupt("wrong header: not written by `ember render --shard`".into()));
         }
@@ -179,7 +218,14 @@ impl ShardReader {
             spp,
             nonfinite: u64_at(20),
             elapsed: Duration::from_nanos(u64_at(28)),
+            aux: false,
+            denoise: false,
         };
+        let flags = u32_at(9);
+        if flags & !(FLAG_AUX | FLAG_DENOISE) != 0 || flags == FLAG_DENOISE {
+            return Err(corrupt(format!("unknown flags {flags:#x}")));
+        }
+        (r.header.aux, r.header.denoise) = (flags & FLAG_AUX != 0, flags & FLAG_DENOISE != 0);
         if len != r.header.file_size() {
             return Err(corrupt(format!(
                 "{len} bytes, but shard {} of a {width}x{height} image takes {}: truncated or damaged",
@@ -204,24 +250,32 @@ impl ShardReader {
         }
     }
 
-    /// Reads the shard's pixels into `accum` (the image's, of the header's size), checking
-    /// each and the checksum; on error `accum` may hold some of them.
+    /// Reads the shard's pixels into `accum` (the image's, of the header's size, with
+    /// auxiliary sums if the header has them), checking each and the checksum; on error
+    /// `accum` may hold some of them.
     pub fn read_into(mut self, accum: &mut Accumulator) -> Result<(), ShardError> {
         let h = self.header.clone();
         assert_eq!((accum.width, accum.height), (h.width, h.height), "the accumulator is the image's");
+        assert_eq!(accum.aux.is_some(), h.aux, "the accumulator takes the shard's auxiliary sums");
         let corrupt = |why: String| ShardError::Corrupt(self.path.clone(), why);
-        let mut b = [0u8; PIXEL_BYTES as usize];
+        let mut record = [0u8; (PIXEL_BYTES + AUX_BYTES) as usize];
+        let b = &mut record[..h.pixel_bytes() as usize];
         let mut samples = 0u64;
         for i in h.shard.pixels(h.width, h.height) {
-            self.reader.read_exact(&mut b).map_err(|e| self.io(e))?;
-            self.hash.write(&b);
-            let p: PixelState = decode_pixel(&b);
-            if let Some(why) = pixel_problem(&p, h.spp) {
+            self.reader.read_exact(b).map_err(|e| self.io(e))?;
+            self.hash.write(b);
+            let p: PixelState = decode_pixel(b);
+            let aux = h.aux.then(|| decode_aux(&b[PIXEL_BYTES as usize..]));
+            let problem = pixel_problem(&p, h.spp).or_else(|| aux.and_then(|a| check_aux(&a, p.count).err()));
+            if let Some(why) = problem {
                 let (x, y) = (i % h.width as usize, i / h.width as usize);
                 return Err(corrupt(format!("pixel ({x}, {y}): {why}")));
             }
             samples += p.count as u64;
             accum.pixels[i] = p;
+            if let (Some(sums), Some(a)) = (accum.aux.as_mut(), aux) {
+                sums[i] = a;
+            }
         }
         let mut tail = [0u8; CHECKSUM_BYTES as usize];
         self.reader.read_exact(&mut tail).map_err(|e| self.io(e))?;
@@ -253,6 +307,14 @@ pub fn mismatch(a: &ShardHeader, a_path: &Path, b: &ShardHeader, b_path: &Path) 
             "{bn} is of a {}x{} image at {} spp, {an} of {}x{} at {}",
             b.width, b.height, b.spp, a.width, a.height, a.spp
         ));
+    }
+    if (a.aux, a.denoise) != (b.aux, b.denoise) {
+        let says = |h: &ShardHeader| match (h.aux, h.denoise) {
+            (_, true) => "with --denoise",
+            (true, false) => "with --aux",
+            _ => "without --aux or --denoise",
+        };
+        return Some(format!("{bn} was rendered {}, {an} {}", says(b), says(a)));
     }
     if a.shard.count != b.shard.count {
         return Some(format!("{bn} is shard {} but {an} is shard {}: the counts differ", b.shard, a.shard));
@@ -286,6 +348,8 @@ mod tests {
             spp: 4,
             nonfinite: 0,
             elapsed: Duration::from_millis(5),
+            aux: false,
+            denoise: false,
         };
         let path = dir.join("p.shard");
         save(&path, &header, &accum).unwrap();
@@ -306,6 +370,37 @@ mod tests {
         assert!(e.to_string().contains("checksum mismatch"), "{e}");
         std::fs::write(&path, &bytes[..bytes.len() - 1]).unwrap();
         assert!(ShardReader::open(&path).err().unwrap().to_string().contains("truncated or damaged"));
+        // With auxiliary sums: they come back too, and a sum no sample could give is refused.
+        let mut accum = Accumulator::with_aux(w, h);
+        for (i, (p, a)) in accum.pixels.iter_mut().zip(accum.aux.as_mut().unwrap()).enumerate() {
+            for _ in 0..(i % 3) {
+                p.add(Vec3::splat(0.5));
+                a.add(Vec3::new(0.25, 0.5, 1.0), Vec3::new(0.0, -1.0, 0.0));
+            }
+        }
+        let header = ShardHeader { aux: true, denoise: true, ..header };
+        save(&path, &header, &accum).unwrap();
+        assert_eq!(std::fs::metadata(&path).unwrap().len(), header.file_size());
+        let r = ShardReader::open(&path).unwrap();
+        assert_eq!(r.header, header);
+        let mut back = Accumulator::with_aux(w, h);
+        r.read_into(&mut back).unwrap();
+        for i in shard.pixels(w, h) {
+            assert_eq!(
+                (back.pixels[i], back.aux.as_ref().unwrap()[i]),
+                (accum.pixels[i], accum.aux.as_ref().unwrap()[i])
+            );
+        }
+        let first = shard.pixels(w, h).find(|&i| accum.pixels[i].count == 2).unwrap();
+        accum.aux.as_mut().unwrap()[first].albedo.x = 3.0; // more than 2 samples of albedo ≤ 1
+        save(&path, &header, &accum).unwrap();
+        let e = ShardReader::open(&path).unwrap().read_into(&mut Accumulator::with_aux(w, h)).unwrap_err();
+        assert!(e.to_string().contains("the sum of its albedos"), "{e}");
+        // A file of the first format is named as such.
+        let mut bytes = std::fs::read(&path).unwrap();
+        bytes[7] = 1;
+        std::fs::write(&path, &bytes).unwrap();
+        assert!(ShardReader::open(&path).err().unwrap().to_string().contains("format 1"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

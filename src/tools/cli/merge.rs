@@ -3,10 +3,14 @@
 //! checked against the others before any pixel is: a missing or duplicate shard, a shard of
 //! another scene or other settings, or a damaged file is refused, naming the files, and
 //! nothing is written. Memory: one image's accumulator, the files read one at a time.
+//!
+//! Shards rendered with `--aux` or `--denoise` hold the albedo and normal sums too: the merge
+//! writes them as layers of an EXR, as a whole render does, and denoises the merged image when
+//! the shards were rendered with `--denoise` or the merge is given it.
 
 use super::render::parse_exposure;
 use crate::film::shard::{ShardHeader, ShardReader, mismatch};
-use crate::film::{Accumulator, ImageFormat, Look, Tonemap};
+use crate::film::{Accumulator, AuxMode, ImageFormat, Look, RenderImages, Tonemap};
 use crate::memory::{self, MemoryLimit};
 use clap::Args;
 use std::path::PathBuf;
@@ -30,6 +34,14 @@ pub struct MergeArgs {
     /// Tone curve for PNG output, as `ember render --tonemap`: clamp, aces or neutral [clamp].
     #[arg(long)]
     pub tonemap: Option<Tonemap>,
+    /// Denoise the merged image with Intel Open Image Denoise, as `ember render --denoise`
+    /// (the shards must have been rendered with --aux or --denoise, which keep the albedo and
+    /// normal sums) [on if the shards were rendered with --denoise].
+    #[arg(long)]
+    pub denoise: bool,
+    /// How the denoiser uses the albedo and normal images, as `ember render --denoise-aux`.
+    #[arg(long, default_value = "prefilter")]
+    pub denoise_aux: AuxMode,
 }
 
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
@@ -77,14 +89,23 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             readers.len()
         );
     }
-    let ShardHeader { width, height, .. } = first.header;
+    let ShardHeader { width, height, aux, .. } = first.header;
+    let denoise = args.denoise || first.header.denoise;
+    if denoise && !aux {
+        anyhow::bail!(
+            "{}: --denoise needs the albedo and normal sums, which shards keep only when rendered with --aux or --denoise; nothing was written",
+            first.path.display()
+        );
+    }
+    // Loaded before the pixels are read: a missing library fails at once.
+    let denoiser = if denoise { Some(crate::oidn::Denoiser::new()?) } else { None };
     let bytes = memory::film_bytes(width, height);
     limit
         .check(format!("image {width}x{height}"), "of film memory", bytes)
         .map_err(|e| anyhow::anyhow!("{}: {e}", first.path.display()))?;
     let nonfinite: u64 = readers.iter().map(|r| r.header.nonfinite).sum();
     let elapsed: std::time::Duration = readers.iter().map(|r| r.header.elapsed).sum();
-    let mut accum = Accumulator::new(width, height);
+    let mut accum = if aux { Accumulator::with_aux(width, height) } else { Accumulator::new(width, height) };
     for r in readers {
         r.read_into(&mut accum).map_err(|e| anyhow::anyhow!("{e}; nothing was written"))?;
     }
@@ -96,7 +117,23 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
-    film.save_with(&args.output, &look)?;
+    let denoised = match &denoiser {
+        Some(d) => {
+            let start = std::time::Instant::now();
+            Some((crate::film::denoise(d, &accum, args.denoise_aux)?, start.elapsed()))
+        }
+        None => None,
+    };
+    let (albedo, normal) = (accum.albedo(), accum.normal());
+    let counts = aux.then(|| accum.sample_counts());
+    let images = RenderImages {
+        image: &film,
+        denoised: denoised.as_ref().map(|(f, _)| f),
+        albedo: albedo.as_ref(),
+        normal: normal.as_ref(),
+        sample_count: counts.as_deref(),
+    };
+    images.save_with(&args.output, &look)?;
     let (min, mean, max) = accum.spp_range();
     eprintln!(
         "merged {count} shards into {width}x{height} at {} ({:.2} s of rendering in all), {nonfinite} non-finite samples dropped -> {}",
@@ -104,5 +141,8 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
         elapsed.as_secs_f64(),
         args.output.display()
     );
+    if let (Some((_, took)), Some(d)) = (&denoised, &denoiser) {
+        eprintln!("{}", super::render::denoised_summary(*took, d, args.denoise_aux, format));
+    }
     Ok(())
 }

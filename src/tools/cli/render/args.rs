@@ -124,7 +124,8 @@ pub struct RenderArgs {
     /// Render only shard K of N (0-based) of the image, to a shard file (-o NAME.shard) that
     /// `ember merge` puts together with the others; "auto" takes K and N from Slurm
     /// (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT), "auto/N" K from Slurm or a Kubernetes
-    /// Indexed Job (JOB_COMPLETION_INDEX).
+    /// Indexed Job (JOB_COMPLETION_INDEX). With --aux or --denoise the shard keeps the albedo
+    /// and normal sums, and the merge writes their layers (and, for --denoise, denoises).
     #[arg(long, value_name = "K/N|auto|auto/N")]
     pub shard: Option<String>,
 }

@@ -8,6 +8,7 @@ mod summary;
 pub use args::RenderArgs;
 pub(crate) use args::parse_exposure;
 pub use interrupt::Interrupted;
+pub(crate) use summary::denoised as denoised_summary;
 
 use super::progress::ProgressBar;
 use crate::embree::BuildOptions;
@@ -33,16 +34,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 args.output.display()
             );
         }
-        if args.denoise || args.aux {
-            anyhow::bail!(
-                "--shard cannot be combined with --denoise or --aux: shard files hold no albedo or normal images, and a shard is not a whole image to denoise"
-            );
-        }
         None
     } else {
         Some(ImageFormat::from_path(&args.output)?)
     };
-    if args.aux && format != Some(ImageFormat::Exr) {
+    if args.aux && format.is_some_and(|f| f != ImageFormat::Exr) {
         anyhow::bail!(
             "{}: --aux writes the albedo, normal and sample count as EXR layers; a PNG cannot hold them (use .exr)",
             args.output.display()
@@ -60,14 +56,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     let settings = args::settings(&args, &scene)?;
-    if settings.shard.is_some() && settings.aux {
-        anyhow::bail!(
-            "{}: the scene asks for denoising ([render] denoise = true), which --shard cannot do (a shard file holds no albedo or normal images)",
-            args.scene.display()
-        );
-    }
     // The library is loaded before rendering: a render is not spent on a denoise that fails.
-    let denoiser = if args::denoise(&args, &scene) { Some(crate::oidn::Denoiser::new()?) } else { None };
+    // A shard is not a whole image: it keeps the albedo and normal sums, and `ember merge`
+    // denoises the merged image.
+    let denoise = args::denoise(&args, &scene);
+    let denoiser = if denoise && settings.shard.is_none() { Some(crate::oidn::Denoiser::new()?) } else { None };
     scene
         .override_camera(&args::camera_override(&args), settings.width as f32 / settings.height as f32)
         .map_err(|e| anyhow::anyhow!("{}: {e} (--camera-position, --look-at)", args.scene.display()))?;
@@ -180,6 +173,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 spp: settings.spp,
                 nonfinite: stats.nonfinite,
                 elapsed: stats.elapsed + stats.earlier_sessions,
+                aux: settings.aux,
+                denoise,
             };
             crate::film::shard::save(&args.output, &header, &result.accum)?;
         }

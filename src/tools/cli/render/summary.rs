@@ -31,7 +31,7 @@ pub(super) fn rendered(stats: &RenderStats, accel: &str, output: &Path) -> Strin
 
 /// `denoised in T s (Open Image Denoise 2.5.1, albedo + normal, prefiltered; the EXR's main
 /// layer, the noisy image in layer noisy)`
-pub(super) fn denoised(
+pub(crate) fn denoised(
     took: std::time::Duration,
     denoiser: &crate::oidn::Denoiser,
     mode: crate::film::AuxMode,
