@@ -136,7 +136,8 @@ fn a_first_pair_is_the_first_two_numbers_with_either_sampler() {
     use ember::sampler::PixelSampler;
     for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
         for (seed, pixel, sample) in [(0, 0, 0), (7, 1234, 5), (u64::MAX, 99, 1 << 20)] {
-            let stream = PixelSampler::new(kind, seed, pixel).sample(sample);
+            let pixel_sampler = PixelSampler::new(kind, seed, pixel);
+            let stream = pixel_sampler.sample(sample);
             let (mut a, mut b) = (stream.clone(), stream);
             let pair = a.next_2d();
             let (x, y) = (b.next_f32(), b.next_f32());
