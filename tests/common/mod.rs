@@ -25,6 +25,14 @@ pub fn render_embree(scene: &Scene, settings: &RenderSettings) -> (Film, RenderS
     render(scene, &accel, settings).unwrap()
 }
 
+/// The image through the naive all-primitive loop: pure Rust, so its bits are the same on every
+/// x86-64 CPU (Embree's hits differ in the last bits between its AVX2 and AVX-512 kernels).
+/// Tests that pin an image's bits render with it.
+#[allow(dead_code)]
+pub fn render_naive(scene: &Scene, settings: &RenderSettings) -> (Film, RenderStats) {
+    render(scene, &ember::accel::NaiveAccel::new(&scene.geometry), settings).unwrap()
+}
+
 /// A folder path for one test, `ember-<group>-<name>-<pid>` in the temp dir, with whatever an
 /// earlier run left there removed: it does not exist yet.
 pub fn fresh_path(group: &str, name: &str) -> PathBuf {
