@@ -10,7 +10,7 @@
 
 use super::render::parse_exposure;
 use crate::film::shard::{ShardHeader, ShardReader, mismatch};
-use crate::film::{Accumulator, AuxMode, ImageFormat, Look, RenderImages, Tonemap};
+use crate::film::{Accumulator, AuxMode, ImageFormat, Look, Tonemap};
 use crate::memory::{self, MemoryLimit};
 use clap::Args;
 use std::path::PathBuf;
@@ -117,23 +117,8 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
-    let denoised = match &denoiser {
-        Some(d) => {
-            let start = std::time::Instant::now();
-            Some((crate::film::denoise(d, &accum, args.denoise_aux)?, start.elapsed()))
-        }
-        None => None,
-    };
-    let (albedo, normal) = (accum.albedo(), accum.normal());
-    let counts = aux.then(|| accum.sample_counts());
-    let images = RenderImages {
-        image: &film,
-        denoised: denoised.as_ref().map(|(f, _)| f),
-        albedo: albedo.as_ref(),
-        normal: normal.as_ref(),
-        sample_count: counts.as_deref(),
-    };
-    images.save_with(&args.output, &look)?;
+    let denoised =
+        super::render::save_accumulated(&accum, &film, denoiser.as_ref(), args.denoise_aux, &args.output, &look)?;
     let (min, mean, max) = accum.spp_range();
     eprintln!(
         "merged {count} shards into {width}x{height} at {} ({:.2} s of rendering in all), {nonfinite} non-finite samples dropped -> {}",
@@ -141,8 +126,8 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
         elapsed.as_secs_f64(),
         args.output.display()
     );
-    if let (Some((_, took)), Some(d)) = (&denoised, &denoiser) {
-        eprintln!("{}", super::render::denoised_summary(*took, d, args.denoise_aux, format));
+    if let (Some(took), Some(d)) = (denoised, &denoiser) {
+        eprintln!("{}", super::render::denoised_summary(took, d, args.denoise_aux, format));
     }
     Ok(())
 }

@@ -13,7 +13,7 @@ pub(crate) use summary::denoised as denoised_summary;
 use super::progress::ProgressBar;
 use crate::embree::BuildOptions;
 use crate::film::shard::ShardHeader;
-use crate::film::{Checkpoint, ImageFormat, RenderImages, checkpoint_path};
+use crate::film::{Accumulator, AuxMode, Checkpoint, Film, ImageFormat, Look, RenderImages, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
 use crate::memory::{LoadBudget, MemoryLimit};
 use crate::output_lock::{OutputLock, lock_path};
@@ -179,21 +179,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             crate::film::shard::save(&args.output, &header, &result.accum)?;
         }
         None => {
-            let (albedo, normal) = (result.accum.albedo(), result.accum.normal());
-            let counts = result.accum.aux.is_some().then(|| result.accum.sample_counts());
-            if let Some(d) = &denoiser {
-                let start = std::time::Instant::now();
-                let image = crate::film::denoise(d, &result.accum, args.denoise_aux)?;
-                denoised = Some((image, start.elapsed()));
-            }
-            let images = RenderImages {
-                image: &film,
-                denoised: denoised.as_ref().map(|(f, _)| f),
-                albedo: albedo.as_ref(),
-                normal: normal.as_ref(),
-                sample_count: counts.as_deref(),
-            };
-            images.save_with(&args.output, &look)?;
+            denoised =
+                save_accumulated(&result.accum, &film, denoiser.as_ref(), args.denoise_aux, &args.output, &look)?;
         }
     }
     // Only a regular file: a folder or a link someone put there is not ours to remove.
@@ -206,8 +193,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         crate::accel::AccelKind::Naive => "naive accel".to_string(),
     };
     eprintln!("{}", summary::rendered(&stats, &accel_text, &args.output));
-    if let (Some((_, took)), Some(d), Some(format)) = (&denoised, &denoiser, format) {
-        eprintln!("{}", summary::denoised(*took, d, args.denoise_aux, format));
+    if let (Some(took), Some(d), Some(format)) = (denoised, &denoiser, format) {
+        eprintln!("{}", summary::denoised(took, d, args.denoise_aux, format));
     }
     eprintln!("{}", summary::error_estimate(&stats));
     Ok(())
@@ -233,4 +220,31 @@ fn refuse_overwriting_inputs(scene: &Scene, outputs: &[(&Path, &str)]) -> anyhow
         }
     }
     Ok(())
+}
+
+/// Writes a finished image: `film` (the accumulator's estimate), denoised first when a
+/// `denoiser` is given, with the albedo, normal and sample-count images when the accumulator
+/// kept them (EXR layers; a PNG holds the main image only). Returns how long denoising took.
+pub(crate) fn save_accumulated(
+    accum: &Accumulator,
+    film: &Film,
+    denoiser: Option<&crate::oidn::Denoiser>,
+    mode: AuxMode,
+    output: &Path,
+    look: &Look,
+) -> anyhow::Result<Option<std::time::Duration>> {
+    let start = std::time::Instant::now();
+    let denoised = denoiser.map(|d| crate::film::denoise(d, accum, mode)).transpose()?;
+    let took = denoised.as_ref().map(|_| start.elapsed());
+    let (albedo, normal) = (accum.albedo(), accum.normal());
+    let counts = accum.aux.is_some().then(|| accum.sample_counts());
+    let images = RenderImages {
+        image: film,
+        denoised: denoised.as_ref(),
+        albedo: albedo.as_ref(),
+        normal: normal.as_ref(),
+        sample_count: counts.as_deref(),
+    };
+    images.save_with(output, look)?;
+    Ok(took)
 }
