@@ -96,8 +96,10 @@ fn gaussian_offset(u: f32) -> f32 {
 
 /// The inverse error function on (-1, 1): Mike Giles's single-precision approximation
 /// ("Approximating the erfinv function", GPU Computing Gems Jade Edition, 2011), a polynomial
-/// in w = -ln(1 - x²) on each of two ranges; relative error below 4e-7 in f32.
+/// in w = -ln(1 - x²) on each of two ranges; relative error below 4e-7 in f32. The
+/// coefficients are written as published (more digits than an f32 holds).
 #[inline]
+#[allow(clippy::excessive_precision)]
 fn erf_inv(x: f32) -> f32 {
     let w = -((1.0 - x) * (1.0 + x)).ln();
     let p = if w < 5.0 {
