@@ -26,7 +26,7 @@ fn rays_traced(stderr: &[u8]) -> u64 {
 }
 
 /// Long enough (a few seconds on 2 cores) to be interrupted part-way.
-const ARGS: [&str; 8] = ["--width", "32", "--height", "24", "--spp", "3000", "--seed", "5"];
+const ARGS: [&str; 8] = ["--width", "32", "--height", "24", "--spp", "10000", "--seed", "5"];
 
 fn ember(out: &Path, extra: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_ember"));
@@ -39,13 +39,15 @@ fn ember(out: &Path, extra: &[&str]) -> Command {
 fn cli_key(width: u32, height: u32, spp: u32, seed: u64, accel: Option<&str>) -> CheckpointKey {
     let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
     let settings = RenderSettings { width, height, spp, seed, ..RenderSettings::from_scene(&scene.render) };
-    let accel = accel.map_or_else(|| AccelKind::Embree.image_key(BuildOptions::default()), str::to_string);
+    // As `ember render` builds it: the quality the scene calls for (low for this box).
+    let cli = BuildOptions { quality: ember::accel::build_quality_for(&scene.geometry), ..BuildOptions::default() };
+    let accel = accel.map_or_else(|| AccelKind::Embree.image_key(cli), str::to_string);
     RenderPlan::new(&scene, &settings).checkpoint_key(scene.fingerprint(), &accel)
 }
 
 /// The key of a render with [`ARGS`].
 fn args_key() -> CheckpointKey {
-    cli_key(32, 24, 3000, 5, None)
+    cli_key(32, 24, 10000, 5, None)
 }
 
 /// Starts a render, waits until it is rendering, waits `after`, sends `signal` (via kill).
@@ -90,7 +92,7 @@ fn interrupted_and_resumed_renders_equal_the_uninterrupted_one() {
     assert!(ckpt.exists() && !out.exists());
     let partial = Checkpoint::load(&ckpt, &args_key()).unwrap();
     let (min, _, max) = partial.accum.spp_range();
-    assert!(min < 3000, "the render finished before the signal: make it longer");
+    assert!(min < 10000, "the render finished before the signal: make it longer");
     assert!(partial.accum.samples() > 0, "nothing was rendered before the signal");
     println!("interrupted with spp between {min} and {max}");
     // Resume with another thread count.
@@ -281,7 +283,7 @@ fn resume_refuses_checkpoints_that_lie() {
     with_pixel(5, &|p| p.sum.x = f64::NAN);
     expect_refused(&out, &[], "(pixel (5, 0): the sum of its samples is not finite ([NaN, 0, 0]))");
     with_pixel(33, &|p| p.count = u32::MAX);
-    expect_refused(&out, &[], "(pixel (1, 1): 4294967295 samples, more than the 3000 spp of this render)");
+    expect_refused(&out, &[], "(pixel (1, 1): 4294967295 samples, more than the 10000 spp of this render)");
     with_pixel(0, &|p| {
         p.count = 1;
         p.sum_lum_sq = f64::INFINITY
@@ -292,12 +294,12 @@ fn resume_refuses_checkpoints_that_lie() {
     good.save(&ckpt).unwrap();
     for (args, needle) in [
         (&["--accel", "naive"][..], "different settings: accel=embree in the checkpoint, accel=naive now"),
-        (&["--bvh-quality", "high"], "different settings: bvh=medium in the checkpoint, bvh=high now"),
+        (&["--bvh-quality", "high"], "different settings: bvh=low in the checkpoint, bvh=high now"),
         (&["--no-robust"], "different settings: robust=on in the checkpoint, robust=off now"),
     ] {
         expect_refused(&out, args, needle);
     }
-    let naive = cli_key(32, 24, 3000, 5, Some(&AccelKind::Naive.image_key(BuildOptions::default())));
+    let naive = cli_key(32, 24, 10000, 5, Some(&AccelKind::Naive.image_key(BuildOptions::default())));
     Checkpoint { settings: naive.settings, ..good.clone() }.save(&ckpt).unwrap();
     expect_refused(&out, &[], "different settings: accel=naive in the checkpoint, accel=embree now");
 

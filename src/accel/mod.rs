@@ -8,7 +8,7 @@
 mod embree;
 mod naive;
 
-pub use self::embree::EmbreeAccel;
+pub use self::embree::{EmbreeAccel, SMALL_SCENE_TRIANGLES, build_quality_for};
 pub use naive::NaiveAccel;
 
 use crate::embree::EmbreeError;

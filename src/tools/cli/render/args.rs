@@ -43,9 +43,10 @@ pub struct RenderArgs {
     /// Intersection strategy: embree or naive.
     #[arg(long, default_value = "embree")]
     pub accel: AccelKind,
-    /// Embree BVH build quality: low, medium or high (`ember bench` measures each).
-    #[arg(long, default_value = "medium")]
-    pub bvh_quality: BuildQuality,
+    /// Embree BVH build quality: low, medium or high (`ember bench` measures each) [low for a
+    /// scene of at most 1,000 triangles and no spheres or cylinders, else medium].
+    #[arg(long)]
+    pub bvh_quality: Option<BuildQuality>,
     /// Build the Embree BVH without RTC_SCENE_FLAG_ROBUST, as Embree's own tutorials do:
     /// faster, but a ray passing exactly through an edge shared by two triangles can miss both
     /// (hard case axis-parallel-rays).

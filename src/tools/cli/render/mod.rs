@@ -92,7 +92,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     // Held until this function returns, whichever way; removes OUT.lock then.
     let _lock = OutputLock::acquire(&args.output)?;
-    let bvh = BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() };
+    // The build quality the scene calls for unless told: see `build_quality_for`.
+    let quality = args.bvh_quality.unwrap_or_else(|| crate::accel::build_quality_for(&scene.geometry));
+    let bvh = BuildOptions { quality, robust: !args.no_robust, ..BuildOptions::default() };
     let resume = if args.resume {
         // Checked against this render before anything is read: size, scene, settings,
         // accelerator, contents.
