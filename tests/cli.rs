@@ -25,11 +25,14 @@ fn info_reports_counts_bounds_and_build_time() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("triangles:  6320"), "{out}");
     assert!(out.contains("(-3.0000, 0.0000, -2.0000) .. (3.4340, 3.1500, 2.0000)"), "{out}");
-    assert!(out.contains("bvh build:"), "{out}");
+    assert!(out.contains("bvh build:") && out.contains("(medium quality, as ember render builds it)"), "{out}");
     assert!(out.contains("lights:     1 light in 1 group: nothing to choose"), "{out}");
     let o = ember(&["info", common::scene_path("cornell_box.obj").to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(String::from_utf8_lossy(&o.stdout).contains("triangles:  34"));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("triangles:  34"), "{out}");
+    // A small all-triangle scene: the Morton build (accel::build_quality_for).
+    assert!(out.contains("(low quality, as ember render builds it)"), "{out}");
     // The teapot scene's quad light (two triangles) and sky: two groups.
     let o = ember(&["info", common::scene_path("teapot.toml").to_str().unwrap()]);
     let out = String::from_utf8_lossy(&o.stdout);
