@@ -106,10 +106,12 @@ impl FromStr for AccelKind {
 }
 
 impl AccelKind {
-    /// Builds this accelerator over `geometry` (Embree: on a new default device, with the
-    /// default build options; the scene keeps its device alive).
+    /// Builds this accelerator over `geometry` as `ember render` does by default (Embree: on a
+    /// new default device, robust, with the build quality [`build_quality_for`] the geometry;
+    /// the scene keeps its device alive).
     pub fn build(self, geometry: &[crate::geometry::Geometry]) -> Result<Box<dyn Accel>, crate::embree::EmbreeError> {
-        self.build_with(geometry, crate::embree::BuildOptions::default())
+        let quality = build_quality_for(geometry);
+        self.build_with(geometry, crate::embree::BuildOptions { quality, ..crate::embree::BuildOptions::default() })
     }
 
     /// [`AccelKind::build`] with Embree's build `options` (ignored by the naive loop).
