@@ -39,8 +39,8 @@ fn ember(out: &Path, extra: &[&str]) -> Command {
 fn cli_key(width: u32, height: u32, spp: u32, seed: u64, accel: Option<&str>) -> CheckpointKey {
     let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
     let settings = RenderSettings { width, height, spp, seed, ..RenderSettings::from_scene(&scene.render) };
-    // As `ember render` builds it: the quality the scene calls for (low for this box).
-    let cli = BuildOptions { quality: ember::accel::build_quality_for(&scene.geometry), ..BuildOptions::default() };
+    // As `ember render` builds it (the low quality, for this box).
+    let cli = ember::accel::build_options_for(&scene.geometry);
     let accel = accel.map_or_else(|| AccelKind::Embree.image_key(cli), str::to_string);
     RenderPlan::new(&scene, &settings).checkpoint_key(scene.fingerprint(), &accel)
 }

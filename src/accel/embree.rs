@@ -64,6 +64,12 @@ pub fn build_quality_for(geometry: &[Geometry]) -> BuildQuality {
     if triangles <= SMALL_SCENE_TRIANGLES { BuildQuality::Low } else { BuildQuality::Medium }
 }
 
+/// The build options `ember render` (and `ember info`, `ember converge`) use unless told
+/// otherwise: Embree's defaults (robust) at the quality [`build_quality_for`] the geometry.
+pub fn build_options_for(geometry: &[Geometry]) -> BuildOptions {
+    BuildOptions { quality: build_quality_for(geometry), ..BuildOptions::default() }
+}
+
 impl Accel for EmbreeAccel {
     fn name(&self) -> &'static str {
         "embree"

@@ -8,7 +8,7 @@
 mod embree;
 mod naive;
 
-pub use self::embree::{EmbreeAccel, SMALL_SCENE_TRIANGLES, build_quality_for};
+pub use self::embree::{EmbreeAccel, build_options_for, build_quality_for};
 pub use naive::NaiveAccel;
 
 use crate::embree::EmbreeError;
@@ -107,11 +107,10 @@ impl FromStr for AccelKind {
 
 impl AccelKind {
     /// Builds this accelerator over `geometry` as `ember render` does by default (Embree: on a
-    /// new default device, robust, with the build quality [`build_quality_for`] the geometry;
-    /// the scene keeps its device alive).
+    /// new default device, with [`build_options_for`] the geometry; the scene keeps its device
+    /// alive).
     pub fn build(self, geometry: &[crate::geometry::Geometry]) -> Result<Box<dyn Accel>, crate::embree::EmbreeError> {
-        let quality = build_quality_for(geometry);
-        self.build_with(geometry, crate::embree::BuildOptions { quality, ..crate::embree::BuildOptions::default() })
+        self.build_with(geometry, build_options_for(geometry))
     }
 
     /// [`AccelKind::build`] with Embree's build `options` (ignored by the naive loop).

@@ -117,9 +117,8 @@ pub fn cli_checkpoint_key(
 ) -> ember::film::CheckpointKey {
     let scene = Scene::load(scene).unwrap();
     let settings = RenderSettings { width, height, spp, seed, ..RenderSettings::from_scene(&scene.render) };
-    // As `ember render` builds it: the quality the scene calls for.
-    let quality = ember::accel::build_quality_for(&scene.geometry);
-    let accel = ember::accel::AccelKind::Embree.image_key(BuildOptions { quality, ..BuildOptions::default() });
+    // As `ember render` builds it.
+    let accel = ember::accel::AccelKind::Embree.image_key(ember::accel::build_options_for(&scene.geometry));
     ember::integrator::RenderPlan::new(&scene, &settings).checkpoint_key(scene.fingerprint(), &accel)
 }
 

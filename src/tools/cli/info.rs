@@ -25,8 +25,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     // Warm-up: the first commit in a process also starts Embree's threads.
     drop(EmbreeAccel::new(&device, &[], BuildOptions::default())?);
     // The build `ember render` would make of this scene.
-    let quality = crate::accel::build_quality_for(&scene.geometry);
-    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions { quality, ..BuildOptions::default() })?;
+    let options = crate::accel::build_options_for(&scene.geometry);
+    let accel = EmbreeAccel::new(&device, &scene.geometry, options)?;
     println!("scene:      {}", args.scene.display());
     println!("geometries: {}", scene.geometry.len());
     println!("triangles:  {tris}");
@@ -42,8 +42,9 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     println!("{plan}");
     println!("lights:     {}", scene.light_set().describe());
     println!(
-        "bvh build:  {:.2} ms ({quality} quality, as ember render builds it)",
-        accel.build_time().as_secs_f64() * 1e3
+        "bvh build:  {:.2} ms ({} quality, as ember render builds it)",
+        accel.build_time().as_secs_f64() * 1e3,
+        options.quality
     );
     Ok(())
 }
