@@ -5,13 +5,14 @@
 //!
 //! A render's samples draw from a [`SampleStream`] of the [`SamplerKind`] asked for:
 //! independent numbers (PCG, [`Rng`]), or an Owen-scrambled Sobol sequence (Burley 2020; the
-//! numbers of the `sobol_burley` crate, computed here at half its cost: [`SobolSet`]), whose samples of one pixel fill the space of the path's
-//! decisions more evenly than independent ones and so give less noise at equal spp. The Sobol
-//! stream is "padded" as Burley and Blender Cycles do: its numbers come four at a time, from
-//! the first four dimensions of a Sobol sequence scrambled by a seed of their own (the pixel's
-//! and the set's), so that each set of four is well stratified in 4D and the sets are
-//! independent of each other. A pair ([`SampleStream::next_2d`]) never straddles two sets.
-//! Sample indices from 2^16 on (the crate's limit) draw independent numbers.
+//! numbers of the `sobol_burley` crate, computed here at half its cost: `SobolSet`), whose
+//! samples of one pixel fill the space of the path's decisions more evenly than independent
+//! ones and so give less noise at equal spp. The Sobol stream is "padded" as Burley and
+//! Blender Cycles do: its numbers come four at a time, from the first four dimensions of a
+//! Sobol sequence scrambled by a seed of their own (the pixel's and the set's), so that each
+//! set of four is well stratified in 4D and the sets are independent of each other. A pair
+//! ([`SampleStream::next_2d`]) never straddles two sets. Sample indices from 2^16 on (the
+//! crate's limit) draw independent numbers.
 
 /// Mixes 64 bits (SplitMix64 finaliser; Steele, Lea, Flood 2014).
 #[inline]

@@ -354,8 +354,6 @@ pub(super) fn check_aux(a: &AuxSums, count: u32) -> Result<(), String> {
     Ok(())
 }
 
-/// A pixel's state as stored: its count (u32) and sums r, g, b and of squared luminance (f64),
-/// little-endian.
 /// A pixel's auxiliary sums as stored: albedo then normal, six f64, little-endian.
 pub(super) fn encode_aux(a: &AuxSums) -> [u8; AUX_BYTES as usize] {
     let mut b = [0u8; AUX_BYTES as usize];
@@ -373,6 +371,8 @@ pub(super) fn decode_aux(b: &[u8]) -> AuxSums {
     AuxSums { albedo: DVec3::new(f(0), f(1), f(2)), normal: DVec3::new(f(3), f(4), f(5)) }
 }
 
+/// A pixel's state as stored: its count (u32) and sums r, g, b and of squared luminance (f64),
+/// little-endian.
 pub(super) fn encode_pixel(p: &PixelState) -> [u8; PIXEL_BYTES as usize] {
     let mut b = [0u8; PIXEL_BYTES as usize];
     b[..4].copy_from_slice(&p.count.to_le_bytes());
