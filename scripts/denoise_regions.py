@@ -20,38 +20,24 @@ Setup: pip install numpy OpenEXR flip-evaluator (e.g. the venv of scripts/peers/
 Command: python3 scripts/denoise_regions.py REFERENCE.exr DENOISED.exr [--at X,Y]... [--row Y,X0,X1,C]...
 """
 import argparse
+import os
+import sys
 
 import flip_evaluator as fe
 import numpy as np
-import OpenEXR
+
+# The EXR reader, relMSE and 8-bit conversion of the Cycles comparison, which are converge's.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "peers"))
+from denoise_vs_cycles import FLIP_PPD, read_exr as read, relmse, to_rgb8  # noqa: E402
 
 LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
-def read(path, layer="RGB"):
-    ch = OpenEXR.File(path).parts[0].channels
-    if layer in ch:
-        a = ch[layer].pixels
-    else:
-        pre = "" if layer == "RGB" else layer + "."
-        a = np.stack([ch[pre + c].pixels for c in "RGB"], -1)
-    return np.asarray(a, dtype=np.float64)[..., :3]
-
-
-def to_rgb8(a):
-    c = np.clip(np.nan_to_num(a.astype(np.float32), nan=0.0), 0.0, 1.0)
-    s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1.0 / 2.4, dtype=np.float32) - 0.055)
-    return np.clip(s.astype(np.float32) * 255.0 + 0.5, 0, 255).astype(np.uint8)
-
-
 def flip_map(x, r):
+    """The FLIP map whose mean is denoise_vs_cycles.flip: per pixel, to split by region."""
     m, _, _ = fe.evaluate(to_rgb8(r).astype(np.float32) / 255.0, to_rgb8(x).astype(np.float32) / 255.0,
-                          "LDR", inputsRGB=True, applyMagma=False, parameters={"ppd": 67.0})
+                          "LDR", inputsRGB=True, applyMagma=False, parameters={"ppd": FLIP_PPD})
     return np.squeeze(np.asarray(m, dtype=np.float64))
-
-
-def relmse(x, r):
-    return float(np.mean((x - r) ** 2 / (r * r + 1e-2)))
 
 
 def main():
