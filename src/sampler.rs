@@ -233,6 +233,26 @@ impl PixelSampler {
             PixelSampler::Independent(streams) => SampleStream::Independent(streams.sample(sample)),
         }
     }
+
+    /// Sample `sample`'s first four numbers, the ones a camera ray draws (two pairs: the film
+    /// and the lens position), and its stream after them: the same numbers as four
+    /// [`SampleStream::next_f32`] calls on [`PixelSampler::sample`], without the per-call
+    /// bookkeeping (the first Sobol set is computed directly, not through a refill).
+    #[inline]
+    pub fn sample_after_first_four(&self, sample: u64) -> ([f32; 4], SampleStream<'_>) {
+        match self {
+            PixelSampler::Sobol(pixel) if sample < SobolStream::MAX_SAMPLES => {
+                let rev_index = (sample as u32).reverse_bits();
+                let numbers = pixel.sets[0].sample(rev_index);
+                (numbers, SampleStream::Sobol(SobolStream { rev_index, pixel, set: 1, numbers, used: 4 }))
+            }
+            _ => {
+                let mut s = self.sample(sample);
+                let numbers = [s.next_f32(), s.next_f32(), s.next_f32(), s.next_f32()];
+                (numbers, s)
+            }
+        }
+    }
 }
 
 /// A pixel's Sobol sets: the scrambles of each set of four dimensions, hashed once per pixel
@@ -377,6 +397,22 @@ mod tests {
         assert!((0..8).all(|_| d.next_f32() == e.next_f32()));
         // Past 2^16 samples, independent numbers.
         assert!(matches!(pixel.sample(1 << 16), SampleStream::Independent(_)));
+    }
+
+    #[test]
+    fn first_four_numbers_and_the_stream_after_them_are_the_streams() {
+        for kind in SamplerKind::ALL {
+            let pixel = PixelSampler::new(kind, 5, 4321);
+            for sample in [0u64, 1, 7, 12_345, (1 << 16) - 1, 1 << 16, 1 << 20] {
+                let mut whole = pixel.sample(sample);
+                let (four, mut rest) = pixel.sample_after_first_four(sample);
+                let expected = [whole.next_f32(), whole.next_f32(), whole.next_f32(), whole.next_f32()];
+                assert_eq!(four.map(f32::to_bits), expected.map(f32::to_bits), "{kind} sample {sample}");
+                for _ in 0..30 {
+                    assert_eq!(rest.next_f32().to_bits(), whole.next_f32().to_bits(), "{kind} sample {sample}");
+                }
+            }
+        }
     }
 
     #[test]

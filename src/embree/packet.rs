@@ -32,36 +32,56 @@ pub(super) struct Valid8(pub(super) [i32; LANES]);
 /// mask. Inactive lanes hold a harmless ray (Embree does not read them).
 #[inline]
 pub(super) fn ray8(rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> (ffi::RTCRay8, Valid8) {
-    let lane = |f: &dyn Fn(&Ray) -> f32, idle: f32| -> [f32; LANES] {
-        std::array::from_fn(|i| if active[i] { f(&rays[i]) } else { idle })
-    };
-    let ray = ffi::RTCRay8 {
-        org_x: lane(&|r| r.o.x, 0.0),
-        org_y: lane(&|r| r.o.y, 0.0),
-        org_z: lane(&|r| r.o.z, 0.0),
+    let mut ray = empty_ray8(tmin, tmax);
+    let valid = fill_ray8(&mut ray, rays, active);
+    (ray, valid)
+}
+
+/// An `RTCRay8` on `[tmin, tmax]` whose lanes all hold the harmless ray (origin 0, direction +z).
+#[inline(always)]
+fn empty_ray8(tmin: f32, tmax: f32) -> ffi::RTCRay8 {
+    ffi::RTCRay8 {
+        org_x: [0.0; LANES],
+        org_y: [0.0; LANES],
+        org_z: [0.0; LANES],
         tnear: [tmin; LANES],
-        dir_x: lane(&|r| r.d.x, 0.0),
-        dir_y: lane(&|r| r.d.y, 0.0),
-        dir_z: lane(&|r| r.d.z, 1.0),
+        dir_x: [0.0; LANES],
+        dir_y: [0.0; LANES],
+        dir_z: [1.0; LANES],
         time: [0.0; LANES],
         tfar: [tmax; LANES],
         // A mask of 0 would hit nothing; every geometry keeps Embree's default mask.
         mask: [u32::MAX; LANES],
         id: [0; LANES],
         flags: [0; LANES],
-    };
-    (ray, Valid8(std::array::from_fn(|i| if active[i] { -1 } else { 0 })))
+    }
+}
+
+/// Writes the `active` lanes of `rays` into `ray` in place, in one pass over the lanes
+/// (per-field closures over the lanes did not inline, and building the block apart from its
+/// packet cost a copy of it), and gives the valid mask.
+#[inline(always)]
+fn fill_ray8(ray: &mut ffi::RTCRay8, rays: &[Ray; LANES], active: [bool; LANES]) -> Valid8 {
+    let mut valid = Valid8([0; LANES]);
+    for i in 0..LANES {
+        if active[i] {
+            let r = &rays[i];
+            (ray.org_x[i], ray.org_y[i], ray.org_z[i]) = (r.o.x, r.o.y, r.o.z);
+            (ray.dir_x[i], ray.dir_y[i], ray.dir_z[i]) = (r.d.x, r.d.y, r.d.z);
+            valid.0[i] = -1;
+        }
+    }
+    valid
 }
 
 impl RayHit8Mem {
     /// A closest-hit query for the `active` lanes of `rays` on `[tmin, tmax]` ([`ray8`]),
     /// with no hit yet.
-    #[inline]
+    #[inline(always)]
     pub(super) fn new(rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> (RayHit8Mem, Valid8) {
         let none = ffi::INVALID_GEOMETRY_ID;
-        let (ray, valid) = ray8(rays, active, tmin, tmax);
-        let mem = RayHit8Mem {
-            ray,
+        let mut mem = RayHit8Mem {
+            ray: empty_ray8(tmin, tmax),
             ng: [[0.0; LANES]; 3],
             u: [0.0; LANES],
             v: [0.0; LANES],
@@ -70,6 +90,7 @@ impl RayHit8Mem {
             inst_id: [none; LANES],
             inst_prim_id: [none; LANES],
         };
+        let valid = fill_ray8(&mut mem.ray, rays, active);
         (mem, valid)
     }
 

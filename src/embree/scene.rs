@@ -343,12 +343,21 @@ impl Scene {
         tmin: f32,
         tmax: f32,
     ) -> [Option<Hit>; LANES] {
-        let active: [bool; LANES] = std::array::from_fn(|i| active[i] && accepts(&rays[i], tmin, tmax));
-        let (mut mem, valid) = RayHit8Mem::new(rays, active, tmin, tmax);
+        // Rays Embree would refuse are left out of the query (and hit nothing).
+        let mut traced = active;
+        for (t, ray) in traced.iter_mut().zip(rays) {
+            *t = *t && accepts(ray, tmin, tmax);
+        }
+        let (mut mem, valid) = RayHit8Mem::new(rays, traced, tmin, tmax);
         // SAFETY: committed scene; `mem` is initialised, 32-byte aligned and as large as the
         // largest known RTCRayHit8 (packet.rs); `valid` is a 32-byte aligned mask.
         unsafe { ffi::intersect8(&valid, self.scene.raw, &mut mem) };
-        std::array::from_fn(|i| if active[i] { mem.hit(i) } else { None })
+        // Lanes not traced keep the invalid geometry id `RayHit8Mem::new` gave them: no hit.
+        let mut hits = [None; LANES];
+        for (i, hit) in hits.iter_mut().enumerate() {
+            *hit = mem.hit(i);
+        }
+        hits
     }
 
     /// Whether each `active` lane of 8 rays is blocked on `[tmin, tmax]`, with one

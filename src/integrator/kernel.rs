@@ -102,12 +102,14 @@ impl fmt::Display for KernelChoice {
 }
 
 /// Samples `samples` (at most [`LANES`], within one group of `LANES` aligned on sample
-/// index 0) of pixel (x, y), written to `out[..samples.len()]`, and their auxiliary samples to
-/// `aux[..samples.len()]` if given; `rays` counts the rays traced.
+/// index 0) of pixel (x, y), whose streams are `streams` (built once per pixel:
+/// `PixelSampler::new` with the render's sampler, seed and the pixel's index), written to
+/// `out[..samples.len()]`, and their auxiliary samples to `aux[..samples.len()]` if given;
+/// `rays` counts the rays traced.
 pub(crate) type SampleFn = fn(
     &PathContext,
-    u32,
-    u32,
+    &PixelSampler,
+    (u32, u32),
     Range<u32>,
     &mut [Vec3; LANES],
     Option<&mut [AuxSample; LANES]>,
@@ -119,8 +121,8 @@ pub(crate) type SampleFn = fn(
 /// sample draws its own random numbers, so its value does not depend on the others.
 fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const HIT_LIGHTS: bool>(
     ctx: &PathContext,
-    x: u32,
-    y: u32,
+    streams: &PixelSampler,
+    (x, y): (u32, u32),
     samples: Range<u32>,
     out: &mut [Vec3; LANES],
     aux: Option<&mut [AuxSample; LANES]>,
@@ -130,25 +132,24 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     let n = samples.len();
     debug_assert!(n <= LANES && (n == 0 || samples.start / LANES as u32 == (samples.end - 1) / LANES as u32));
     let pixel = y as u64 * w as u64 + x as u64;
-    // Idle lanes (a group cut short by the sample count) get placeholders, not streams and
-    // camera rays of their own: at 1 spp, seven of every eight lanes are idle.
-    let streams = PixelSampler::new(ctx.settings.sampler, ctx.settings.seed, pixel);
-    // Plain loops, not `array::from_fn`, whose per-element closure calls did not inline.
-    let first = streams.sample(samples.start as u64);
-    let mut rngs: [SampleStream<'_>; LANES] = std::array::from_fn(|_| first.clone());
-    for (i, rng) in rngs.iter_mut().enumerate().take(n).skip(1) {
-        *rng = streams.sample(samples.start as u64 + i as u64);
-    }
+    // Idle lanes (a group cut short by the sample count) hold copies of the first lane's
+    // stream and ray, not their own: at 1 spp, seven of every eight lanes are idle.
     let cam = ctx.camera;
-    let mut camera_rays = [Ray::new(cam.position, Vec3::Z); LANES];
-    for (ray, rng) in camera_rays.iter_mut().zip(rngs.iter_mut()).take(n) {
-        // Where on the film, in pixels, drawn from the pixel filter (weight 1); for the box
-        // filter exactly x + u as always, so box images do not change.
-        let p = ctx.settings.filter.film_position(x, y, rng.next_2d());
+    // The camera ray of a sample from its first four numbers: where on the film, in pixels,
+    // drawn from the pixel filter (weight 1; for the box filter exactly x + u as always), and
+    // where on the lens, drawn in every kernel so that all kernels consume the same numbers.
+    let camera_ray = |u: [f32; 4]| {
+        let p = ctx.settings.filter.film_position(x, y, Vec2::new(u[0], u[1]));
         let film = Vec2::new(p.x / w as f32, p.y / h as f32);
-        // Drawn in every kernel, so all kernels consume the same random numbers.
-        let lens = rng.next_2d();
-        *ray = if LENS { cam.ray(film, lens) } else { Ray::new(cam.position, cam.pinhole_dir(film)) };
+        if LENS { cam.ray(film, Vec2::new(u[2], u[3])) } else { Ray::new(cam.position, cam.pinhole_dir(film)) }
+    };
+    let (u, first) = streams.sample_after_first_four(samples.start as u64);
+    let mut camera_rays = [camera_ray(u); LANES];
+    let mut rngs: [SampleStream<'_>; LANES] = [(); LANES].map(|_| first.clone());
+    for i in 1..n {
+        let (u, rng) = streams.sample_after_first_four(samples.start as u64 + i as u64);
+        rngs[i] = rng;
+        camera_rays[i] = camera_ray(u);
     }
     let active: [bool; LANES] = std::array::from_fn(|i| i < n);
     let aux = aux.map(|a| (a, (pixel, samples.start as u64)));

@@ -18,7 +18,7 @@ use super::surface::FaceNormals;
 use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
 use crate::film::{Accumulator, Checkpoint, PixelState};
-use crate::sampler::mix64;
+use crate::sampler::{PixelSampler, mix64};
 use crate::scene::Scene;
 use crate::settings::TILE;
 use rayon::prelude::*;
@@ -252,13 +252,15 @@ pub(super) fn run(
                     let Some(target) = round_target(settings, round, &p) else { continue };
                     let mut pixel_bad = 0;
                     let mut s = p.count;
+                    let streams = PixelSampler::new(settings.sampler, settings.seed, y as u64 * w as u64 + x as u64);
                     taken += (target - s) as u64;
                     while s < target {
                         // Samples go in groups of LANES aligned on sample 0, whatever the
                         // rounds: a sample's packet mates never depend on when it is taken.
                         let end = target.min((s / LANES as u32 + 1) * LANES as u32);
                         let aux_out = pa.is_some().then_some(&mut aux_values);
-                        sample(&ctx, x, y, s..end, &mut values, aux_out, &mut rays).map_err(RenderError::from)?;
+                        sample(&ctx, &streams, (x, y), s..end, &mut values, aux_out, &mut rays)
+                            .map_err(RenderError::from)?;
                         for &v in &values[..(end - s) as usize] {
                             if v.is_finite() {
                                 p.add(v);
