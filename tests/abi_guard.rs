@@ -14,7 +14,7 @@ mod common;
 use ember::embree::{
     BuildOptions, Device, EmbreeVersion, GUARD, GuardProbe, INVALID_ID, PROBE_WORDS, RayHitLayout, Scene, SceneBuilder,
 };
-use ember::geometry::{Ray, Sphere};
+use ember::geometry::{Ray, RayPacket, Sphere};
 use ember::sampler::Rng;
 use glam::Vec3;
 use std::sync::Arc;
@@ -195,10 +195,11 @@ fn packets_answer_as_single_rays_and_keep_the_guards() {
             Ray::new(o, (d + jitter).normalize())
         });
         let active: [bool; 8] = std::array::from_fn(|i| k % 4 != 0 || i % 3 != 1);
+        let rays = RayPacket::from_rays(&rays);
         let (packet, probe) = scene.probe_intersect8(&rays, active, 0.0, f32::INFINITY).unwrap();
         assert_eq!(packet, scene.intersect8_deferred(&rays, active, 0.0, f32::INFINITY), "packet {k}");
         for i in 0..8 {
-            let single = if active[i] { scene.intersect(&rays[i], 0.0, f32::INFINITY).unwrap() } else { None };
+            let single = if active[i] { scene.intersect(&rays.ray(i), 0.0, f32::INFINITY).unwrap() } else { None };
             match (packet[i], single) {
                 (None, None) => {}
                 (Some(a), Some(b)) => {

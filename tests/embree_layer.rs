@@ -3,7 +3,7 @@
 
 use ember::accel::{Accel, EmbreeAccel};
 use ember::embree::{BuildOptions, Device, EmbreeError, SceneBuilder};
-use ember::geometry::{Aabb, Geometry, Ray, Shape, ShapeHit, Sphere, TriMesh};
+use ember::geometry::{Aabb, Geometry, Ray, RayPacket, Shape, ShapeHit, Sphere, TriMesh};
 use glam::Vec3;
 use std::sync::Arc;
 
@@ -124,7 +124,7 @@ fn deferred_and_packet_queries_report_a_callback_panic_afterwards() {
         assert!(scene.callback_failure().is_ok(), "no query yet");
         let ray = Ray::new(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z);
         if packet {
-            let rays = [ray; ember::embree::LANES];
+            let rays = RayPacket::splat(&ray);
             let active = std::array::from_fn(|i| i % 2 == 0);
             let _ = scene.intersect8_deferred(&rays, active, 0.0, f32::INFINITY);
         } else {
@@ -211,6 +211,7 @@ fn rays_embree_refuses_are_answered_without_calling_it() {
     rays[1] = bad[0];
     rays[5] = bad[3];
     let active = [true, true, true, true, true, true, true, false];
+    let rays = RayPacket::from_rays(&rays);
     let hits = scene.intersect8_deferred(&rays, active, 0.0, f32::INFINITY);
     let blocked = scene.occluded8_deferred(&rays, active, 0.0, f32::INFINITY);
     for i in 0..8 {

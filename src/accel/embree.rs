@@ -1,6 +1,6 @@
 use super::{Accel, AccelError, LANES};
 use crate::embree::{BuildOptions, BuildQuality, Device, EmbreeError, Scene, SceneBuilder};
-use crate::geometry::{Geometry, Hit, Ray};
+use crate::geometry::{Geometry, Hit, Ray, RayPacket};
 use std::time::{Duration, Instant};
 
 /// Intersection through Intel Embree: meshes as triangle geometry, spheres and cylinders as
@@ -92,7 +92,7 @@ impl Accel for EmbreeAccel {
     #[inline(always)]
     fn intersect_packet_deferred(
         &self,
-        rays: &[Ray; LANES],
+        rays: &RayPacket,
         active: [bool; LANES],
         tmin: f32,
         tmax: f32,
@@ -101,13 +101,7 @@ impl Accel for EmbreeAccel {
     }
 
     #[inline(always)]
-    fn occluded_packet_deferred(
-        &self,
-        rays: &[Ray; LANES],
-        active: [bool; LANES],
-        tmin: f32,
-        tmax: f32,
-    ) -> [bool; LANES] {
+    fn occluded_packet_deferred(&self, rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
         self.scene.occluded8_deferred(rays, active, tmin, tmax)
     }
 

@@ -12,8 +12,8 @@ pub use self::embree::{EmbreeAccel, build_options_for, build_quality_for};
 pub use naive::NaiveAccel;
 
 use crate::embree::EmbreeError;
-pub use crate::embree::LANES;
-use crate::geometry::{Hit, Ray};
+pub use crate::geometry::LANES;
+use crate::geometry::{Hit, Ray, RayPacket};
 use std::fmt;
 use std::str::FromStr;
 
@@ -59,22 +59,16 @@ pub trait Accel: Send + Sync {
     /// lane.
     fn intersect_packet_deferred(
         &self,
-        rays: &[Ray; LANES],
+        rays: &RayPacket,
         active: [bool; LANES],
         tmin: f32,
         tmax: f32,
     ) -> [Option<Hit>; LANES] {
-        std::array::from_fn(|i| if active[i] { self.intersect_deferred(&rays[i], tmin, tmax) } else { None })
+        std::array::from_fn(|i| if active[i] { self.intersect_deferred(&rays.ray(i), tmin, tmax) } else { None })
     }
     /// [`Accel::occluded_deferred`] for a packet (inactive lanes give `false`).
-    fn occluded_packet_deferred(
-        &self,
-        rays: &[Ray; LANES],
-        active: [bool; LANES],
-        tmin: f32,
-        tmax: f32,
-    ) -> [bool; LANES] {
-        std::array::from_fn(|i| active[i] && self.occluded_deferred(&rays[i], tmin, tmax))
+    fn occluded_packet_deferred(&self, rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
+        std::array::from_fn(|i| active[i] && self.occluded_deferred(&rays.ray(i), tmin, tmax))
     }
     /// The error of any deferred query so far (errors are sticky).
     fn deferred_error(&self) -> Result<(), AccelError>;

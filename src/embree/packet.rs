@@ -2,11 +2,10 @@
 //! traced together through the BVH, which costs Embree less per ray than one call per ray.
 
 use super::ffi;
-use crate::geometry::{Hit, Ray};
+use super::scene::FLT_LARGE;
+pub use crate::geometry::LANES;
+use crate::geometry::{Hit, RayPacket};
 use glam::Vec3;
-
-/// Rays per packet.
-pub const LANES: usize = 8;
 
 /// `RTCRayHit8` memory as large as the largest known layout: the ray block (12 × 8 words),
 /// the hit block (8 × 8 words) and room for Embree 4.3+'s `instPrimID` lanes, which come last
@@ -29,59 +28,66 @@ pub(super) struct RayHit8Mem {
 pub(super) struct Valid8(pub(super) [i32; LANES]);
 
 /// The ray block of a query for the `active` lanes of `rays` on `[tmin, tmax]`, and its valid
-/// mask. Inactive lanes hold a harmless ray (Embree does not read them).
-#[inline]
-pub(super) fn ray8(rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> (ffi::RTCRay8, Valid8) {
-    let mut ray = empty_ray8(tmin, tmax);
-    let valid = fill_ray8(&mut ray, rays, active);
-    (ray, valid)
-}
-
-/// An `RTCRay8` on `[tmin, tmax]` whose lanes all hold the harmless ray (origin 0, direction +z).
+/// mask: the active lanes whose ray Embree accepts ([`accepts`]); a lane left out holds a
+/// harmless ray (origin 0, direction +z: Embree does not read it). Both blocks are
+/// structure-of-arrays, so this is six selects of eight floats, built where it is returned
+/// (a query's memory made apart and then moved cost a copy of its 672 bytes).
+///
+/// [`accepts`]: super::scene::accepts
 #[inline(always)]
-fn empty_ray8(tmin: f32, tmax: f32) -> ffi::RTCRay8 {
-    ffi::RTCRay8 {
-        org_x: [0.0; LANES],
-        org_y: [0.0; LANES],
-        org_z: [0.0; LANES],
+pub(super) fn ray8(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> (ffi::RTCRay8, Valid8) {
+    let valid = valid8(rays, active, tmin, tmax);
+    let lanes = |x: &[f32; LANES], idle: f32| -> [f32; LANES] {
+        std::array::from_fn(|i| if valid.0[i] != 0 { x[i] } else { idle })
+    };
+    let ray = ffi::RTCRay8 {
+        org_x: lanes(&rays.o[0], 0.0),
+        org_y: lanes(&rays.o[1], 0.0),
+        org_z: lanes(&rays.o[2], 0.0),
         tnear: [tmin; LANES],
-        dir_x: [0.0; LANES],
-        dir_y: [0.0; LANES],
-        dir_z: [1.0; LANES],
+        dir_x: lanes(&rays.d[0], 0.0),
+        dir_y: lanes(&rays.d[1], 0.0),
+        dir_z: lanes(&rays.d[2], 1.0),
         time: [0.0; LANES],
         tfar: [tmax; LANES],
         // A mask of 0 would hit nothing; every geometry keeps Embree's default mask.
         mask: [u32::MAX; LANES],
         id: [0; LANES],
         flags: [0; LANES],
-    }
+    };
+    (ray, valid)
 }
 
-/// Writes the `active` lanes of `rays` into `ray` in place, in one pass over the lanes
-/// (per-field closures over the lanes did not inline, and building the block apart from its
-/// packet cost a copy of it), and gives the valid mask.
+/// The valid mask of a query: the `active` lanes whose ray Embree accepts, [`accepts`] tested
+/// on every lane at once.
+///
+/// [`accepts`]: super::scene::accepts
 #[inline(always)]
-fn fill_ray8(ray: &mut ffi::RTCRay8, rays: &[Ray; LANES], active: [bool; LANES]) -> Valid8 {
-    let mut valid = Valid8([0; LANES]);
-    for i in 0..LANES {
-        if active[i] {
-            let r = &rays[i];
-            (ray.org_x[i], ray.org_y[i], ray.org_z[i]) = (r.o.x, r.o.y, r.o.z);
-            (ray.dir_x[i], ray.dir_y[i], ray.dir_z[i]) = (r.d.x, r.d.y, r.d.z);
-            valid.0[i] = -1;
-        }
-    }
-    valid
+fn valid8(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> Valid8 {
+    let interval = !tmin.is_nan() & !tmax.is_nan();
+    let within = |x: f32| x.abs() <= FLT_LARGE; // false for NaN
+    Valid8(std::array::from_fn(|i| {
+        let ok = active[i]
+            & interval
+            & within(rays.o[0][i])
+            & within(rays.o[1][i])
+            & within(rays.o[2][i])
+            & within(rays.d[0][i])
+            & within(rays.d[1][i])
+            & within(rays.d[2][i]);
+        -(ok as i32)
+    }))
 }
 
 impl RayHit8Mem {
-    /// A closest-hit query for the `active` lanes of `rays` on `[tmin, tmax]` ([`ray8`]),
-    /// with no hit yet.
+    /// A closest-hit query for the `active` lanes of `rays` on `[tmin, tmax]` ([`ray8`]: lanes
+    /// Embree would refuse are left out), with no hit yet.
     #[inline(always)]
-    pub(super) fn new(rays: &[Ray; LANES], active: [bool; LANES], tmin: f32, tmax: f32) -> (RayHit8Mem, Valid8) {
+    pub(super) fn new(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> (RayHit8Mem, Valid8) {
         let none = ffi::INVALID_GEOMETRY_ID;
-        let mut mem = RayHit8Mem {
-            ray: empty_ray8(tmin, tmax),
+        let (ray, valid) = ray8(rays, active, tmin, tmax);
+        let mem = RayHit8Mem {
+            ray,
             ng: [[0.0; LANES]; 3],
             u: [0.0; LANES],
             v: [0.0; LANES],
@@ -90,7 +96,6 @@ impl RayHit8Mem {
             inst_id: [none; LANES],
             inst_prim_id: [none; LANES],
         };
-        let valid = fill_ray8(&mut mem.ray, rays, active);
         (mem, valid)
     }
 

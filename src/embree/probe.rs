@@ -8,7 +8,7 @@ use super::ffi;
 use super::layout::{HIT_WORD, RayHitLayout, RayHitMem, rtc_ray};
 use super::packet::{LANES, RayHit8Mem};
 use super::scene::Scene;
-use crate::geometry::{Hit, Ray};
+use crate::geometry::{Hit, Ray, RayPacket};
 
 /// The value of every guard word before the query.
 pub const GUARD: u32 = 0xA5A5_5A5A;
@@ -105,7 +105,7 @@ impl Scene {
     /// [`Scene::intersect8_deferred`] in guarded memory: the hits and what the query wrote.
     pub fn probe_intersect8(
         &self,
-        rays: &[Ray; LANES],
+        rays: &RayPacket,
         active: [bool; LANES],
         tmin: f32,
         tmax: f32,

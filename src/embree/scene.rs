@@ -4,7 +4,7 @@ use super::ffi;
 use super::layout::{RayHitLayout, RayHitMem, rtc_ray};
 use super::packet::{LANES, RayHit8Mem, ray8};
 use super::user::{self, CallbackFailure, UserData};
-use crate::geometry::{Aabb, Hit, Ray, Shape};
+use crate::geometry::{Aabb, Hit, Ray, RayPacket, Shape};
 use glam::Vec3;
 use std::any::Any;
 use std::sync::Arc;
@@ -338,17 +338,13 @@ impl Scene {
     #[inline]
     pub fn intersect8_deferred(
         &self,
-        rays: &[Ray; LANES],
+        rays: &RayPacket,
         active: [bool; LANES],
         tmin: f32,
         tmax: f32,
     ) -> [Option<Hit>; LANES] {
         // Rays Embree would refuse are left out of the query (and hit nothing).
-        let mut traced = active;
-        for (t, ray) in traced.iter_mut().zip(rays) {
-            *t = *t && accepts(ray, tmin, tmax);
-        }
-        let (mut mem, valid) = RayHit8Mem::new(rays, traced, tmin, tmax);
+        let (mut mem, valid) = RayHit8Mem::new(rays, active, tmin, tmax);
         // SAFETY: committed scene; `mem` is initialised, 32-byte aligned and as large as the
         // largest known RTCRayHit8 (packet.rs); `valid` is a 32-byte aligned mask.
         unsafe { ffi::intersect8(&valid, self.scene.raw, &mut mem) };
@@ -364,20 +360,13 @@ impl Scene {
     /// `rtcOccluded8` (inactive lanes give `false`, rays Embree would refuse `true`); errors
     /// deferred.
     #[inline]
-    pub fn occluded8_deferred(
-        &self,
-        rays: &[Ray; LANES],
-        active: [bool; LANES],
-        tmin: f32,
-        tmax: f32,
-    ) -> [bool; LANES] {
-        let refused: [bool; LANES] = std::array::from_fn(|i| active[i] && !accepts(&rays[i], tmin, tmax));
-        let traced: [bool; LANES] = std::array::from_fn(|i| active[i] && !refused[i]);
-        let (mut ray, valid) = ray8(rays, traced, tmin, tmax);
+    pub fn occluded8_deferred(&self, rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
+        let (mut ray, valid) = ray8(rays, active, tmin, tmax);
         // SAFETY: committed scene; `ray` is an initialised, 32-byte aligned RTCRay8 (the same
         // 384 bytes in every Embree version); `valid` is a 32-byte aligned mask.
         unsafe { ffi::occluded8(&valid, self.scene.raw, &mut ray) };
-        std::array::from_fn(|i| refused[i] || (traced[i] && ray.tfar[i] == f32::NEG_INFINITY))
+        // An active lane left out of the query was refused: blocked.
+        std::array::from_fn(|i| active[i] && (valid.0[i] == 0 || ray.tfar[i] == f32::NEG_INFINITY))
     }
 
     /// The error of the first user-geometry callback that panicked on this scene, if any.

@@ -5,6 +5,7 @@ mod bounds;
 mod cylinder;
 mod frame;
 mod mesh;
+mod packet;
 mod ray;
 mod spawn;
 mod sphere;
@@ -14,6 +15,7 @@ pub use bounds::Aabb;
 pub use cylinder::{Cylinder, CylinderPart};
 pub use frame::Frame;
 pub use mesh::{MeshError, TriMesh};
+pub use packet::{LANES, RayPacket};
 pub use ray::{Hit, Ray, ShapeHit};
 pub use spawn::{
     POINT_ERROR_ULPS, offset_ray_origin, offset_ray_origin_bounded, offset_toward, offset_toward_bounded, point_error,

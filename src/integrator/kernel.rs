@@ -31,7 +31,7 @@
 use super::aux::{AuxSample, aux_sample};
 use super::path::{PathContext, radiance};
 use crate::accel::{Accel, AccelError, LANES};
-use crate::geometry::Ray;
+use crate::geometry::{Ray, RayPacket};
 use crate::sampler::{PixelSampler, SampleStream};
 use crate::scene::Effects;
 use glam::{Vec2, Vec3};
@@ -132,24 +132,31 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     let n = samples.len();
     debug_assert!(n <= LANES && (n == 0 || samples.start / LANES as u32 == (samples.end - 1) / LANES as u32));
     let pixel = y as u64 * w as u64 + x as u64;
-    // Idle lanes (a group cut short by the sample count) hold copies of the first lane's
-    // stream and ray, not their own: at 1 spp, seven of every eight lanes are idle.
-    let cam = ctx.camera;
-    // The camera ray of a sample from its first four numbers: where on the film, in pixels,
-    // drawn from the pixel filter (weight 1; for the box filter exactly x + u as always), and
-    // where on the lens, drawn in every kernel so that all kernels consume the same numbers.
-    let camera_ray = |u: [f32; 4]| {
-        let p = ctx.settings.filter.film_position(x, y, Vec2::new(u[0], u[1]));
-        let film = Vec2::new(p.x / w as f32, p.y / h as f32);
-        if LENS { cam.ray(film, Vec2::new(u[2], u[3])) } else { Ray::new(cam.position, cam.pinhole_dir(film)) }
-    };
+    // The camera stage, lane by lane in structure-of-arrays form: each sample's first four
+    // numbers place it on the film, in pixels (drawn from the pixel filter, weight 1; for the
+    // box filter exactly x + u as always), and on the lens (drawn in every kernel, so that all
+    // kernels consume the same numbers). Idle lanes (a group cut short by the sample count)
+    // hold copies of the first lane's numbers and stream, not their own: at 1 spp, seven of
+    // every eight lanes are idle.
     let (u, first) = streams.sample_after_first_four(samples.start as u64);
-    let mut camera_rays = [camera_ray(u); LANES];
+    let mut numbers = [u; LANES];
     let mut rngs: [SampleStream<'_>; LANES] = [(); LANES].map(|_| first.clone());
     for i in 1..n {
-        let (u, rng) = streams.sample_after_first_four(samples.start as u64 + i as u64);
-        rngs[i] = rng;
-        camera_rays[i] = camera_ray(u);
+        (numbers[i], rngs[i]) = streams.sample_after_first_four(samples.start as u64 + i as u64);
+    }
+    let (mut fx, mut fy) = ([0.0; LANES], [0.0; LANES]);
+    for (i, u) in numbers.iter().enumerate() {
+        let p = ctx.settings.filter.film_position(x, y, Vec2::new(u[0], u[1]));
+        (fx[i], fy[i]) = (p.x / w as f32, p.y / h as f32);
+    }
+    let cam = ctx.camera;
+    let mut camera_rays = RayPacket::splat(&Ray::new(cam.position, Vec3::Z));
+    if LENS {
+        for (i, u) in numbers.iter().enumerate() {
+            camera_rays.set(i, &cam.ray(Vec2::new(fx[i], fy[i]), Vec2::new(u[2], u[3])));
+        }
+    } else {
+        camera_rays.d = cam.pinhole_dirs(&fx, &fy);
     }
     let active: [bool; LANES] = std::array::from_fn(|i| i < n);
     let aux = aux.map(|a| (a, (pixel, samples.start as u64)));
@@ -169,7 +176,7 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
 fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const HIT_LIGHTS: bool>(
     ctx: &PathContext,
     accel: &A,
-    camera_rays: &[Ray; LANES],
+    camera_rays: &RayPacket,
     active: [bool; LANES],
     rngs: &mut [SampleStream<'_>; LANES],
     out: &mut [Vec3; LANES],
@@ -179,13 +186,15 @@ fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     let hits = accel.intersect_packet_deferred(camera_rays, active, 0.0, f32::INFINITY);
     for i in (0..LANES).filter(|&i| active[i]) {
         *rays += 1;
-        out[i] = radiance::<A, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, accel, camera_rays[i], hits[i], &mut rngs[i], rays);
+        let ray = camera_rays.ray(i);
+        out[i] = radiance::<A, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, accel, ray, hits[i], &mut rngs[i], rays);
     }
     // Beside the paths, from the same camera rays and first hits (see `super::aux`).
     if let Some((aux, (pixel, first_sample))) = aux {
         for i in (0..LANES).filter(|&i| active[i]) {
             let sample = first_sample + i as u64;
-            aux[i] = aux_sample::<A, TEX, GLOSSY, GLASS>(ctx, accel, camera_rays[i], hits[i], pixel, sample, rays);
+            let ray = camera_rays.ray(i);
+            aux[i] = aux_sample::<A, TEX, GLOSSY, GLASS>(ctx, accel, ray, hits[i], pixel, sample, rays);
         }
     }
     // Queries report errors (a panicked user-geometry callback) once per packet of paths.

@@ -4,7 +4,7 @@
 use super::cputime::cpu_of;
 use super::rays::Query;
 use crate::accel::{Accel, AccelError, LANES};
-use crate::geometry::{Hit, Ray};
+use crate::geometry::{Hit, Ray, RayPacket};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
@@ -98,6 +98,7 @@ fn packet_answers(accel: &dyn Accel, group: &[Query], closest: bool) -> Result<[
         return Ok(out);
     }
     let rays: [Ray; LANES] = std::array::from_fn(|i| group.get(i).map_or(Ray::new(Vec3::ZERO, Vec3::Z), |q| q.ray));
+    let rays = RayPacket::from_rays(&rays);
     let active: [bool; LANES] = std::array::from_fn(|i| i < group.len());
     Ok(if closest {
         accel.intersect_packet_deferred(&rays, active, 0.0, tmax).map(Answer::Closest)

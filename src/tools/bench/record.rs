@@ -2,7 +2,7 @@
 //! exact rays through Embree alone.
 
 use crate::accel::{Accel, AccelError, LANES};
-use crate::geometry::{Hit, Ray};
+use crate::geometry::{Hit, Ray, RayPacket};
 use rayon::prelude::*;
 use std::sync::Mutex;
 
@@ -63,13 +63,13 @@ impl Accel for RecordingAccel<'_> {
     /// by the inner accelerator's packet query, so the render is the one it would be.
     fn intersect_packet_deferred(
         &self,
-        rays: &[Ray; LANES],
+        rays: &RayPacket,
         active: [bool; LANES],
         tmin: f32,
         tmax: f32,
     ) -> [Option<Hit>; LANES] {
-        for (ray, _) in rays.iter().zip(active).filter(|(_, a)| *a) {
-            self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: false });
+        for i in (0..LANES).filter(|&i| active[i]) {
+            self.record(RecordedQuery { ray: rays.ray(i), tmin, tmax, occlusion: false });
         }
         self.inner.intersect_packet_deferred(rays, active, tmin, tmax)
     }
