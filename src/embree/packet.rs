@@ -2,7 +2,7 @@
 //! traced together through the BVH, which costs Embree less per ray than one call per ray.
 
 use super::ffi;
-use super::scene::FLT_LARGE;
+use super::scene::{accepts_component, accepts_interval};
 pub use crate::geometry::LANES;
 use crate::geometry::{Hit, RayPacket};
 use glam::Vec3;
@@ -64,8 +64,8 @@ pub(super) fn ray8(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32
 /// [`accepts`]: super::scene::accepts
 #[inline(always)]
 fn valid8(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> Valid8 {
-    let interval = !tmin.is_nan() & !tmax.is_nan();
-    let within = |x: f32| x.abs() <= FLT_LARGE; // false for NaN
+    let interval = accepts_interval(tmin, tmax);
+    let within = accepts_component;
     Valid8(std::array::from_fn(|i| {
         let ok = active[i]
             & interval

@@ -292,8 +292,21 @@ pub const FLT_LARGE: f32 = 1.844e18;
 /// makes one; a NaN from elsewhere must not take the process down.
 #[inline(always)]
 pub fn accepts(ray: &Ray, tmin: f32, tmax: f32) -> bool {
-    let lim = glam::Vec3::splat(FLT_LARGE);
-    ray.o.abs().cmple(lim).all() && ray.d.abs().cmple(lim).all() && !tmin.is_nan() && !tmax.is_nan()
+    let c = accepts_component;
+    accepts_interval(tmin, tmax) & c(ray.o.x) & c(ray.o.y) & c(ray.o.z) & c(ray.d.x) & c(ray.d.y) & c(ray.d.z)
+}
+
+/// [`accepts`] on one origin or direction component: within ±[`FLT_LARGE`], so not NaN. The
+/// packet queries test their lanes with it (`packet.rs`).
+#[inline(always)]
+pub(super) fn accepts_component(x: f32) -> bool {
+    x.abs() <= FLT_LARGE
+}
+
+/// [`accepts`] on the interval: neither end NaN.
+#[inline(always)]
+pub(super) fn accepts_interval(tmin: f32, tmax: f32) -> bool {
+    !tmin.is_nan() & !tmax.is_nan()
 }
 
 impl Scene {
