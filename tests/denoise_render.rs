@@ -6,7 +6,7 @@
 
 mod common;
 
-use ember::accel::{EmbreeAccel, NaiveAccel};
+use ember::accel::EmbreeAccel;
 use ember::embree::{BuildOptions, Device};
 use ember::film::{
     ALBEDO_LAYER, AuxMode, Checkpoint, Film, MAIN_LAYER, NOISY_LAYER, NORMAL_LAYER, SAMPLE_COUNT_CHANNEL, denoise,
@@ -149,11 +149,7 @@ fn the_image_is_the_same_with_or_without_aux_and_as_before_them() {
     assert!(plain.accum.aux.is_none() && with_aux.accum.aux.is_some());
     // Pinned bits through the naive loop: Embree's hit points differ in the last bits between
     // its AVX2 and AVX-512 kernels, so an Embree image's bits depend on the CPU.
-    let naive = NaiveAccel::new(&scene.geometry);
-    let pinned = |settings: &RenderSettings| {
-        let r = render_controlled(&scene, &naive, &RenderPlan::new(&scene, settings), RenderControl::default());
-        bits_hash(&r.unwrap().accum.film())
-    };
+    let pinned = |settings: &RenderSettings| bits_hash(&common::render_naive(&scene, settings).0);
     assert_eq!(pinned(&settings), SOBOL_HASH, "the image differs from before");
     let independent = RenderSettings { sampler: SamplerKind::Independent, aux: true, ..settings.clone() };
     assert_eq!(pinned(&independent), INDEPENDENT_HASH);
