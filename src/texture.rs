@@ -40,13 +40,15 @@ fn read_image_file(path: &Path, budget: &LoadBudget) -> Result<Vec<u8>, TextureE
     std::fs::read(path).map_err(io)
 }
 
-/// An 8-bit image's pixels, decoded from sRGB to linear.
+/// An 8-bit image's pixels, decoded from sRGB to linear: through a table of the 256 values
+/// (the same numbers as `srgb_to_linear(v / 255)`, whose `powf` per channel had made a
+/// 1-megapixel texture's loading cost more than a small render).
 fn srgb_pixels(decoded: image::DynamicImage) -> Vec<Vec3> {
+    let table: [f32; 256] = std::array::from_fn(|v| srgb_to_linear(v as f32 / 255.0));
     decoded
         .to_rgb8()
         .pixels()
-        .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0)
-        .map(|c| c.map(srgb_to_linear))
+        .map(|p| Vec3::new(table[p[0] as usize], table[p[1] as usize], table[p[2] as usize]))
         .collect()
 }
 
@@ -297,5 +299,25 @@ mod floor_tests {
         for x in xs {
             assert_eq!(floor_to_int(x), x.floor() as i64, "{x}");
         }
+    }
+}
+
+#[cfg(test)]
+mod srgb_tests {
+    use super::{srgb_pixels, srgb_to_linear};
+    use glam::Vec3;
+
+    #[test]
+    fn the_table_gives_the_transfer_function_of_every_8_bit_value() {
+        // Every value in every channel (shifted per channel), against the formula per texel.
+        let img =
+            image::RgbImage::from_fn(256, 1, |x, _| image::Rgb([x as u8, (x as u8).wrapping_add(85), !(x as u8)]));
+        let pixels = srgb_pixels(image::DynamicImage::ImageRgb8(img.clone()));
+        for (p, q) in img.pixels().zip(&pixels) {
+            let expected = (Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32) / 255.0).map(srgb_to_linear);
+            assert_eq!(q.to_array().map(f32::to_bits), expected.to_array().map(f32::to_bits), "{p:?}");
+        }
+        assert_eq!(pixels[0].x, 0.0);
+        assert_eq!(pixels[255].x, 1.0);
     }
 }
