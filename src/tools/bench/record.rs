@@ -1,5 +1,6 @@
 //! An accelerator wrapper that records every query it answers, to replay the path tracer's
-//! exact rays through Embree alone.
+//! exact rays through Embree alone, the way the path tracer traced them: packets as packets,
+//! single rays one by one.
 
 use crate::accel::{Accel, AccelError, LANES};
 use crate::geometry::{Hit, Ray, RayPacket};
@@ -14,6 +15,10 @@ pub struct RecordedQuery {
     pub tmax: f32,
     /// `true` for an occlusion (any-hit) query, `false` for a closest hit.
     pub occlusion: bool,
+    /// On the first ray of a packet query, the packet's rays (this one and the next
+    /// `packet - 1` queries, in lanes 0, 1, …, as the path tracer's active lanes are); 0 on the
+    /// others and on single queries.
+    pub packet: u8,
 }
 
 /// Forwards every query to `inner` and keeps a copy of it. Each rayon worker appends to its
@@ -29,9 +34,13 @@ impl<'a> RecordingAccel<'a> {
         RecordingAccel { inner, lists: (0..threads.max(1)).map(|_| Mutex::new(Vec::new())).collect() }
     }
 
+    /// The calling worker's list: a packet's queries stay together in it.
+    fn list(&self) -> &Mutex<Vec<RecordedQuery>> {
+        &self.lists[rayon::current_thread_index().unwrap_or(0) % self.lists.len()]
+    }
+
     fn record(&self, q: RecordedQuery) {
-        let i = rayon::current_thread_index().unwrap_or(0) % self.lists.len();
-        self.lists[i].lock().unwrap_or_else(|e| e.into_inner()).push(q);
+        self.list().lock().unwrap_or_else(|e| e.into_inner()).push(q);
     }
 
     /// Every query recorded, worker by worker.
@@ -50,17 +59,17 @@ impl Accel for RecordingAccel<'_> {
     }
 
     fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
-        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: false });
+        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: false, packet: 0 });
         self.inner.intersect_deferred(ray, tmin, tmax)
     }
 
     fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
-        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: true });
+        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: true, packet: 0 });
         self.inner.occluded_deferred(ray, tmin, tmax)
     }
 
-    /// Recorded as single closest-hit queries (replay traces them one by one); answered
-    /// by the inner accelerator's packet query, so the render is the one it would be.
+    /// Recorded as one packet query of its active lanes (a prefix of the packet, as the path
+    /// tracer's are; checked), so that replay traces it as the path tracer did.
     fn intersect_packet_deferred(
         &self,
         rays: &RayPacket,
@@ -68,9 +77,14 @@ impl Accel for RecordingAccel<'_> {
         tmin: f32,
         tmax: f32,
     ) -> [Option<Hit>; LANES] {
-        for i in (0..LANES).filter(|&i| active[i]) {
-            self.record(RecordedQuery { ray: rays.ray(i), tmin, tmax, occlusion: false });
+        let n = active.iter().take_while(|&&a| a).count();
+        assert!(active[n..].iter().all(|&a| !a), "recorded packets have their active lanes first");
+        let mut list = self.list().lock().unwrap_or_else(|e| e.into_inner());
+        for i in 0..n {
+            let packet = if i == 0 { n as u8 } else { 0 };
+            list.push(RecordedQuery { ray: rays.ray(i), tmin, tmax, occlusion: false, packet });
         }
+        drop(list);
         self.inner.intersect_packet_deferred(rays, active, tmin, tmax)
     }
 
@@ -79,28 +93,68 @@ impl Accel for RecordingAccel<'_> {
     }
 }
 
-/// One parallel pass of `queries` through `accel` (on the current rayon pool); returns the
+/// The queries cut into chunks of about 512 for the replay's threads, never inside a packet.
+pub fn replay_chunks(queries: &[RecordedQuery]) -> Vec<std::ops::Range<usize>> {
+    let mut chunks = Vec::new();
+    let mut start = 0;
+    let mut i = 0;
+    while i < queries.len() {
+        i += (queries[i].packet as usize).max(1);
+        if i - start >= 512 || i >= queries.len() {
+            chunks.push(start..i.min(queries.len()));
+            start = i;
+        }
+    }
+    chunks
+}
+
+/// One parallel pass of `queries` (cut by [`replay_chunks`]) through `accel` (on the current
+/// rayon pool), each packet as one packet query and every other query alone; returns the
 /// number of hits. Embree is called directly (the cheapest way the path tracer calls it: no
 /// trait object, errors checked once per chunk), so that replay measures Embree alone.
-pub fn replay(accel: &dyn Accel, queries: &[RecordedQuery]) -> Result<usize, AccelError> {
+pub fn replay(
+    accel: &dyn Accel,
+    queries: &[RecordedQuery],
+    chunks: &[std::ops::Range<usize>],
+) -> Result<usize, AccelError> {
     match accel.as_embree() {
-        Some(embree) => replay_on(embree, queries),
-        None => replay_on(accel, queries),
+        Some(embree) => replay_on(embree, queries, chunks),
+        None => replay_on(accel, queries, chunks),
     }
 }
 
-fn replay_on<A: Accel + ?Sized>(accel: &A, queries: &[RecordedQuery]) -> Result<usize, AccelError> {
-    queries
-        .par_chunks(512)
+fn replay_on<A: Accel + ?Sized>(
+    accel: &A,
+    queries: &[RecordedQuery],
+    chunks: &[std::ops::Range<usize>],
+) -> Result<usize, AccelError> {
+    chunks
+        .par_iter()
         .try_fold(
             || 0usize,
-            |mut hits, chunk| {
-                for q in chunk {
+            |mut hits, range| {
+                let chunk = &queries[range.clone()];
+                let mut i = 0;
+                while i < chunk.len() {
+                    let q = &chunk[i];
+                    if q.packet > 0 {
+                        let n = q.packet as usize;
+                        let mut rays = RayPacket::splat(&q.ray);
+                        for (lane, p) in chunk[i..i + n].iter().enumerate() {
+                            rays.set(lane, &p.ray);
+                        }
+                        let active = std::array::from_fn(|lane| lane < n);
+                        let found = accel.intersect_packet_deferred(&rays, active, q.tmin, q.tmax);
+                        hits += found.iter().filter(|h| h.is_some()).count();
+                        i += n;
+                        continue;
+                    }
                     hits += if q.occlusion {
                         accel.occluded_deferred(&q.ray, q.tmin, q.tmax)
                     } else {
                         accel.intersect_deferred(&q.ray, q.tmin, q.tmax).is_some()
                     } as usize;
+                    i += 1;
                 }
                 accel.deferred_error()?;
                 Ok(hits)
@@ -124,9 +178,35 @@ mod tests {
         let r = Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::Z);
         assert_eq!(rec.intersect(&r, 0.0, 10.0).unwrap().map(|h| h.t), Some(4.0));
         assert!(!rec.occluded(&r, 0.0, 3.0).unwrap());
+        // A packet of three active lanes: recorded as one packet of three rays.
+        let mut rays = RayPacket::splat(&r);
+        rays.set(1, &Ray::new(Vec3::new(5.0, 0.0, -5.0), Vec3::Z));
+        let active = std::array::from_fn(|i| i < 3);
+        let found = rec.intersect_packet_deferred(&rays, active, 0.0, 10.0);
+        assert_eq!(found.iter().filter(|h| h.is_some()).count(), 2);
         let q = rec.into_queries();
-        assert_eq!(q.len(), 2);
+        assert_eq!(q.len(), 5);
         assert_eq!((q[0].occlusion, q[0].tmax, q[1].occlusion, q[1].tmax), (false, 10.0, true, 3.0));
-        assert_eq!(replay(&naive, &q).unwrap(), 1);
+        assert_eq!(q.iter().map(|q| q.packet).collect::<Vec<_>>(), [0, 0, 3, 0, 0]);
+        assert_eq!(q[3].ray.o.x, 5.0);
+        // Replayed whole: the single hit and the packet's two.
+        let chunks = replay_chunks(&q);
+        assert_eq!(chunks, vec![0..5]);
+        assert_eq!(replay(&naive, &q, &chunks).unwrap(), 3);
+    }
+
+    #[test]
+    fn chunks_never_cut_a_packet() {
+        let r = Ray::new(Vec3::ZERO, Vec3::Z);
+        let single = RecordedQuery { ray: r, tmin: 0.0, tmax: 1.0, occlusion: false, packet: 0 };
+        let mut q = vec![single; 510];
+        // A packet of 8 across the 512 mark, then singles.
+        q.push(RecordedQuery { packet: 8, ..single });
+        q.extend([single; 7]);
+        q.extend([single; 600]);
+        let chunks = replay_chunks(&q);
+        assert_eq!(chunks[0], 0..518);
+        assert_eq!(chunks.iter().map(|c| c.len()).sum::<usize>(), q.len());
+        assert!(chunks.windows(2).all(|w| w[0].end == w[1].start));
     }
 }

@@ -6,12 +6,13 @@
 //! (every intersect/occluded query kept, in each worker's order), then timed with 1 and with 2
 //! threads. Rendering is deterministic, so the timed renders trace exactly
 //! the recorded rays; the recorded queries are then replayed through the same Embree scene
-//! (one `rtcIntersect1`/`rtcOccluded1` each, via ember's safe wrapper) on 2 threads.
+//! on 2 threads as the path tracer traced them (camera rays 8 at a time with `rtcIntersect8`,
+//! every other ray with `rtcIntersect1`/`rtcOccluded1`, via ember's safe wrapper).
 
 use super::BenchError;
 use super::cputime::cpu_of;
 use super::measure::{Timing, median};
-use super::record::{RecordedQuery, RecordingAccel, replay};
+use super::record::{RecordedQuery, RecordingAccel, replay, replay_chunks};
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
 use crate::integrator::{RenderSettings, render};
@@ -165,6 +166,7 @@ pub fn measure_scene(
     let recorder = RecordingAccel::new(&accel, 2);
     let (_, recorded_stats) = two.install(|| render(&scene, &recorder, &settings))?;
     let queries: Vec<RecordedQuery> = recorder.into_queries();
+    let chunks = replay_chunks(&queries);
     if queries.len() as u64 != recorded_stats.rays {
         return Err(BenchError::Invalid(format!(
             "{}: the path tracer counted {} rays but made {} queries",
@@ -193,7 +195,7 @@ pub fn measure_scene(
         let (replayed, replay_cpu) = two.install(|| {
             cpu_of(|| {
                 let start = Instant::now();
-                std::hint::black_box(replay(&accel, &queries)?);
+                std::hint::black_box(replay(&accel, &queries, &chunks)?);
                 Ok::<_, BenchError>(start.elapsed())
             })
         });
