@@ -8,7 +8,7 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use ember::accel::Accel;
 use ember::embree::{BuildQuality, Device};
 use ember::geometry::{Aabb, Geometry};
-use ember::tools::bench::measure::pass;
+use ember::tools::bench::measure::{Batch, pass};
 use ember::tools::bench::rays::{self, Query, RayKind};
 use ember::tools::bench::scenes::{BenchScene, default_scenes_dir};
 use ember::tools::bench::strategy::Strategy;
@@ -43,7 +43,9 @@ fn workloads(device: &Device, g: &[Geometry]) -> Vec<(RayKind, Vec<Query>)> {
 fn trace(c: &mut Criterion, group: &str, id: &str, accel: &dyn Accel, kind: RayKind, q: &[Query]) {
     let mut g = c.benchmark_group(group);
     g.throughput(Throughput::Elements(q.len() as u64));
-    g.bench_function(BenchmarkId::new(id, kind.name()), |b| b.iter(|| pass(accel, q, kind.closest(), false).unwrap()));
+    g.bench_function(BenchmarkId::new(id, kind.name()), |b| {
+        b.iter(|| pass(accel, q, kind.closest(), Batch::Single).unwrap())
+    });
     g.finish();
 }
 

@@ -135,27 +135,37 @@ mod backend {
         unsafe { raw::rtcOccluded1(scene, &mut ctx, ray) }
     }
 
-    /// `rtcIntersect8` on the lanes of `mem` that `valid` marks, hinted as coherent.
+    /// The query context of a packet: hinted coherent or not (Embree's default).
+    #[inline]
+    fn packet_context(coherent: bool) -> raw::RTCIntersectContext {
+        let mut ctx = context();
+        if coherent {
+            ctx.flags = raw::RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        }
+        ctx
+    }
+
+    /// `rtcIntersect8` on the lanes of `mem` that `valid` marks, hinted as coherent if
+    /// `coherent`.
     ///
     /// # Safety
     /// `scene` is a committed scene; `mem` is initialised ray-hit memory for 8 rays, as large
     /// as the library's `RTCRayHit8` and 32-byte aligned (a `RayHit8Mem` is).
     #[inline]
-    pub(in super::super) unsafe fn intersect8(valid: &Valid8, scene: RTCScene, mem: *mut RayHit8Mem) {
-        let mut ctx = context();
-        ctx.flags = raw::RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    pub(in super::super) unsafe fn intersect8(valid: &Valid8, scene: RTCScene, mem: *mut RayHit8Mem, coherent: bool) {
+        let mut ctx = packet_context(coherent);
         // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type) and
         // `ctx` lives across the call.
         unsafe { raw::rtcIntersect8(valid.0.as_ptr(), scene, &mut ctx, mem.cast::<raw::RTCRayHit8>()) }
     }
 
-    /// `rtcOccluded8` on the lanes of `ray` that `valid` marks.
+    /// `rtcOccluded8` on the lanes of `ray` that `valid` marks, hinted as `intersect8`.
     ///
     /// # Safety
     /// `scene` is a committed scene; `ray` points to an initialised, 32-byte aligned `RTCRay8`.
     #[inline]
-    pub(in super::super) unsafe fn occluded8(valid: &Valid8, scene: RTCScene, ray: *mut RTCRay8) {
-        let mut ctx = context();
+    pub(in super::super) unsafe fn occluded8(valid: &Valid8, scene: RTCScene, ray: *mut RTCRay8, coherent: bool) {
+        let mut ctx = packet_context(coherent);
         // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type) and
         // `ctx` lives across the call.
         unsafe { raw::rtcOccluded8(valid.0.as_ptr(), scene, &mut ctx, ray) }
@@ -254,24 +264,27 @@ mod backend {
         unsafe { raw::rtcOccluded1(scene, ray, std::ptr::null_mut()) }
     }
 
-    /// `rtcIntersect8` on the lanes of `mem` that `valid` marks.
+    /// `rtcIntersect8` on the lanes of `mem` that `valid` marks. The coherence hint is not
+    /// passed: it would take an `RTCIntersectArguments`, and Embree's defaults (no arguments)
+    /// are what every query of this backend uses (see `intersect1`), incoherent.
     ///
     /// # Safety
     /// `scene` is a committed scene; `mem` is initialised ray-hit memory for 8 rays, as large
     /// as the library's `RTCRayHit8` and 32-byte aligned (a `RayHit8Mem` is).
     #[inline]
-    pub(in super::super) unsafe fn intersect8(valid: &Valid8, scene: RTCScene, mem: *mut RayHit8Mem) {
+    pub(in super::super) unsafe fn intersect8(valid: &Valid8, scene: RTCScene, mem: *mut RayHit8Mem, _coherent: bool) {
         // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type); NULL
         // arguments are documented as allowed.
         unsafe { raw::rtcIntersect8(valid.0.as_ptr(), scene, mem.cast::<raw::RTCRayHit8>(), std::ptr::null_mut()) }
     }
 
-    /// `rtcOccluded8` on the lanes of `ray` that `valid` marks.
+    /// `rtcOccluded8` on the lanes of `ray` that `valid` marks (no coherence hint, as
+    /// `intersect8`).
     ///
     /// # Safety
     /// `scene` is a committed scene; `ray` points to an initialised, 32-byte aligned `RTCRay8`.
     #[inline]
-    pub(in super::super) unsafe fn occluded8(valid: &Valid8, scene: RTCScene, ray: *mut RTCRay8) {
+    pub(in super::super) unsafe fn occluded8(valid: &Valid8, scene: RTCScene, ray: *mut RTCRay8, _coherent: bool) {
         // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type); NULL
         // arguments are documented as allowed.
         unsafe { raw::rtcOccluded8(valid.0.as_ptr(), scene, ray, std::ptr::null_mut()) }

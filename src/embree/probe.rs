@@ -121,7 +121,7 @@ impl Scene {
         // SAFETY: committed scene; `p` is 32-byte aligned and points to 736 bytes, more than
         // any RTCRayHit8; the fields Embree reads (rays, geomID, instID) are initialised, the
         // rest of the hit is output; `valid` is a 32-byte aligned mask.
-        unsafe { ffi::intersect8(&valid, self.scene.raw, p) };
+        unsafe { ffi::intersect8(&valid, self.scene.raw, p, rays.coherent) };
         self.scene.failure.check()?;
         // SAFETY: `p` is aligned and its 672 bytes are initialised words.
         let after = unsafe { &*p };

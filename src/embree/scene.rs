@@ -347,7 +347,8 @@ impl Scene {
 
     /// Closest hits of the `active` lanes of 8 rays on `[tmin, tmax]`, with one
     /// `rtcIntersect8` (inactive lanes, and rays Embree would refuse, give `None`); errors
-    /// deferred as in [`Scene::intersect_deferred`]. For coherent rays (Embree is told so).
+    /// deferred as in [`Scene::intersect_deferred`]. Embree is told the rays are coherent if
+    /// the packet says so ([`RayPacket::coherent`]; Embree 3 only).
     #[inline]
     pub fn intersect8_deferred(
         &self,
@@ -360,7 +361,7 @@ impl Scene {
         let (mut mem, valid) = RayHit8Mem::new(rays, active, tmin, tmax);
         // SAFETY: committed scene; `mem` is initialised, 32-byte aligned and as large as the
         // largest known RTCRayHit8 (packet.rs); `valid` is a 32-byte aligned mask.
-        unsafe { ffi::intersect8(&valid, self.scene.raw, &mut mem) };
+        unsafe { ffi::intersect8(&valid, self.scene.raw, &mut mem, rays.coherent) };
         // Lanes not traced keep the invalid geometry id `RayHit8Mem::new` gave them: no hit.
         let mut hits = [None; LANES];
         for (i, hit) in hits.iter_mut().enumerate() {
@@ -371,13 +372,13 @@ impl Scene {
 
     /// Whether each `active` lane of 8 rays is blocked on `[tmin, tmax]`, with one
     /// `rtcOccluded8` (inactive lanes give `false`, rays Embree would refuse `true`); errors
-    /// deferred.
+    /// deferred; the packet's coherence hint as in [`Scene::intersect8_deferred`].
     #[inline]
     pub fn occluded8_deferred(&self, rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
         let (mut ray, valid) = ray8(rays, active, tmin, tmax);
         // SAFETY: committed scene; `ray` is an initialised, 32-byte aligned RTCRay8 (the same
         // 384 bytes in every Embree version); `valid` is a 32-byte aligned mask.
-        unsafe { ffi::occluded8(&valid, self.scene.raw, &mut ray) };
+        unsafe { ffi::occluded8(&valid, self.scene.raw, &mut ray, rays.coherent) };
         // An active lane left out of the query was refused: blocked.
         std::array::from_fn(|i| active[i] && (valid.0[i] == 0 || ray.tfar[i] == f32::NEG_INFINITY))
     }

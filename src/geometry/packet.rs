@@ -14,6 +14,11 @@ pub const LANES: usize = 8;
 pub struct RayPacket {
     pub o: [[f32; LANES]; 3],
     pub d: [[f32; LANES]; 3],
+    /// Whether the rays travel together (one origin, nearly one direction: a pixel's camera
+    /// rays), a hint to the accelerator. Embree then traverses the packet as one; rays that
+    /// part (random directions, paths after a bounce) must not be hinted so: on the Cornell
+    /// box such packets took 1.5× the time of the same packets unhinted. False unless set.
+    pub coherent: bool,
 }
 
 impl RayPacket {
@@ -23,6 +28,7 @@ impl RayPacket {
         RayPacket {
             o: [[ray.o.x; LANES], [ray.o.y; LANES], [ray.o.z; LANES]],
             d: [[ray.d.x; LANES], [ray.d.y; LANES], [ray.d.z; LANES]],
+            coherent: false,
         }
     }
 

@@ -151,6 +151,7 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     }
     let cam = ctx.camera;
     let mut camera_rays = RayPacket::splat(&Ray::new(cam.position, Vec3::Z));
+    camera_rays.coherent = true;
     if LENS {
         for (i, u) in numbers.iter().enumerate() {
             camera_rays.set(i, &cam.ray(Vec2::new(fx[i], fy[i]), Vec2::new(u[2], u[3])));

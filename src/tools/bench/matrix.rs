@@ -3,7 +3,7 @@
 //! a check of every strategy's answers against the naive loop's.
 
 use super::BenchError;
-use super::measure::{Answer, Timing, answers, time_answers, time_queries};
+use super::measure::{Answer, Batch, Timing, answers, time_answers, time_queries};
 use super::rays::{self, Query, RayKind};
 use super::scenes::{BenchScene, Family};
 use super::strategy::Strategy;
@@ -224,7 +224,8 @@ pub fn run_scene(
             if strategy.tessellated() { tessellated.as_deref().unwrap_or(&scene.geometry) } else { &scene.geometry };
         let (accel, build_time) = build(strategy, device, geometry)?;
         for (kind, queries) in &work.sets {
-            let (time, hits) = time_queries(accel.as_ref(), queries, kind.closest(), strategy.packets(), cfg.timing)?;
+            let (time, hits) =
+                time_queries(accel.as_ref(), queries, kind.closest(), strategy.batch(*kind), cfg.timing)?;
             let NaiveReference {
                 queries: sub,
                 answers: ref_answers,
@@ -236,15 +237,15 @@ pub fn run_scene(
                     if !tess_reference.contains_key(kind) {
                         let n = cfg.naive_rays(traced_tess.unwrap_or(1), sub.len());
                         let s: Vec<Query> = sub[..n].to_vec();
-                        let a = answers(tn, &s, kind.closest(), false)?;
+                        let a = answers(tn, &s, kind.closest(), Batch::Single)?;
                         tess_reference.insert(*kind, (s, a));
                     }
                     let (tsub, tref) = &tess_reference[kind];
-                    let cand = answers(accel.as_ref(), tsub, kind.closest(), strategy.packets())?;
+                    let cand = answers(accel.as_ref(), tsub, kind.closest(), strategy.batch(*kind))?;
                     compare_with_naive(geometry, tsub, tref, tn, &cand, accel.as_ref())?
                 }
                 _ => {
-                    let cand = answers(accel.as_ref(), sub, kind.closest(), strategy.packets())?;
+                    let cand = answers(accel.as_ref(), sub, kind.closest(), strategy.batch(*kind))?;
                     compare_with_naive(geometry, sub, ref_answers, &naive, &cand, accel.as_ref())?
                 }
             };

@@ -54,17 +54,27 @@ impl Answer {
     }
 }
 
-/// One pass over `queries` (closest hit or any hit), one by one or (`packets`) 8 at a time;
-/// returns the number of hits.
-pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) -> Result<usize, AccelError> {
+/// How a pass asks its queries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Batch {
+    /// One by one.
+    Single,
+    /// 8 at a time, consecutive queries together, with the packets' coherence hint
+    /// ([`RayPacket::coherent`]): camera rays are coherent, random rays are not.
+    Packets { coherent: bool },
+}
+
+/// One pass over `queries` (closest hit or any hit), asked as `batch` says; returns the
+/// number of hits.
+pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool, batch: Batch) -> Result<usize, AccelError> {
     queries
         .par_chunks(CHUNK)
         .try_fold(
             || 0usize,
             |mut hits, chunk| {
-                if packets {
+                if let Batch::Packets { coherent } = batch {
                     for group in chunk.chunks(LANES) {
-                        let a = packet_answers(accel, group, closest)?;
+                        let a = packet_answers(accel, group, closest, coherent)?;
                         hits += a[..group.len()].iter().filter(|a| a.is_hit()).count();
                     }
                     accel.deferred_error()?;
@@ -88,7 +98,12 @@ pub fn pass(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) 
 /// `group.len()` lanes (no allocation: the timed pass calls this for every packet). Queries of
 /// a packet share `tmax` in every workload (∞ for closest hits, 1 for shadow segments); a
 /// group whose `tmax` differ is answered lane by lane.
-fn packet_answers(accel: &dyn Accel, group: &[Query], closest: bool) -> Result<[Answer; LANES], AccelError> {
+fn packet_answers(
+    accel: &dyn Accel,
+    group: &[Query],
+    closest: bool,
+    coherent: bool,
+) -> Result<[Answer; LANES], AccelError> {
     let tmax = group[0].tmax;
     if group.iter().any(|q| q.tmax != tmax) {
         let mut out = [Answer::Occluded(false); LANES];
@@ -98,7 +113,8 @@ fn packet_answers(accel: &dyn Accel, group: &[Query], closest: bool) -> Result<[
         return Ok(out);
     }
     let rays: [Ray; LANES] = std::array::from_fn(|i| group.get(i).map_or(Ray::new(Vec3::ZERO, Vec3::Z), |q| q.ray));
-    let rays = RayPacket::from_rays(&rays);
+    let mut rays = RayPacket::from_rays(&rays);
+    rays.coherent = coherent;
     let active: [bool; LANES] = std::array::from_fn(|i| i < group.len());
     Ok(if closest {
         accel.intersect_packet_deferred(&rays, active, 0.0, tmax).map(Answer::Closest)
@@ -121,7 +137,7 @@ pub fn time_queries(
     accel: &dyn Accel,
     queries: &[Query],
     closest: bool,
-    packets: bool,
+    batch: Batch,
     timing: Timing,
 ) -> Result<(Times, usize), AccelError> {
     let (mut best, mut total, mut passes, mut hits) =
@@ -132,7 +148,7 @@ pub fn time_queries(
     while timing.wants_more(passes, total) {
         let ((h, t), cpu) = cpu_of(|| {
             let start = Instant::now();
-            (pass(accel, queries, closest, packets), start.elapsed())
+            (pass(accel, queries, closest, batch), start.elapsed())
         });
         hits = h?;
         best.wall = best.wall.min(t);
@@ -154,12 +170,12 @@ fn answer(accel: &dyn Accel, q: &Query, closest: bool) -> Result<Answer, AccelEr
     })
 }
 
-/// Every query's answer (in parallel, not timed), one by one or (`packets`) 8 at a time.
-pub fn answers(accel: &dyn Accel, queries: &[Query], closest: bool, packets: bool) -> Result<Vec<Answer>, AccelError> {
-    if packets {
+/// Every query's answer (in parallel, not timed), asked as `batch` says.
+pub fn answers(accel: &dyn Accel, queries: &[Query], closest: bool, batch: Batch) -> Result<Vec<Answer>, AccelError> {
+    if let Batch::Packets { coherent } = batch {
         let groups: Vec<(usize, [Answer; LANES])> = queries
             .par_chunks(LANES)
-            .map(|group| Ok((group.len(), packet_answers(accel, group, closest)?)))
+            .map(|group| Ok((group.len(), packet_answers(accel, group, closest, coherent)?)))
             .collect::<Result<_, AccelError>>()?;
         accel.deferred_error()?;
         return Ok(groups.into_iter().flat_map(|(n, a)| a.into_iter().take(n)).collect());

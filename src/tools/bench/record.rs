@@ -19,6 +19,8 @@ pub struct RecordedQuery {
     /// `packet - 1` queries, in lanes 0, 1, …, as the path tracer's active lanes are); 0 on the
     /// others and on single queries.
     pub packet: u8,
+    /// The packet's coherence hint ([`RayPacket::coherent`]), on its first ray.
+    pub coherent: bool,
 }
 
 /// Forwards every query to `inner` and keeps a copy of it. Each rayon worker appends to its
@@ -59,12 +61,12 @@ impl Accel for RecordingAccel<'_> {
     }
 
     fn intersect_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<Hit> {
-        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: false, packet: 0 });
+        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: false, packet: 0, coherent: false });
         self.inner.intersect_deferred(ray, tmin, tmax)
     }
 
     fn occluded_deferred(&self, ray: &Ray, tmin: f32, tmax: f32) -> bool {
-        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: true, packet: 0 });
+        self.record(RecordedQuery { ray: *ray, tmin, tmax, occlusion: true, packet: 0, coherent: false });
         self.inner.occluded_deferred(ray, tmin, tmax)
     }
 
@@ -82,7 +84,8 @@ impl Accel for RecordingAccel<'_> {
         let mut list = self.list().lock().unwrap_or_else(|e| e.into_inner());
         for i in 0..n {
             let packet = if i == 0 { n as u8 } else { 0 };
-            list.push(RecordedQuery { ray: rays.ray(i), tmin, tmax, occlusion: false, packet });
+            let coherent = i == 0 && rays.coherent;
+            list.push(RecordedQuery { ray: rays.ray(i), tmin, tmax, occlusion: false, packet, coherent });
         }
         drop(list);
         self.inner.intersect_packet_deferred(rays, active, tmin, tmax)
@@ -140,6 +143,7 @@ fn replay_on<A: Accel + ?Sized>(
                     if q.packet > 0 {
                         let n = q.packet as usize;
                         let mut rays = RayPacket::splat(&q.ray);
+                        rays.coherent = q.coherent;
                         for (lane, p) in chunk[i..i + n].iter().enumerate() {
                             rays.set(lane, &p.ray);
                         }
@@ -180,6 +184,7 @@ mod tests {
         assert!(!rec.occluded(&r, 0.0, 3.0).unwrap());
         // A packet of three active lanes: recorded as one packet of three rays.
         let mut rays = RayPacket::splat(&r);
+        rays.coherent = true;
         rays.set(1, &Ray::new(Vec3::new(5.0, 0.0, -5.0), Vec3::Z));
         let active = std::array::from_fn(|i| i < 3);
         let found = rec.intersect_packet_deferred(&rays, active, 0.0, 10.0);
@@ -189,6 +194,7 @@ mod tests {
         assert_eq!((q[0].occlusion, q[0].tmax, q[1].occlusion, q[1].tmax), (false, 10.0, true, 3.0));
         assert_eq!(q.iter().map(|q| q.packet).collect::<Vec<_>>(), [0, 0, 3, 0, 0]);
         assert_eq!(q[3].ray.o.x, 5.0);
+        assert_eq!(q.iter().map(|q| q.coherent).collect::<Vec<_>>(), [false, false, true, false, false]);
         // Replayed whole: the single hit and the packet's two.
         let chunks = replay_chunks(&q);
         assert_eq!(chunks, vec![0..5]);
@@ -198,7 +204,7 @@ mod tests {
     #[test]
     fn chunks_never_cut_a_packet() {
         let r = Ray::new(Vec3::ZERO, Vec3::Z);
-        let single = RecordedQuery { ray: r, tmin: 0.0, tmax: 1.0, occlusion: false, packet: 0 };
+        let single = RecordedQuery { ray: r, tmin: 0.0, tmax: 1.0, occlusion: false, packet: 0, coherent: false };
         let mut q = vec![single; 510];
         // A packet of 8 across the 512 mark, then singles.
         q.push(RecordedQuery { packet: 8, ..single });

@@ -1,5 +1,7 @@
 //! The intersection strategies compared by the matrix.
 
+use super::measure::Batch;
+use super::rays::RayKind;
 use crate::accel::{Accel, EmbreeAccel, NaiveAccel};
 use crate::embree::{BuildOptions, BuildQuality, Device, EmbreeError};
 use crate::geometry::Geometry;
@@ -12,7 +14,8 @@ pub enum Strategy {
     Naive,
     /// Embree; `tessellated`: spheres and cylinders as triangles instead of user geometry;
     /// `packets`: queries 8 at a time (`rtcIntersect8`/`rtcOccluded8`, consecutive queries of
-    /// the workload: neighbouring pixels for camera rays) instead of one by one.
+    /// the workload: neighbouring pixels for camera rays; hinted coherent for camera rays
+    /// only) instead of one by one.
     Embree { quality: BuildQuality, robust: bool, tessellated: bool, packets: bool },
 }
 
@@ -36,9 +39,13 @@ impl Strategy {
         v
     }
 
-    /// Whether queries go 8 at a time.
-    pub fn packets(self) -> bool {
-        matches!(self, Strategy::Embree { packets: true, .. })
+    /// How queries of `kind` are asked: 8 at a time for the packet strategy (camera rays hinted
+    /// coherent, the others not), else one by one.
+    pub fn batch(self, kind: RayKind) -> Batch {
+        match self {
+            Strategy::Embree { packets: true, .. } => Batch::Packets { coherent: kind == RayKind::Coherent },
+            _ => Batch::Single,
+        }
     }
 
     pub fn name(self) -> &'static str {
