@@ -264,30 +264,78 @@ mod backend {
         unsafe { raw::rtcOccluded1(scene, ray, std::ptr::null_mut()) }
     }
 
-    /// `rtcIntersect8` on the lanes of `mem` that `valid` marks. The coherence hint is not
-    /// passed: it would take an `RTCIntersectArguments`, and Embree's defaults (no arguments)
-    /// are what every query of this backend uses (see `intersect1`), incoherent.
+    /// Query arguments as `rtcInitIntersectArguments` / `rtcInitOccludedArguments` (inline in
+    /// the header) make them, hinted coherent if `coherent`: no query context (Embree then uses
+    /// its own, as with no arguments at all), every feature, no filter or callback override.
+    /// The two argument structs share their layout up to the last pointer; the trailing float
+    /// is `minWidthDistanceFactor`, which a library built with `EMBREE_MIN_WIDTH` reads (0, as
+    /// the initialiser sets it) and any other ignores.
+    #[repr(C)]
+    struct PacketArgs<T> {
+        args: T,
+        min_width_distance_factor: f32,
+    }
+
+    // The C layout with the trailing float: 4 + 4 + 3 pointers, then the float at 32.
+    const _: () =
+        assert!(std::mem::offset_of!(PacketArgs<raw::RTCIntersectArguments>, min_width_distance_factor) == 32);
+    const _: () = assert!(std::mem::offset_of!(PacketArgs<raw::RTCOccludedArguments>, min_width_distance_factor) == 32);
+
+    #[inline]
+    fn query_flags(coherent: bool) -> raw::RTCRayQueryFlags {
+        if coherent { raw::RTCRayQueryFlags::COHERENT } else { raw::RTCRayQueryFlags::INCOHERENT }
+    }
+
+    /// `rtcIntersect8` on the lanes of `mem` that `valid` marks, hinted as coherent if
+    /// `coherent`.
     ///
     /// # Safety
     /// `scene` is a committed scene; `mem` is initialised ray-hit memory for 8 rays, as large
     /// as the library's `RTCRayHit8` and 32-byte aligned (a `RayHit8Mem` is).
     #[inline]
-    pub(in super::super) unsafe fn intersect8(valid: &Valid8, scene: RTCScene, mem: *mut RayHit8Mem, _coherent: bool) {
-        // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type); NULL
-        // arguments are documented as allowed.
-        unsafe { raw::rtcIntersect8(valid.0.as_ptr(), scene, mem.cast::<raw::RTCRayHit8>(), std::ptr::null_mut()) }
+    pub(in super::super) unsafe fn intersect8(valid: &Valid8, scene: RTCScene, mem: *mut RayHit8Mem, coherent: bool) {
+        let mut args = PacketArgs {
+            args: raw::RTCIntersectArguments {
+                flags: query_flags(coherent),
+                feature_mask: raw::RTCFeatureFlags::RTC_FEATURE_FLAG_ALL,
+                context: std::ptr::null_mut(),
+                filter: None,
+                intersect: None,
+            },
+            min_width_distance_factor: 0.0,
+        };
+        // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type); `args`
+        // is initialised as Embree's initialiser would and lives across the call (a NULL
+        // context inside it is documented as allowed).
+        unsafe {
+            raw::rtcIntersect8(
+                valid.0.as_ptr(),
+                scene,
+                mem.cast::<raw::RTCRayHit8>(),
+                (&raw mut args).cast::<raw::RTCIntersectArguments>(),
+            )
+        }
     }
 
-    /// `rtcOccluded8` on the lanes of `ray` that `valid` marks (no coherence hint, as
-    /// `intersect8`).
+    /// `rtcOccluded8` on the lanes of `ray` that `valid` marks, hinted as `intersect8`.
     ///
     /// # Safety
     /// `scene` is a committed scene; `ray` points to an initialised, 32-byte aligned `RTCRay8`.
     #[inline]
-    pub(in super::super) unsafe fn occluded8(valid: &Valid8, scene: RTCScene, ray: *mut RTCRay8, _coherent: bool) {
-        // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type); NULL
-        // arguments are documented as allowed.
-        unsafe { raw::rtcOccluded8(valid.0.as_ptr(), scene, ray, std::ptr::null_mut()) }
+    pub(in super::super) unsafe fn occluded8(valid: &Valid8, scene: RTCScene, ray: *mut RTCRay8, coherent: bool) {
+        let mut args = PacketArgs {
+            args: raw::RTCOccludedArguments {
+                flags: query_flags(coherent),
+                feature_mask: raw::RTCFeatureFlags::RTC_FEATURE_FLAG_ALL,
+                context: std::ptr::null_mut(),
+                filter: None,
+                occluded: None,
+            },
+            min_width_distance_factor: 0.0,
+        };
+        // SAFETY: per this function's contract; `valid` is 32-byte aligned (its type); `args`
+        // as in `intersect8`.
+        unsafe { raw::rtcOccluded8(valid.0.as_ptr(), scene, ray, (&raw mut args).cast::<raw::RTCOccludedArguments>()) }
     }
 
     /// The instance id and instance primitive id a user-geometry hit must record, taken from

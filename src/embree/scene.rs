@@ -348,7 +348,7 @@ impl Scene {
     /// Closest hits of the `active` lanes of 8 rays on `[tmin, tmax]`, with one
     /// `rtcIntersect8` (inactive lanes, and rays Embree would refuse, give `None`); errors
     /// deferred as in [`Scene::intersect_deferred`]. Embree is told the rays are coherent if
-    /// the packet says so ([`RayPacket::coherent`]; Embree 3 only).
+    /// the packet says so ([`RayPacket::coherent`]).
     #[inline]
     pub fn intersect8_deferred(
         &self,
