@@ -140,10 +140,14 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     // every eight lanes are idle.
     let (u, first) = streams.sample_after_first_four(samples.start as u64);
     let mut numbers = [u; LANES];
-    let mut rngs: [SampleStream<'_>; LANES] = [(); LANES].map(|_| first.clone());
-    for i in 1..n {
-        (numbers[i], rngs[i]) = streams.sample_after_first_four(samples.start as u64 + i as u64);
-    }
+    let mut rngs: [SampleStream<'_>; LANES] = std::array::from_fn(|i| {
+        if i == 0 || i >= n {
+            return first.clone();
+        }
+        let (u, rng) = streams.sample_after_first_four(samples.start as u64 + i as u64);
+        numbers[i] = u;
+        rng
+    });
     let (mut fx, mut fy) = ([0.0; LANES], [0.0; LANES]);
     for (i, u) in numbers.iter().enumerate() {
         let p = ctx.settings.filter.film_position(x, y, Vec2::new(u[0], u[1]));
