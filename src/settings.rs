@@ -170,6 +170,9 @@ pub struct RenderSettings {
     /// error of its mean falls below this (see [`crate::film::PixelState::relative_error`]);
     /// `spp` is then the most any pixel gets.
     pub target_error: Option<f32>,
+    /// Adaptive sampling at a fixed budget: `spp` is the mean over the image, and samples go
+    /// where the image is noisy ([`crate::integrator::adaptive`]). Not with a shard.
+    pub adaptive: bool,
     /// Also accumulate the auxiliary images a denoiser uses: the albedo and shading normal of
     /// the first non-specular surface each camera path reaches (`--denoise`, `--aux`). They
     /// never change the image: the path and its random numbers are the same either way.
@@ -221,6 +224,7 @@ impl Default for RenderSettings {
             estimator: Estimator::NeeMis,
             specialize: true,
             target_error: None,
+            adaptive: false,
             aux: false,
             filter: crate::film::PixelFilter::Box,
             shard: None,

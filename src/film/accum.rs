@@ -91,11 +91,36 @@ pub struct Accumulator {
     /// The auxiliary images' sums, pixel by pixel as `pixels`, when the render takes them
     /// ([`crate::integrator::RenderSettings::aux`]).
     pub aux: Option<Vec<AuxSums>>,
+    /// In an adaptive render ([`crate::integrator::RenderSettings::adaptive`]), what each
+    /// pixel's first round cost and how many samples it takes in all, pixel by pixel as
+    /// `pixels`.
+    pub adaptive: Option<Vec<AdaptivePixel>>,
+}
+
+/// A pixel's part in an adaptive render's plan ([`crate::integrator::adaptive`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AdaptivePixel {
+    /// Rays its first-round samples traced (their cost).
+    pub rays: u32,
+    /// The samples it takes in all, once the first round is done everywhere (0 before).
+    pub target: u32,
 }
 
 impl Accumulator {
     pub fn new(width: u32, height: u32) -> Accumulator {
-        Accumulator { width, height, pixels: vec![PixelState::default(); width as usize * height as usize], aux: None }
+        Accumulator {
+            width,
+            height,
+            pixels: vec![PixelState::default(); width as usize * height as usize],
+            aux: None,
+            adaptive: None,
+        }
+    }
+
+    /// The same accumulator with an adaptive render's plan, empty.
+    pub fn adaptive(self) -> Accumulator {
+        let n = self.pixels.len();
+        Accumulator { adaptive: Some(vec![AdaptivePixel::default(); n]), ..self }
     }
 
     /// An empty accumulator that also takes the auxiliary images.

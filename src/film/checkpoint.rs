@@ -14,9 +14,11 @@
 //! (u64), elapsed nanoseconds (u64), width and height (u32), then per pixel its count (u32)
 //! and sums r, g, b and of squared luminance (f64) — followed, in a render that takes the
 //! auxiliary images (its settings then hold `aux=albedo+normal`), by the sums of its albedo
-//! r, g, b and normal x, y, z (f64) — and the FNV-1a hash of all that (u64).
+//! r, g, b and normal x, y, z (f64), then, in an adaptive render (its settings then hold
+//! `adaptive=on`), the rays of its first round and its planned sample count (u32, 0 before
+//! the plan) — and the FNV-1a hash of all that (u64).
 
-use super::accum::{Accumulator, AuxSums, PixelState};
+use super::accum::{Accumulator, AdaptivePixel, AuxSums, PixelState};
 use crate::hash::Fnv1a;
 use glam::DVec3;
 use std::io::{Read, Write};
@@ -28,6 +30,8 @@ const MAGIC: &[u8; 8] = b"EMBERCK\x01";
 pub(super) const PIXEL_BYTES: u64 = 36;
 /// Bytes of a pixel's auxiliary sums, when the render takes them: six f64 (albedo, normal).
 pub(super) const AUX_BYTES: u64 = 48;
+/// Bytes of a pixel's part in an adaptive render's plan: first-round rays and target (u32).
+pub(super) const ADAPTIVE_BYTES: u64 = 8;
 /// Magic, scene and settings length: what comes before the settings text.
 const PREFIX_BYTES: u64 = 8 + 8 + 4;
 /// Non-finite count, elapsed time, width and height: between the settings and the pixels.
@@ -63,6 +67,8 @@ pub struct CheckpointKey {
     pub spp: u32,
     /// Whether the render takes the auxiliary images (and its checkpoint holds their sums).
     pub aux: bool,
+    /// Whether the render is adaptive (and its checkpoint holds each pixel's plan).
+    pub adaptive: bool,
 }
 
 impl CheckpointKey {
@@ -77,7 +83,7 @@ impl CheckpointKey {
 
     /// The bytes of one pixel's record.
     fn pixel_bytes(&self) -> u64 {
-        PIXEL_BYTES + if self.aux { AUX_BYTES } else { 0 }
+        PIXEL_BYTES + if self.aux { AUX_BYTES } else { 0 } + if self.adaptive { ADAPTIVE_BYTES } else { 0 }
     }
 }
 
@@ -131,6 +137,7 @@ impl Checkpoint {
             height: self.accum.height,
             spp,
             aux: self.accum.aux.is_some(),
+            adaptive: self.accum.adaptive.is_some(),
         }
     }
 
@@ -149,6 +156,10 @@ impl Checkpoint {
             w.write_all(&encode_pixel(p))?;
             if let Some(aux) = &self.accum.aux {
                 w.write_all(&encode_aux(&aux[i]))?;
+            }
+            if let Some(plan) = &self.accum.adaptive {
+                w.write_all(&plan[i].rays.to_le_bytes())?;
+                w.write_all(&plan[i].target.to_le_bytes())?;
             }
         }
         let sum = w.hash.finish();
@@ -252,6 +263,10 @@ impl Checkpoint {
         } else {
             Accumulator::new(header.width, header.height)
         };
+        if key.adaptive {
+            accum = accum.adaptive();
+        }
+        let plan_at = (PIXEL_BYTES + if key.aux { AUX_BYTES } else { 0 }) as usize;
         let record = key.pixel_bytes() as usize;
         let mut chunk = vec![0u8; 4096 * record];
         for (c, pixels) in accum.pixels.chunks_mut(4096).enumerate() {
@@ -262,6 +277,10 @@ impl Checkpoint {
                 *p = decode_pixel(b);
                 if let Some(aux) = &mut accum.aux {
                     aux[c * 4096 + j] = decode_aux(&b[PIXEL_BYTES as usize..]);
+                }
+                if let Some(plan) = &mut accum.adaptive {
+                    let u = |k: usize| u32::from_le_bytes(b[plan_at + 4 * k..plan_at + 4 * k + 4].try_into().unwrap());
+                    plan[c * 4096 + j] = AdaptivePixel { rays: u(0), target: u(1) };
                 }
             }
         }
@@ -321,9 +340,19 @@ impl Checkpoint {
                 )));
             }
         }
+        match (&a.adaptive, key.adaptive) {
+            (Some(plan), true) if plan.len() == a.pixels.len() => {}
+            (None, false) => {}
+            _ => return Err(corrupt("its adaptive plan does not match this render's".into())),
+        }
         let mut samples = 0u64;
         for (i, p) in a.pixels.iter().enumerate() {
             let problem = pixel_problem(p, key.spp);
+            let problem = problem.or_else(|| {
+                let t = a.adaptive.as_ref()?[i].target;
+                (t > key.spp || (t > 0 && p.count > t))
+                    .then(|| format!("{} samples planned (of at most {}), {} taken", t, key.spp, p.count))
+            });
             let problem = problem.or_else(|| a.aux.as_ref().and_then(|aux| check_aux(&aux[i], p.count).err()));
             if let Some(why) = problem {
                 let (x, y) = (i % a.width as usize, i / a.width as usize);

@@ -2,6 +2,7 @@
 //! numbers from a stream keyed by (seed, pixel, sample index), so the image is bit-identical
 //! whatever the thread count or tile order.
 
+pub mod adaptive;
 mod aux;
 mod kernel;
 mod path;
@@ -55,6 +56,8 @@ pub enum RenderError {
     Threads(usize, String),
     #[error(transparent)]
     Checkpoint(#[from] crate::film::CheckpointError),
+    #[error("adaptive sampling plans from the whole image's first round: it cannot render a shard")]
+    AdaptiveShard,
 }
 
 /// Renders `scene` through `accel`: every pixel gets `settings.spp` samples (or, with

@@ -76,7 +76,16 @@ impl RenderPlan {
         if s.aux {
             settings.push_str(" aux=albedo+normal");
         }
-        CheckpointKey { scene: scene_fingerprint, settings, width: s.width, height: s.height, spp: s.spp, aux: s.aux }
+        let spp = if s.adaptive { super::adaptive::max_spp(s.spp) } else { s.spp };
+        CheckpointKey {
+            scene: scene_fingerprint,
+            settings,
+            width: s.width,
+            height: s.height,
+            spp,
+            aux: s.aux,
+            adaptive: s.adaptive,
+        }
     }
 
     /// The settings that change the image (all but the shard), as `key=value` words; `accel`
@@ -88,7 +97,7 @@ impl RenderPlan {
         format!(
             "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} sampler={} target-error={te} filter={} {accel}",
             s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator, s.sampler, s.filter
-        )
+        ) + if s.adaptive { " adaptive=on" } else { "" }
     }
 
     /// Whether anything in the scene emits light; without light every sample is exactly zero

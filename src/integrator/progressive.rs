@@ -12,6 +12,7 @@
 //! whether or not the render was interrupted and resumed: work stops only at pixel boundaries
 //! (a pixel finishes the samples of its round), and each pixel's state is saved exactly.
 
+use super::adaptive;
 use super::aux::AuxSample;
 use super::path::PathContext;
 use super::surface::FaceNormals;
@@ -96,7 +97,11 @@ impl Periodic {
 
 /// How many samples pixel state `p` should have at the end of round `round`, or `None` if it
 /// takes no part in that round.
-fn round_target(settings: &RenderSettings, round: u32, p: &PixelState) -> Option<u32> {
+fn round_target(settings: &RenderSettings, round: u32, p: &PixelState, allocated: Option<u32>) -> Option<u32> {
+    if settings.adaptive {
+        let target = if round == 0 { adaptive::first_round_spp(settings.spp) } else { allocated? };
+        return (p.count < target).then_some(target);
+    }
     let Some(e) = settings.target_error else {
         return (round == 0 && p.count < settings.spp).then_some(settings.spp);
     };
@@ -116,6 +121,9 @@ pub fn tile_order(w: u32, h: u32) -> Vec<(u32, u32)> {
 }
 
 fn rounds(settings: &RenderSettings) -> u32 {
+    if settings.adaptive {
+        return 2;
+    }
     match settings.target_error {
         None => 1,
         Some(_) => {
@@ -134,6 +142,9 @@ pub(super) fn run(
 ) -> Result<RenderResult, RenderError> {
     let start = Instant::now();
     let settings = &plan.settings;
+    if settings.adaptive && settings.shard.is_some() {
+        return Err(RenderError::AdaptiveShard);
+    }
     let (w, h) = (settings.width, settings.height);
     // Hashing the scene reads all of its data: done only when a checkpoint is read or written.
     let key = std::sync::OnceLock::new();
@@ -143,8 +154,10 @@ pub(super) fn run(
             c.check_matches(path, key())?;
             (c.accum, c.elapsed, c.nonfinite)
         }
-        None if settings.aux => (Accumulator::with_aux(w, h), Duration::ZERO, 0),
-        None => (Accumulator::new(w, h), Duration::ZERO, 0),
+        None => {
+            let a = if settings.aux { Accumulator::with_aux(w, h) } else { Accumulator::new(w, h) };
+            (if settings.adaptive { a.adaptive() } else { a }, Duration::ZERO, 0)
+        }
     };
     let camera = scene.camera(w as f32 / h as f32);
     let lights = scene.light_set();
@@ -170,7 +183,7 @@ pub(super) fn run(
             if !owned(i) {
                 continue;
             }
-            while round_target(settings, 0, p).is_some_and(|t| p.count < t) {
+            while round_target(settings, 0, p, None).is_some_and(|t| p.count < t) {
                 p.add(glam::Vec3::ZERO);
             }
         }
@@ -216,6 +229,26 @@ pub(super) fn run(
     };
 
     for round in 0..n_rounds {
+        // An adaptive render plans its second round once the first is done everywhere (and
+        // keeps the plan: a resumed render has it from its checkpoint).
+        let allocation: Option<Vec<u32>> = {
+            let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
+            let a = &mut *a;
+            match &mut a.adaptive {
+                Some(plan) if round == 1 => {
+                    if plan.iter().any(|p| p.target == 0) {
+                        let rays: Vec<u32> = plan.iter().map(|p| p.rays).collect();
+                        let targets = adaptive::allocate(&a.pixels, &rays, w, h, settings.spp);
+                        for (p, t) in plan.iter_mut().zip(targets) {
+                            p.target = t;
+                        }
+                    }
+                    Some(plan.iter().map(|p| p.target).collect())
+                }
+                _ => None,
+            }
+        };
+        let allocated = |i: usize| allocation.as_ref().map(|t| t[i]);
         let planned = {
             let a = shared.lock().unwrap_or_else(|e| e.into_inner());
             a.samples()
@@ -223,7 +256,7 @@ pub(super) fn run(
                     .iter()
                     .enumerate()
                     .filter(|&(i, _)| owned(i))
-                    .map(|(_, p)| round_target(settings, round, p).map_or(0, |t| (t - p.count) as u64))
+                    .map(|(i, p)| round_target(settings, round, p, allocated(i)).map_or(0, |t| (t - p.count) as u64))
                     .sum::<u64>()
         };
         tiles.par_iter().try_for_each(|&(tx, ty)| -> Result<(), RenderError> {
@@ -249,11 +282,12 @@ pub(super) fn run(
                         let a = shared.lock().unwrap_or_else(|e| e.into_inner());
                         (a.pixels[i], a.aux.as_ref().map(|aux| aux[i]))
                     };
-                    let Some(target) = round_target(settings, round, &p) else { continue };
+                    let Some(target) = round_target(settings, round, &p, allocated(i)) else { continue };
                     let mut pixel_bad = 0;
                     let mut s = p.count;
                     let streams = PixelSampler::new(settings.sampler, settings.seed, y as u64 * w as u64 + x as u64);
                     taken += (target - s) as u64;
+                    let rays_before = rays;
                     while s < target {
                         // Samples go in groups of LANES aligned on sample 0, whatever the
                         // rounds: a sample's packet mates never depend on when it is taken.
@@ -280,6 +314,11 @@ pub(super) fn run(
                     }
                     let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
                     a.pixels[i] = p;
+                    if round == 0
+                        && let Some(plan) = &mut a.adaptive
+                    {
+                        plan[i].rays = plan[i].rays.saturating_add((rays - rays_before).min(u32::MAX as u64) as u32);
+                    }
                     if let (Some(aux), Some(pa)) = (&mut a.aux, pa) {
                         aux[i] = pa;
                     }

@@ -59,6 +59,13 @@ pub struct RenderArgs {
     /// bound of its own (it is usually closer, but biased).
     #[arg(long, value_parser = parse_target_error)]
     pub target_error: Option<f32>,
+    /// Adaptive sampling at a fixed budget: --spp becomes the mean samples per pixel; a quarter
+    /// is taken everywhere, the rest goes where the first samples of each pixel's neighbours
+    /// are noisy, for about the time --spp would take everywhere (at most 16× --spp in one
+    /// pixel). Unbiased: no pixel decides from its own samples. Not with --shard: the plan
+    /// needs the whole image's first round.
+    #[arg(long, conflicts_with_all = ["target_error", "shard"])]
+    pub adaptive: bool,
     /// Denoise the image with Intel Open Image Denoise, given the albedo and normal of the first
     /// non-specular surface each path reaches [scene's render.denoise, else off]. A PNG gets
     /// the denoised image; an EXR gets it as its main layer, with the noisy image, albedo,
@@ -241,6 +248,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         estimator: args.estimator,
         specialize: !args.no_specialize,
         target_error: args.target_error,
+        adaptive: args.adaptive,
         aux: s.aux || args.denoise || args.aux,
         filter: args.filter.unwrap_or(s.filter),
         sampler: args.sampler.unwrap_or(s.sampler),

@@ -1,0 +1,150 @@
+//! Adaptive sampling at a fixed budget (`--adaptive`): at about the cost of a uniform render
+//! it gives a lower error, the same image in expectation, and the same bits for any thread
+//! count and after an interruption.
+
+mod common;
+
+use ember::accel::{Accel, EmbreeAccel};
+use ember::embree::{BuildOptions, Device};
+use ember::film::{Checkpoint, Film};
+use ember::integrator::{Progress, RenderControl, RenderPlan, RenderSettings, render, render_controlled};
+use ember::scene::Scene;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// The peers' teapot: a white diffuse teapot under one point light, black background. Its
+/// noise is all in the teapot's indirectly lit parts; the background is exact.
+fn teapot() -> Scene {
+    let obj = common::scene_path("teapot.obj");
+    let text = format!(
+        r#"
+[camera]
+position = [0.2, 4.5, 9.0]
+look_at = [0.2, 1.3, 0.0]
+up = [0.0, 1.0, 0.0]
+fov = 40
+
+[materials.white]
+type = "diffuse"
+color = [1.0, 1.0, 1.0]
+
+[[meshes]]
+file = "{}"
+material = "white"
+smooth = false
+
+[[lights]]
+type = "point"
+position = [5.0, 10.0, 8.0]
+intensity = [400.0, 400.0, 400.0]
+"#,
+        obj.display()
+    );
+    Scene::load(&common::write_scene("adaptive_budget", "teapot.toml", &text)).unwrap()
+}
+
+/// The peers' relMSE: mean over pixels and channels of (x − r)² / (r² + 0.01).
+fn rel_mse(a: &Film, r: &Film) -> f64 {
+    let mut sum = 0.0f64;
+    for (p, q) in a.pixels.iter().zip(&r.pixels) {
+        for c in 0..3 {
+            let (x, y) = (p[c] as f64, q[c] as f64);
+            sum += (x - y) * (x - y) / (y * y + 0.01);
+        }
+    }
+    sum / (3 * a.pixels.len()) as f64
+}
+
+fn mean(f: &Film) -> f64 {
+    f.pixels.iter().map(|p| p.element_sum() as f64).sum::<f64>() / (3 * f.pixels.len()) as f64
+}
+
+#[test]
+fn adaptive_gives_lower_error_at_about_the_same_cost_and_the_same_mean() {
+    let scene = teapot();
+    let device = Device::new().unwrap();
+    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+    let base = RenderSettings { width: 64, height: 64, spp: 32, ..Default::default() };
+    let reference = render(&scene, &accel, &RenderSettings { spp: 2048, seed: 99, ..base.clone() }).unwrap().0;
+    let (mut uniform_err, mut adaptive_err, mut uniform_rays, mut adaptive_rays) = (0.0, 0.0, 0, 0);
+    let (mut uniform_mean, mut adaptive_mean) = (0.0, 0.0);
+    let seeds = 1..5u64;
+    for seed in seeds.clone() {
+        let (u, us) = render(&scene, &accel, &RenderSettings { seed, ..base.clone() }).unwrap();
+        let (a, st) = render(&scene, &accel, &RenderSettings { seed, adaptive: true, ..base.clone() }).unwrap();
+        println!(
+            "seed {seed}: uniform {:.3e}, adaptive {:.3e} (spp {:?})",
+            rel_mse(&u, &reference),
+            rel_mse(&a, &reference),
+            st.spp
+        );
+        uniform_err += rel_mse(&u, &reference);
+        adaptive_err += rel_mse(&a, &reference);
+        // The rays after the camera rays: what the budget shares out.
+        (uniform_rays, adaptive_rays) = (uniform_rays + us.rays - us.samples, adaptive_rays + st.rays - st.samples);
+        (uniform_mean, adaptive_mean) = (uniform_mean + mean(&u), adaptive_mean + mean(&a));
+        // Samples moved from the exact background to the teapot: the first round everywhere,
+        // many more somewhere.
+        assert_eq!(st.spp.0, 8, "{:?}", st.spp);
+        assert!(st.spp.2 >= 4 * 32, "{:?}", st.spp);
+    }
+    println!("relMSE uniform {uniform_err:.3e}, adaptive {adaptive_err:.3e}; rays {uniform_rays} vs {adaptive_rays}");
+    // Measured: 0.45× the error (0.37–0.50× per seed).
+    assert!(adaptive_err < 0.6 * uniform_err, "{adaptive_err} vs {uniform_err}");
+    // About the same cost: the budget is the uniform render's rays after the camera rays (and
+    // a little per sample), shared out as whole packets of samples.
+    let ratio = adaptive_rays as f64 / uniform_rays as f64;
+    assert!((0.9..1.15).contains(&ratio), "rays after the camera {adaptive_rays} vs {uniform_rays}");
+    // The same image in expectation: the means over the image agree with the reference's
+    // within 1% (the uniform render's own spread over these seeds is ~0.3%).
+    let n = seeds.count() as f64;
+    let m = mean(&reference);
+    for (what, x) in [("uniform", uniform_mean / n), ("adaptive", adaptive_mean / n)] {
+        assert!((x / m - 1.0).abs() < 0.01, "{what}: mean {x} vs reference {m}");
+    }
+}
+
+#[test]
+fn adaptive_renders_are_the_same_for_any_thread_count_and_after_a_resume() {
+    let scene = teapot();
+    let device = Device::new().unwrap();
+    let accel = EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+    let s = RenderSettings { width: 40, height: 32, spp: 16, adaptive: true, ..Default::default() };
+    let one = render(&scene, &accel, &RenderSettings { threads: Some(1), ..s.clone() }).unwrap();
+    let two = render(&scene, &accel, &RenderSettings { threads: Some(2), ..s.clone() }).unwrap();
+    assert_eq!(one.0, two.0);
+    assert_eq!(one.1.spp, two.1.spp);
+    assert!(one.1.spp.0 < one.1.spp.2, "an adaptive render's pixels differ in samples: {:?}", one.1.spp);
+
+    // Stopped in the first round, then in the second, resumed each time: the same image.
+    let dir = common::fresh_dir("adaptive_budget", "resume");
+    let ckpt = dir.join("x.exr.checkpoint");
+    let plan = RenderPlan::new(&scene, &s);
+    let key = plan.checkpoint_key(scene.fingerprint(), &accel.image_key());
+    let mut resume: Option<Checkpoint> = None;
+    let mut stops = 0;
+    for stop_in_round in [1u32, 2] {
+        let stop = AtomicBool::new(false);
+        let progress = |p: Progress| {
+            if p.round == stop_in_round {
+                stop.store(true, Ordering::Relaxed);
+            }
+        };
+        let control = RenderControl {
+            stop: Some(&stop),
+            checkpoint: Some((&ckpt, None)),
+            resume: resume.take().map(|c| (ckpt.as_path(), c)),
+            progress: Some(&progress),
+        };
+        let r = render_controlled(&scene, &accel, &plan, control).unwrap();
+        if !r.complete {
+            stops += 1;
+            resume = Some(Checkpoint::load(&ckpt, &key).unwrap());
+        }
+    }
+    assert_eq!(stops, 2, "both rounds were interrupted");
+    let control = RenderControl { resume: resume.take().map(|c| (ckpt.as_path(), c)), ..Default::default() };
+    let r = render_controlled(&scene, &accel, &plan, control).unwrap();
+    assert!(r.complete);
+    assert_eq!(r.accum.film(), one.0);
+    assert_eq!(r.accum.spp_range(), one.1.spp);
+}
