@@ -37,12 +37,14 @@ pub struct ConvergeArgs {
     /// Samples per pixel of the rendered reference [16 × --max-spp].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub reference_spp: Option<u32>,
-    /// Comma-separated variants: groups estimators, no-rr, depth, denoise (NEE+MIS and its
-    /// denoised variants: Open Image Denoise given colour only, or albedo and normal noisy,
-    /// prefiltered or clean), all (the four), or single variants
-    /// ESTIMATOR[/no-rr][/depth=D][/env-uniform][/denoise[=color|noisy|prefilter|clean]] with
-    /// ESTIMATOR one of nee-mis, nee, bsdf, bsdf-uniform (/env-uniform: an environment image
-    /// sampled uniformly, not by luminance).
+    /// Comma-separated variants: groups estimators, no-rr, depth, samplers, adaptive (NEE+MIS
+    /// with and without --adaptive), denoise (NEE+MIS and its denoised variants: Open Image
+    /// Denoise given colour only, or albedo and normal noisy, prefiltered or clean), all
+    /// (estimators, no-rr, depth, denoise), or single variants
+    /// ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/adaptive][/denoise[=color|noisy|prefilter|clean]]
+    /// with ESTIMATOR one of nee-mis, nee, bsdf, bsdf-uniform (/env-uniform: an environment
+    /// image sampled uniformly, not by luminance; /adaptive: the rung's spp as a mean, spent
+    /// where the image is noisy).
     #[arg(long, default_value = "all")]
     pub variants: String,
     /// Full depth: bounce limit of the reference and of every variant without /depth=D.

@@ -133,6 +133,7 @@ impl Study {
             estimator: variant.estimator,
             aux: matches!(variant.denoise, Some(AuxMode::With(_))),
             sampler: variant.sampler.unwrap_or_default(),
+            adaptive: variant.adaptive,
             ..RenderSettings::default()
         }
     }

@@ -1,6 +1,6 @@
 //! The estimator variants a study compares, and the syntax that names them
-//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/denoise[=MODE]]` and the
-//! groups `estimators`, `no-rr`, `depth`, `samplers`, `denoise`, `all`).
+//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/adaptive][/denoise[=MODE]]`
+//! and the groups `estimators`, `no-rr`, `depth`, `samplers`, `adaptive`, `denoise`, `all`).
 
 use crate::film::AuxMode;
 use crate::integrator::Estimator;
@@ -21,6 +21,8 @@ pub struct Variant {
     /// Next-event estimation samples an environment image uniformly over the sphere instead
     /// of by luminance (no effect on other backgrounds): what importance sampling gains.
     pub uniform_environment: bool,
+    /// `--adaptive`: the spp of a rung is the mean, spent where the image is noisy.
+    pub adaptive: bool,
     /// Where samples get their numbers; `None`: the default sampler.
     pub sampler: Option<SamplerKind>,
     /// Denoised with Open Image Denoise, given the auxiliary images as this says; `None`: the
@@ -36,6 +38,7 @@ impl Variant {
             max_depth: None,
             sampler: None,
             uniform_environment: false,
+            adaptive: false,
             denoise: None,
         }
     }
@@ -57,6 +60,9 @@ impl Variant {
         }
         if self.uniform_environment {
             s.push_str("/env-uniform");
+        }
+        if self.adaptive {
+            s.push_str("/adaptive");
         }
         if let Some(m) = self.denoise {
             s.push_str(&format!("/denoise={m}"));
@@ -87,6 +93,8 @@ impl std::str::FromStr for Variant {
                 v.russian_roulette = false;
             } else if part == "env-uniform" {
                 v.uniform_environment = true;
+            } else if part == "adaptive" {
+                v.adaptive = true;
             } else if let Some(d) = part.strip_prefix("depth=") {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
             } else if let Ok(k) = part.parse::<SamplerKind>() {
@@ -97,7 +105,7 @@ impl std::str::FromStr for Variant {
                 v.denoise = Some(m.parse().map_err(|e| format!("variant {s:?}: {e}"))?);
             } else {
                 return Err(format!(
-                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, env-uniform, denoise or denoise=MODE)"
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, env-uniform, adaptive, denoise or denoise=MODE)"
                 ));
             }
         }
@@ -110,10 +118,12 @@ impl std::str::FromStr for Variant {
 /// - `no-rr`: the four estimators at full depth without Russian roulette;
 /// - `depth`: NEE+MIS with Russian roulette at each depth of [`DEPTH_GROUP`] below `full_depth`;
 /// - `samplers`: NEE+MIS with each sampler;
+/// - `adaptive`: NEE+MIS with every pixel at the rung's spp, and `/adaptive` (the same cost,
+///   spent where the image is noisy);
 /// - `denoise`: NEE+MIS, and NEE+MIS denoised in each [`AuxMode`] (colour only; albedo and
 ///   normal noisy, prefiltered, clean);
 /// - `all`: `estimators`, `no-rr`, `depth` and `denoise`;
-/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform][/denoise[=MODE]]`
+/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform][/adaptive][/denoise[=MODE]]`
 ///   (see [`Variant::name`]).
 ///
 /// Duplicates are dropped; the order is kept.
@@ -132,6 +142,10 @@ pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, Strin
             "samplers" => SamplerKind::ALL
                 .into_iter()
                 .map(|k| Variant { sampler: Some(k), ..Variant::new(Estimator::NeeMis) })
+                .collect(),
+            "adaptive" => [false, true]
+                .into_iter()
+                .map(|adaptive| Variant { adaptive, ..Variant::new(Estimator::NeeMis) })
                 .collect(),
             "denoise" => std::iter::once(None)
                 .chain(AuxMode::ALL.into_iter().map(Some))
@@ -168,9 +182,14 @@ mod tests {
                 max_depth: Some(3),
                 sampler: None,
                 uniform_environment: false,
+                adaptive: false,
                 denoise: None
             }
         );
+        let v: Variant = "nee-mis/adaptive".parse().unwrap();
+        assert!(v.adaptive);
+        assert_eq!(v.name(), "nee-mis/adaptive");
+        assert_eq!(parse_variants("adaptive", 64).unwrap(), vec![Variant::new(Estimator::NeeMis), v]);
         let v: Variant = "nee-mis/sobol".parse().unwrap();
         assert_eq!(v.sampler, Some(SamplerKind::Sobol));
         assert_eq!(v.name(), "nee-mis/sobol");

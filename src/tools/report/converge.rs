@@ -65,9 +65,11 @@ fn series(
 
 /// One colour per estimator, dashed without Russian roulette; depth-limited variants shade
 /// from orange (depth 1) to dark blue (depth 10 and beyond), the full-depth line among them
-/// black; denoised variants one colour per auxiliary mode (prefiltered: black).
+/// black; denoised variants one colour per auxiliary mode (prefiltered: black); adaptive
+/// ones black.
 fn line_style(v: &Variant, among_depths: bool) -> LineStyle {
     let color = match (v.max_depth, v.estimator) {
+        _ if v.adaptive && v.denoise.is_none() => (0, 0, 0),
         _ if v.denoise.is_some() => match v.denoise.unwrap() {
             AuxMode::ColorOnly => (230, 140, 20),
             AuxMode::With(Aux::Noisy) => (0, 160, 160),
