@@ -14,6 +14,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// The peers' teapot: a white diffuse teapot under one point light, black background. Its
 /// noise is all in the teapot's indirectly lit parts; the background is exact.
 fn teapot() -> Scene {
+    Scene::load(&teapot_path()).unwrap()
+}
+
+/// [`teapot`]'s scene file.
+fn teapot_path() -> std::path::PathBuf {
     let obj = common::scene_path("teapot.obj");
     let text = format!(
         r#"
@@ -39,7 +44,7 @@ intensity = [400.0, 400.0, 400.0]
 "#,
         obj.display()
     );
-    Scene::load(&common::write_scene("adaptive_budget", "teapot.toml", &text)).unwrap()
+    common::write_scene("adaptive_budget", "teapot.toml", &text)
 }
 
 /// The peers' relMSE: mean over pixels and channels of (x − r)² / (r² + 0.01).
@@ -147,4 +152,24 @@ fn adaptive_renders_are_the_same_for_any_thread_count_and_after_a_resume() {
     assert!(r.complete);
     assert_eq!(r.accum.film(), one.0);
     assert_eq!(r.accum.spp_range(), one.1.spp);
+}
+
+#[test]
+fn the_cli_says_what_adaptive_did_and_refuses_it_with_shards() {
+    let dir = common::fresh_dir("adaptive_budget", "cli");
+    let scene = teapot_path();
+    let out = dir.join("a.exr");
+    let args = ["render", scene.to_str().unwrap(), "--width", "32", "--height", "24", "--spp", "16", "--adaptive"];
+    let o = common::ember(&[&args[..], &["-o", out.to_str().unwrap()]].concat());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("spp (mean ") && stderr.contains("adaptive, at the cost of 16 spp)"), "{stderr}");
+    assert!(out.exists());
+    // A shard cannot plan from the whole image: refused before anything is written.
+    let part = dir.join("p.shard");
+    let o = common::ember(&[&args[..], &["--shard", "0/2", "-o", part.to_str().unwrap()]].concat());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(stderr.contains("'--adaptive' cannot be used with '--shard"), "{stderr}");
+    assert!(!part.exists());
 }

@@ -9,6 +9,8 @@ pub(super) fn rendered(stats: &RenderStats, accel: &str, output: &Path) -> Strin
     let (min_spp, mean_spp, max_spp) = stats.spp;
     let spp = if min_spp == max_spp {
         format!("{max_spp} spp")
+    } else if settings.adaptive {
+        format!("{min_spp}..{max_spp} spp (mean {mean_spp:.1}; adaptive, at the cost of {} spp)", settings.spp)
     } else {
         format!("{min_spp}..{max_spp} spp (mean {mean_spp:.1})")
     };
