@@ -102,10 +102,11 @@ pub fn allocate(first: &[PixelState], rays: &[u32], w: u32, h: u32, spp: u32) ->
     // The largest scale whose cost stays within the budget (bisection on a monotone sum;
     // deterministic).
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    while total(hi) < budget && hi < 1e30 {
-        let before = total(hi);
+    let mut at_hi = total(hi);
+    while at_hi < budget && hi < 1e30 {
         hi *= 2.0;
-        if total(hi) == before {
+        let before = std::mem::replace(&mut at_hi, total(hi));
+        if at_hi == before {
             break; // every pixel with a weight is at its cap
         }
     }

@@ -229,26 +229,23 @@ pub(super) fn run(
     };
 
     for round in 0..n_rounds {
-        // An adaptive render plans its second round once the first is done everywhere (and
-        // keeps the plan: a resumed render has it from its checkpoint).
-        let allocation: Option<Vec<u32>> = {
+        // An adaptive render plans its second round once the first is done everywhere (a
+        // resumed render may have the plan from its checkpoint).
+        if round == 1 {
             let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
             let a = &mut *a;
-            match &mut a.adaptive {
-                Some(plan) if round == 1 => {
-                    if plan.iter().any(|p| p.target == 0) {
-                        let rays: Vec<u32> = plan.iter().map(|p| p.rays).collect();
-                        let targets = adaptive::allocate(&a.pixels, &rays, w, h, settings.spp);
-                        for (p, t) in plan.iter_mut().zip(targets) {
-                            p.target = t;
-                        }
-                    }
-                    Some(plan.iter().map(|p| p.target).collect())
+            if let Some(plan) = &mut a.adaptive
+                && plan.iter().any(|p| p.target == 0)
+            {
+                let rays: Vec<u32> = plan.iter().map(|p| p.rays).collect();
+                let targets = adaptive::allocate(&a.pixels, &rays, w, h, settings.spp);
+                for (p, t) in plan.iter_mut().zip(targets) {
+                    p.target = t;
                 }
-                _ => None,
             }
-        };
-        let allocated = |i: usize| allocation.as_ref().map(|t| t[i]);
+        }
+        // Pixel `i`'s planned total in an adaptive render (0 before the plan).
+        let allocated = |a: &Accumulator, i: usize| a.adaptive.as_ref().map(|plan| plan[i].target);
         let planned = {
             let a = shared.lock().unwrap_or_else(|e| e.into_inner());
             a.samples()
@@ -256,7 +253,9 @@ pub(super) fn run(
                     .iter()
                     .enumerate()
                     .filter(|&(i, _)| owned(i))
-                    .map(|(i, p)| round_target(settings, round, p, allocated(i)).map_or(0, |t| (t - p.count) as u64))
+                    .map(|(i, p)| {
+                        round_target(settings, round, p, allocated(&a, i)).map_or(0, |t| (t - p.count) as u64)
+                    })
                     .sum::<u64>()
         };
         tiles.par_iter().try_for_each(|&(tx, ty)| -> Result<(), RenderError> {
@@ -278,11 +277,11 @@ pub(super) fn run(
                     }
                     let i = (y * w + x) as usize;
                     // During a round, a pixel belongs to the one task rendering its tile.
-                    let (mut p, mut pa) = {
+                    let (mut p, mut pa, planned_total) = {
                         let a = shared.lock().unwrap_or_else(|e| e.into_inner());
-                        (a.pixels[i], a.aux.as_ref().map(|aux| aux[i]))
+                        (a.pixels[i], a.aux.as_ref().map(|aux| aux[i]), allocated(&a, i))
                     };
-                    let Some(target) = round_target(settings, round, &p, allocated(i)) else { continue };
+                    let Some(target) = round_target(settings, round, &p, planned_total) else { continue };
                     let mut pixel_bad = 0;
                     let mut s = p.count;
                     let streams = PixelSampler::new(settings.sampler, settings.seed, y as u64 * w as u64 + x as u64);
