@@ -13,6 +13,11 @@ const LUM: DVec3 = DVec3::new(0.2126, 0.7152, 0.0722);
 /// this), so near-black pixels do not demand unbounded samples.
 pub const RELATIVE_ERROR_FLOOR: f64 = 0.01;
 
+/// ε of ember's relative mean squared error, (x − r)² / (r² + ε) for each colour channel
+/// (`ember converge`'s measure, which adaptive sampling minimises): radiance below about
+/// √ε = 0.1 is compared more and more in absolute rather than relative terms.
+pub const REL_MSE_EPSILON: f64 = 1e-2;
+
 /// The running state of one pixel.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PixelState {
@@ -98,12 +103,15 @@ pub struct Accumulator {
 }
 
 /// A pixel's part in an adaptive render's plan ([`crate::integrator::adaptive`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AdaptivePixel {
     /// Rays its first-round samples traced (their cost).
     pub rays: u32,
     /// The samples it takes in all, once the first round is done everywhere (0 before).
     pub target: u32,
+    /// The sums of its first-round samples' squares, channel by channel (non-finite samples
+    /// count as zero, as in [`PixelState::sum`]).
+    pub sum_sq: DVec3,
 }
 
 impl Accumulator {

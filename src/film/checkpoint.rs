@@ -15,8 +15,8 @@
 //! and sums r, g, b and of squared luminance (f64) — followed, in a render that takes the
 //! auxiliary images (its settings then hold `aux=albedo+normal`), by the sums of its albedo
 //! r, g, b and normal x, y, z (f64), then, in an adaptive render (its settings then hold
-//! `adaptive=on`), the rays of its first round and its planned sample count (u32, 0 before
-//! the plan) — and the FNV-1a hash of all that (u64).
+//! `adaptive=relmse`), the rays of its first round and its planned sample count (u32, 0 before
+//! the plan) and its first round's sums of squares r, g, b (f64) — and the FNV-1a hash of all that (u64).
 
 use super::accum::{Accumulator, AdaptivePixel, AuxSums, PixelState};
 use crate::hash::Fnv1a;
@@ -30,8 +30,9 @@ const MAGIC: &[u8; 8] = b"EMBERCK\x01";
 pub(super) const PIXEL_BYTES: u64 = 36;
 /// Bytes of a pixel's auxiliary sums, when the render takes them: six f64 (albedo, normal).
 pub(super) const AUX_BYTES: u64 = 48;
-/// Bytes of a pixel's part in an adaptive render's plan: first-round rays and target (u32).
-pub(super) const ADAPTIVE_BYTES: u64 = 8;
+/// Bytes of a pixel's part in an adaptive render's plan: first-round rays and target (u32),
+/// first-round sums of squares (three f64).
+pub(super) const ADAPTIVE_BYTES: u64 = 32;
 /// Magic, scene and settings length: what comes before the settings text.
 const PREFIX_BYTES: u64 = 8 + 8 + 4;
 /// Non-finite count, elapsed time, width and height: between the settings and the pixels.
@@ -160,6 +161,9 @@ impl Checkpoint {
             if let Some(plan) = &self.accum.adaptive {
                 w.write_all(&plan[i].rays.to_le_bytes())?;
                 w.write_all(&plan[i].target.to_le_bytes())?;
+                for c in plan[i].sum_sq.to_array() {
+                    w.write_all(&c.to_le_bytes())?;
+                }
             }
         }
         let sum = w.hash.finish();
@@ -280,7 +284,12 @@ impl Checkpoint {
                 }
                 if let Some(plan) = &mut accum.adaptive {
                     let u = |k: usize| u32::from_le_bytes(b[plan_at + 4 * k..plan_at + 4 * k + 4].try_into().unwrap());
-                    plan[c * 4096 + j] = AdaptivePixel { rays: u(0), target: u(1) };
+                    let f = |k: usize| {
+                        let at = plan_at + 8 + 8 * k;
+                        f64::from_le_bytes(b[at..at + 8].try_into().unwrap())
+                    };
+                    plan[c * 4096 + j] =
+                        AdaptivePixel { rays: u(0), target: u(1), sum_sq: DVec3::new(f(0), f(1), f(2)) };
                 }
             }
         }
@@ -349,7 +358,10 @@ impl Checkpoint {
         for (i, p) in a.pixels.iter().enumerate() {
             let problem = pixel_problem(p, key.spp);
             let problem = problem.or_else(|| {
-                let t = a.adaptive.as_ref()?[i].target;
+                let AdaptivePixel { target: t, sum_sq, .. } = a.adaptive.as_ref()?[i];
+                if !(sum_sq.is_finite() && sum_sq.min_element() >= 0.0) {
+                    return Some(format!("first-round sums of squares {sum_sq} are not finite and non-negative"));
+                }
                 (t > key.spp || (t > 0 && p.count > t))
                     .then(|| format!("{} samples planned (of at most {}), {} taken", t, key.spp, p.count))
             });
@@ -678,6 +690,44 @@ mod tests {
         );
         // The sample itself is fine.
         assert_eq!(Checkpoint::from_bytes(&sample().to_bytes(), Path::new("x"), &key()).unwrap(), sample());
+    }
+
+    /// [`sample`] as an adaptive render's, its plan made.
+    fn sample_adaptive() -> Checkpoint {
+        let mut c = sample();
+        c.settings.push_str(" adaptive=relmse");
+        let plan = c.accum.pixels.iter().enumerate().map(|(i, p)| AdaptivePixel {
+            rays: 3 * p.count,
+            target: 8 + i as u32,
+            sum_sq: DVec3::new(0.25, 0.5, 9.0) * p.count as f64,
+        });
+        c.accum.adaptive = Some(plan.collect());
+        c
+    }
+
+    #[test]
+    fn adaptive_plans_round_trip_and_are_checked() {
+        let c = sample_adaptive();
+        let key = c.key(16);
+        assert!(key.adaptive);
+        let bytes = c.to_bytes();
+        assert_eq!(key.file_size(), sample().key(16).file_size() + " adaptive=relmse".len() as u64 + 6 * 32);
+        let p = Path::new("x.checkpoint");
+        assert_eq!(Checkpoint::from_bytes(&bytes, p, &key).unwrap(), c);
+        let refused_plan = |f: fn(&mut AdaptivePixel)| {
+            let mut c = sample_adaptive();
+            f(&mut c.accum.adaptive.as_mut().unwrap()[4]);
+            Checkpoint::from_bytes(&c.to_bytes(), p, &key).unwrap_err().to_string()
+        };
+        let e = refused_plan(|a| a.sum_sq.y = -1.0);
+        assert!(
+            e.contains("pixel (1, 1): first-round sums of squares [1, -1, 36] are not finite and non-negative"),
+            "{e}"
+        );
+        let e = refused_plan(|a| a.sum_sq.z = f64::NAN);
+        assert!(e.contains("are not finite"), "{e}");
+        let e = refused_plan(|a| a.target = 17);
+        assert!(e.contains("pixel (1, 1): 17 samples planned (of at most 16), 4 taken"), "{e}");
     }
 
     /// [`sample`] with auxiliary sums (albedo 0.5, normal +Z per sample).

@@ -3,9 +3,13 @@
 //!
 //! The render takes two rounds. In the first every pixel takes [`first_round_spp`] samples
 //! (a quarter of the budget). Then [`allocate`] shares out the rest: pixel `i` gets a number
-//! of samples proportional to the square root of its estimated relative variance per sample,
-//! which minimises the sum over pixels of relative variance / samples (the relMSE a renderer
-//! is measured by) for the total. The estimate of pixel `i` is taken from its eight
+//! of samples proportional to the square root of its estimated relative variance per sample
+//! (over its cost, below), which minimises the sum over pixels of relative variance / samples
+//! for the total. Relative variance is meant as ember's relMSE measures error (`ember
+//! converge`): per colour channel, over mean² + [`REL_MSE_EPSILON`], averaged over the
+//! channels, so the allocation minimises the expected relMSE itself. (Measured on luminance
+//! over max(mean, 0.01)² instead, as `--target-error` judges a pixel, it gave dim and
+//! saturated pixels, a red wall, several times the weight relMSE gives them.) The estimate of pixel `i` is taken from its eight
 //! neighbours' first-round samples, **never from its own**: its sample count is then
 //! independent of its own samples, each of which is an unbiased estimate of the pixel, so the
 //! mean of however many it takes stays unbiased. (A pixel that decides from its own samples,
@@ -19,7 +23,8 @@
 //! ends in the same image too.
 
 use crate::accel::LANES;
-use crate::film::PixelState;
+use crate::film::{AdaptivePixel, PixelState, REL_MSE_EPSILON};
+use glam::DVec3;
 
 /// The cost of a sample besides the rays after its camera ray, in units of such a ray: its
 /// camera ray (traced in a packet of [`LANES`], coherent), its random numbers and its film
@@ -41,30 +46,39 @@ pub fn max_spp(spp: u32) -> u32 {
     spp.saturating_mul(MAX_FACTOR)
 }
 
-/// Estimated relative variance of one sample of pixel state `p`: the sample variance of its
-/// luminance over max(mean, [`crate::film::RELATIVE_ERROR_FLOOR`])². Zero with fewer than two samples.
-fn relative_variance(p: &PixelState) -> f64 {
+/// Estimated relative variance of one sample of pixel state `p`, whose samples' squares sum to
+/// `sum_sq`: per channel c, the sample variance s²_c over m_c² + [`REL_MSE_EPSILON`] (m_c the
+/// mean), averaged over the channels: the expected relMSE of one sample. Zero with fewer than
+/// two samples.
+fn relative_variance(p: &PixelState, sum_sq: DVec3) -> f64 {
     if p.count < 2 {
         return 0.0;
     }
-    let e = p.relative_error();
-    if e.is_finite() { e * e * p.count as f64 } else { 0.0 }
+    let n = p.count as f64;
+    let mean = p.sum / n;
+    let var = ((sum_sq / n - mean * mean) * (n / (n - 1.0))).max(DVec3::ZERO);
+    let rv = (var / (mean * mean + DVec3::splat(REL_MSE_EPSILON))).element_sum() / 3.0;
+    if rv.is_finite() { rv } else { 0.0 }
 }
 
 /// The samples each pixel of a `w`×`h` image should have at the end of the render, given the
-/// first round's states `first` (every pixel at [`first_round_spp`]), so that the image takes
+/// first round's states `first` (every pixel at [`first_round_spp`]) and what the first round
+/// recorded in `plan` (rays and sums of squares), so that the image takes
 /// about `spp` samples per pixel in all. Each target is at least the pixel's first-round count,
 /// at most [`max_spp`], and a multiple of [`LANES`] above the first round. Pixel `i`'s target
 /// depends on its neighbours' states and on the image's total, never on its own state alone
 /// (see the module's text).
-pub fn allocate(first: &[PixelState], rays: &[u32], w: u32, h: u32, spp: u32) -> Vec<u32> {
+pub fn allocate(first: &[PixelState], plan: &[AdaptivePixel], w: u32, h: u32, spp: u32) -> Vec<u32> {
     let (w, h) = (w as usize, h as usize);
     assert_eq!(first.len(), w * h);
-    assert_eq!(rays.len(), w * h);
-    let rv: Vec<f64> = first.iter().map(relative_variance).collect();
+    assert_eq!(plan.len(), w * h);
+    let rv: Vec<f64> = first.iter().zip(plan).map(|(p, a)| relative_variance(p, a.sum_sq)).collect();
     // A sample's cost: the rays it traced after its camera ray, plus [`SAMPLE_COST`].
-    let cost: Vec<f64> =
-        first.iter().zip(rays).map(|(p, &r)| SAMPLE_COST + (r as f64 / p.count.max(1) as f64 - 1.0).max(0.0)).collect();
+    let cost: Vec<f64> = first
+        .iter()
+        .zip(plan)
+        .map(|(p, a)| SAMPLE_COST + (a.rays as f64 / p.count.max(1) as f64 - 1.0).max(0.0))
+        .collect();
     // Each pixel's neighbours' mean relative variance and cost (those inside the image).
     let ring = |i: usize, of: &[f64]| -> f64 {
         let (x, y) = (i % w, i / w);
@@ -101,14 +115,13 @@ pub fn allocate(first: &[PixelState], rays: &[u32], w: u32, h: u32, spp: u32) ->
     }
     // The largest scale whose cost stays within the budget (bisection on a monotone sum;
     // deterministic).
+    // The scale grows until the budget is spent or every pixel with a weight is at its cap
+    // (the most the allocation can spend). Totals of small scales may repeat (weights so small
+    // that no pixel gets a sample yet): only the cap ends the search early.
+    let most: f64 = (0..w * h).filter(|&i| weight[i] > 0.0).map(|i| room[i] as f64 * near_cost[i]).sum();
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    let mut at_hi = total(hi);
-    while at_hi < budget && hi < 1e30 {
+    while total(hi) < budget.min(most) && hi < 1e30 {
         hi *= 2.0;
-        let before = std::mem::replace(&mut at_hi, total(hi));
-        if at_hi == before {
-            break; // every pixel with a weight is at its cap
-        }
     }
     for _ in 0..64 {
         let mid = 0.5 * (lo + hi);
@@ -128,26 +141,65 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
-    fn state(values: &[f32]) -> PixelState {
+    /// A pixel's first round of these samples, as the render loop records it (4 rays in all).
+    fn colours(values: &[Vec3]) -> (PixelState, AdaptivePixel) {
         let mut p = PixelState::default();
+        let mut a = AdaptivePixel { rays: 4, ..AdaptivePixel::default() };
         for &v in values {
-            p.add(Vec3::splat(v));
+            p.add(v);
+            a.sum_sq += v.as_dvec3() * v.as_dvec3();
         }
-        p
+        (p, a)
+    }
+
+    fn state(values: &[f32]) -> (PixelState, AdaptivePixel) {
+        colours(&values.iter().map(|&v| Vec3::splat(v)).collect::<Vec<_>>())
     }
 
     /// A `w`×`h` image whose pixels have 16 first-round samples spread by `noise(x, y)`.
-    fn image_of(w: usize, h: usize, noise: impl Fn(usize, usize) -> f32) -> Vec<PixelState> {
+    fn image_of(w: usize, h: usize, noise: impl Fn(usize, usize) -> f32) -> (Vec<PixelState>, Vec<AdaptivePixel>) {
         (0..w * h)
             .map(|i| {
                 let n = noise(i % w, i / w);
                 state(&(0..16).map(|k| 0.5 + if k % 2 == 0 { n } else { -n }).collect::<Vec<_>>())
             })
-            .collect()
+            .unzip()
     }
 
-    fn image(noise: impl Fn(usize, usize) -> f32) -> Vec<PixelState> {
+    fn image(noise: impl Fn(usize, usize) -> f32) -> (Vec<PixelState>, Vec<AdaptivePixel>) {
         image_of(6, 5, noise)
+    }
+
+    #[test]
+    fn relative_variance_is_the_expected_relmse_of_one_sample() {
+        // Red 0.2 ± 0.1, green and blue exact: s² = 0.01 · 16/15 on red only.
+        let (p, a) =
+            colours(&(0..16).map(|k| Vec3::new(if k % 2 == 0 { 0.3 } else { 0.1 }, 0.5, 0.5)).collect::<Vec<_>>());
+        let expected = 0.01 * 16.0 / 15.0 / (0.04 + REL_MSE_EPSILON) / 3.0;
+        assert!((relative_variance(&p, a.sum_sq) - expected).abs() < 1e-5 * expected);
+        // Noise a luminance estimate hardly sees: red and blue trade places; luminance (0.128
+        // or 0.043) varies a seventh as much as the channels.
+        let (p, a) = colours(
+            &(0..16)
+                .map(|k| if k % 2 == 0 { Vec3::new(0.6, 0.0, 0.0) } else { Vec3::new(0.0, 0.0, 0.6) })
+                .collect::<Vec<_>>(),
+        );
+        let expected = 2.0 * 0.09 * 16.0 / 15.0 / (0.09 + REL_MSE_EPSILON) / 3.0;
+        assert!((relative_variance(&p, a.sum_sq) - expected).abs() < 1e-5 * expected);
+        // One sample has no variance to estimate.
+        let (p, a) = state(&[0.5]);
+        assert_eq!(relative_variance(&p, a.sum_sq), 0.0);
+    }
+
+    #[test]
+    fn dim_pixels_weigh_as_relmse_weighs_them() {
+        // The same absolute noise on a dim (0.05) and a bright (0.5) pixel: relMSE weighs the
+        // dim one by (0.25 + ε) / (0.0025 + ε) = 20.8 times, not by (0.5 / 0.05)² = 100.
+        let dim = state(&(0..16).map(|k| if k % 2 == 0 { 0.06 } else { 0.04 }).collect::<Vec<_>>());
+        let bright = state(&(0..16).map(|k| if k % 2 == 0 { 0.51 } else { 0.49 }).collect::<Vec<_>>());
+        let ratio = relative_variance(&dim.0, dim.1.sum_sq) / relative_variance(&bright.0, bright.1.sum_sq);
+        // (The samples are f32: 0.06 and 0.04 to 1e-8 or so.)
+        assert!((ratio - 0.26 / 0.0125).abs() < 1e-4, "{ratio}");
     }
 
     #[test]
@@ -162,23 +214,24 @@ mod tests {
     #[test]
     fn a_pixels_own_samples_do_not_change_its_target() {
         let base = image(|x, y| 0.01 * (x + y) as f32);
-        let t0 = allocate(&base, &[4; 30], 6, 5, 64);
+        let t0 = allocate(&base.0, &base.1, 6, 5, 64);
         // Pixel (2, 2) made far noisier: its own target stays, its neighbours' rise.
         let mut changed = base.clone();
-        changed[2 * 6 + 2] = state(&(0..16).map(|k| if k % 2 == 0 { 0.0 } else { 1.0 }).collect::<Vec<_>>());
-        let t1 = allocate(&changed, &[4; 30], 6, 5, 64);
+        let noisy = state(&(0..16).map(|k| if k % 2 == 0 { 0.0 } else { 1.0 }).collect::<Vec<_>>());
+        (changed.0[2 * 6 + 2], changed.1[2 * 6 + 2]) = noisy;
+        let t1 = allocate(&changed.0, &changed.1, 6, 5, 64);
         let i = 2 * 6 + 2;
         assert!(t1[i + 1] > t0[i + 1] && t1[i - 6] > t0[i - 6], "{t0:?} {t1:?}");
         // The total stays within the budget, so the others give up samples: the pixel's
         // target may only fall, never follow its own noise up.
-        assert!(t1[i] <= t0[i], "{} -> {}", t0[i], t1[i]);
+        assert!(t1[i] <= t0[i], "{} -> {}: {t0:?} {t1:?}", t0[i], t1[i]);
     }
 
     #[test]
     fn the_budget_is_kept_and_goes_where_the_noise_is() {
         // Noisy on the left (x < 3), exact on the right.
         let first = image(|x, _| if x < 3 { 0.3 } else { 0.0 });
-        let t = allocate(&first, &[4; 30], 6, 5, 64);
+        let t = allocate(&first.0, &first.1, 6, 5, 64);
         let total: u32 = t.iter().sum();
         // Every sample costs the same here: the budget is 64 samples a pixel, give or take
         // the rounding to whole packets.
@@ -194,14 +247,25 @@ mod tests {
     #[test]
     fn a_noiseless_image_takes_the_mean_everywhere() {
         let first = image(|_, _| 0.0);
-        assert!(allocate(&first, &[4; 30], 6, 5, 64).iter().all(|&n| n == 64));
+        assert!(allocate(&first.0, &first.1, 6, 5, 64).iter().all(|&n| n == 64));
+    }
+
+    #[test]
+    fn a_quiet_image_still_spends_its_budget() {
+        // Weights so small that no pixel gets a sample at scales 1 or 2: the search for the
+        // scale must go on (it once stopped there, leaving every pixel at its first round).
+        let first = image(|x, _| 0.001 * (1 + x) as f32);
+        let t = allocate(&first.0, &first.1, 6, 5, 64);
+        let total: u32 = t.iter().sum();
+        assert!(total.abs_diff(64 * 30) <= 4 * 30, "total {total}: {t:?}");
+        assert!(t[5] > t[0], "{t:?}");
     }
 
     #[test]
     fn no_pixel_exceeds_the_cap() {
         // One noisy corner: its neighbours would take everything without the cap.
         let first = image_of(12, 10, |x, y| if (x, y) == (0, 0) { 0.4 } else { 0.0 });
-        let t = allocate(&first, &[4; 120], 12, 10, 64);
+        let t = allocate(&first.0, &first.1, 12, 10, 64);
         assert_eq!(t[1], max_spp(64));
         assert_eq!(t[12], max_spp(64));
         assert_eq!(t[0], 16, "the noisy pixel's own neighbours are exact");

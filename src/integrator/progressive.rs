@@ -237,8 +237,7 @@ pub(super) fn run(
             if let Some(plan) = &mut a.adaptive
                 && plan.iter().any(|p| p.target == 0)
             {
-                let rays: Vec<u32> = plan.iter().map(|p| p.rays).collect();
-                let targets = adaptive::allocate(&a.pixels, &rays, w, h, settings.spp);
+                let targets = adaptive::allocate(&a.pixels, plan, w, h, settings.spp);
                 for (p, t) in plan.iter_mut().zip(targets) {
                     p.target = t;
                 }
@@ -283,6 +282,8 @@ pub(super) fn run(
                     };
                     let Some(target) = round_target(settings, round, &p, planned_total) else { continue };
                     let mut pixel_bad = 0;
+                    // An adaptive render's first round also sums the squares of the samples.
+                    let mut sum_sq = glam::DVec3::ZERO;
                     let mut s = p.count;
                     let streams = PixelSampler::new(settings.sampler, settings.seed, y as u64 * w as u64 + x as u64);
                     taken += (target - s) as u64;
@@ -297,6 +298,8 @@ pub(super) fn run(
                         for &v in &values[..(end - s) as usize] {
                             if v.is_finite() {
                                 p.add(v);
+                                let v = v.as_dvec3();
+                                sum_sq += v * v;
                             } else {
                                 pixel_bad += 1;
                                 p.add(glam::Vec3::ZERO);
@@ -317,6 +320,7 @@ pub(super) fn run(
                         && let Some(plan) = &mut a.adaptive
                     {
                         plan[i].rays = plan[i].rays.saturating_add((rays - rays_before).min(u32::MAX as u64) as u32);
+                        plan[i].sum_sq += sum_sq;
                     }
                     if let (Some(aux), Some(pa)) = (&mut a.aux, pa) {
                         aux[i] = pa;

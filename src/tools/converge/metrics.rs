@@ -24,9 +24,7 @@
 
 use crate::film::Film;
 
-/// ε in the relMSE denominator (r² + ε): radiance below about √ε = 0.1 is compared more and
-/// more in absolute rather than relative terms.
-pub const REL_MSE_EPSILON: f64 = 1e-2;
+pub use crate::film::REL_MSE_EPSILON;
 
 /// FLIP's observer: 67 pixels per degree of visual angle (`nv_flip::DEFAULT_PIXELS_PER_DEGREE`).
 pub const FLIP_PIXELS_PER_DEGREE: f32 = nv_flip::DEFAULT_PIXELS_PER_DEGREE;
