@@ -25,19 +25,20 @@ fn pixel_hash(film: &Film) -> u64 {
 /// Images of the sample scenes (40 × 30, 8 spp, each scene's own `[render]` otherwise) with
 /// the default settings, whose filter is the box, and independent samples, through the naive
 /// loop (whose bits do not depend on the CPU, unlike Embree's). The hashes were recorded by
-/// the commit that moved this test to the naive loop; the Embree images it pinned before were
-/// those of main before filters existed (b9cc65e), on an AMD EPYC, and a box render still draws
-/// its film positions exactly as that code did. (The Sobol sampler's first two numbers of a
-/// sample are the same whether drawn as one pair or one by one, so its box renders are main's
-/// too.)
+/// the commit that made paths draw only the random numbers a bounce uses (which changed every
+/// image), before it by the commit that moved this test to the naive loop; the Embree images it
+/// pinned before were those of main before filters existed (b9cc65e), on an AMD EPYC, and a box
+/// render still draws its film positions exactly as that code did. (The Sobol sampler's first
+/// two numbers of a sample are the same whether drawn as one pair or one by one, so its box
+/// renders are main's too.)
 #[test]
 fn box_renders_are_bit_identical_to_before_filters() {
     let recorded = [
-        ("cornell.toml", 0x8f82_6cca_b900_3cfau64),
-        ("dof.toml", 0x93a2_3775_a9b8_5e32),
-        ("spheres.toml", 0x6f62_2557_5a9c_4d92),
-        ("teapot.toml", 0xab92_ba06_f086_c2ac),
-        ("teapot.obj", 0x6165_bfe7_8869_2703), // the same as Embree's on the AMD EPYC
+        ("cornell.toml", 0xffa5_cb84_b812_949eu64),
+        ("dof.toml", 0x64b3_a6da_7687_92a6),
+        ("spheres.toml", 0xcce3_90e8_4b0f_4ea0),
+        ("teapot.toml", 0x779b_79b1_0cb7_f72a),
+        ("teapot.obj", 0x4c88_5b89_addf_4c98),
     ];
     for (name, hash) in recorded {
         let scene = Scene::load(&common::scene_path(name)).unwrap();

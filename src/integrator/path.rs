@@ -128,7 +128,14 @@ pub(crate) fn radiance<
         if nee_here {
             choice = ctx.lights.choice_at(sp.p);
         }
-        if nee_here && let Some(ls) = ctx.lights.sample(&choice, sp.p, rng.next_f32(), rng.next_2d()) {
+        // Only the numbers the light sample uses are drawn (see `LightNumbers`).
+        let draws = ctx.lights.numbers();
+        let light_sample = nee_here.then(|| {
+            let u_choice = if draws.choice { rng.next_f32() } else { 0.0 };
+            let u = if draws.position { rng.next_2d() } else { glam::Vec2::ZERO };
+            ctx.lights.sample(&choice, sp.p, u_choice, u)
+        });
+        if let Some(Some(ls)) = light_sample {
             let wi_l = local(ls.wi);
             let side = ls.wi.dot(ng);
             let f = if lambert { bsdf.eval_lambert(wo_l, wi_l) } else { bsdf.eval(wo_l, wi_l) } * wi_l.z.abs();
@@ -154,10 +161,11 @@ pub(crate) fn radiance<
         // Continue the path by sampling the BSDF.
         let bs = if uniform_diffuse && matches!(bsdf, Bsdf::Diffuse { .. }) {
             sample_uniform_hemisphere(&bsdf, wo_l, rng.next_2d())
-        } else if lambert {
-            bsdf.sample_lambert(wo_l, rng.next_2d(), rng.next_f32())
         } else {
-            bsdf.sample(wo_l, rng.next_2d(), rng.next_f32())
+            // A lobe number only for BSDFs that choose between lobes.
+            let u = rng.next_2d();
+            let uc = if bsdf.chooses_lobe() { rng.next_f32() } else { 0.0 };
+            if lambert { bsdf.sample_lambert(wo_l, u, uc) } else { bsdf.sample(wo_l, u, uc) }
         };
         let Some(bs) = bs else { break };
         let wi = frame.to_world(bs.wi);

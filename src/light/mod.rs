@@ -140,6 +140,18 @@ pub struct LightSet {
     primitive_lights: Vec<PrimitiveLights>,
     background: Background,
     background_index: Option<usize>,
+    /// Which random numbers [`LightSet::sample`] uses (see [`LightSet::numbers`]).
+    numbers: LightNumbers,
+}
+
+/// The random numbers a light sample uses: the choice of a light (more than one light that
+/// can be chosen: lights of zero power never are) and a point on it (any such light but a
+/// point light). A path draws only these, so the well-spread
+/// first dimensions of a sample go to decisions that use them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LightNumbers {
+    pub choice: bool,
+    pub position: bool,
 }
 
 pub(crate) fn luminance(c: Vec3) -> f32 {
@@ -251,7 +263,12 @@ impl LightSet {
                 acc
             })
             .collect();
+        // Lights that can be chosen: those of zero power (zero area) never are.
+        let chosen = || emitters.iter().zip(&prob).filter(|&(_, &p)| p > 0.0).map(|(e, _)| e);
+        let numbers =
+            LightNumbers { choice: chosen().count() > 1, position: chosen().any(|e| !matches!(e, Emitter::Point(_))) };
         LightSet {
+            numbers,
             lights: emitters,
             groups,
             group_of,
@@ -271,6 +288,13 @@ impl LightSet {
 
     pub fn is_empty(&self) -> bool {
         self.lights.is_empty()
+    }
+
+    /// Which of [`LightSet::sample`]'s random numbers change its result: with one light the
+    /// choice does not, with only point lights the position does not.
+    #[inline]
+    pub fn numbers(&self) -> LightNumbers {
+        self.numbers
     }
 
     pub fn len(&self) -> usize {

@@ -307,6 +307,13 @@ impl Bsdf {
         }
     }
 
+    /// True if [`Bsdf::sample`] uses its lobe number `uc` (plastic: coating or base; glass:
+    /// reflection or refraction); the others ignore it, and a path does not draw it for them.
+    #[inline(always)]
+    pub fn chooses_lobe(&self) -> bool {
+        matches!(self, Bsdf::Plastic { .. } | Bsdf::Dielectric { .. })
+    }
+
     /// True if every lobe is delta (mirror conductor, glass): next-event estimation is useless.
     #[inline]
     pub fn is_delta(&self) -> bool {
