@@ -130,12 +130,14 @@ pub(crate) fn radiance<
         }
         // Only the numbers the light sample uses are drawn (see `LightNumbers`).
         let draws = ctx.lights.numbers();
-        let light_sample = nee_here.then(|| {
+        let light_sample = if nee_here {
             let u_choice = if draws.choice { rng.next_f32() } else { 0.0 };
             let u = if draws.position { rng.next_2d() } else { glam::Vec2::ZERO };
             ctx.lights.sample(&choice, sp.p, u_choice, u)
-        });
-        if let Some(Some(ls)) = light_sample {
+        } else {
+            None
+        };
+        if let Some(ls) = light_sample {
             let wi_l = local(ls.wi);
             let side = ls.wi.dot(ng);
             let f = if lambert { bsdf.eval_lambert(wo_l, wi_l) } else { bsdf.eval(wo_l, wi_l) } * wi_l.z.abs();
