@@ -146,8 +146,8 @@ pub struct LightSet {
 
 /// The random numbers a light sample uses: the choice of a light (more than one light that
 /// can be chosen: lights of zero power never are) and a point on it (any such light but a
-/// point light). A path draws only these, so the well-spread
-/// first dimensions of a sample go to decisions that use them.
+/// point light). A path draws only these, so the well-spread first dimensions of a sample go
+/// to decisions that use them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LightNumbers {
     pub choice: bool,
