@@ -15,7 +15,7 @@
 //! and sums r, g, b and of squared luminance (f64) — followed, in a render that takes the
 //! auxiliary images (its settings then hold `aux=albedo+normal`), by the sums of its albedo
 //! r, g, b and normal x, y, z (f64), then, in an adaptive render (its settings then hold
-//! `adaptive=relmse`), the rays of its first round and its planned sample count (u32, 0 before
+//! `adaptive=relmse-5x5`), the rays of its first round and its planned sample count (u32, 0 before
 //! the plan) and its first round's sums of squares r, g, b (f64) — and the FNV-1a hash of all that (u64).
 
 use super::accum::{Accumulator, AdaptivePixel, AuxSums, PixelState};
@@ -695,7 +695,7 @@ mod tests {
     /// [`sample`] as an adaptive render's, its plan made.
     fn sample_adaptive() -> Checkpoint {
         let mut c = sample();
-        c.settings.push_str(" adaptive=relmse");
+        c.settings.push_str(" adaptive=relmse-5x5");
         let plan = c.accum.pixels.iter().enumerate().map(|(i, p)| AdaptivePixel {
             rays: 3 * p.count,
             target: 8 + i as u32,
@@ -711,7 +711,7 @@ mod tests {
         let key = c.key(16);
         assert!(key.adaptive);
         let bytes = c.to_bytes();
-        assert_eq!(key.file_size(), sample().key(16).file_size() + " adaptive=relmse".len() as u64 + 6 * 32);
+        assert_eq!(key.file_size(), sample().key(16).file_size() + " adaptive=relmse-5x5".len() as u64 + 6 * 32);
         let p = Path::new("x.checkpoint");
         assert_eq!(Checkpoint::from_bytes(&bytes, p, &key).unwrap(), c);
         let refused_plan = |f: fn(&mut AdaptivePixel)| {
