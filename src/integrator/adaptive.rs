@@ -35,8 +35,10 @@ const SAMPLE_COST: f64 = 0.1;
 /// How far a pixel's neighbourhood reaches: the (2 · REACH + 1)² pixels around it, less
 /// itself (24). Noise is spread over a few pixels wherever it is (a soft shadow, an indirectly
 /// lit crease), and one pixel's first round is a few samples: more neighbours estimate it
-/// better. On the peers' teapot at 512² a 5×5 neighbourhood took relMSE from 7.67e-5 (3×3)
-/// to 6.58e-5, on their Cornell box from 0.007884 to 0.007814.
+/// better. Against 3×3, on the peers' scenes at 512² (docs/performance.md, "Adaptive
+/// sampling"): teapot relMSE 7.475e-5 → 6.385e-5, Cornell box 0.007781 → 0.007709; at 256²
+/// −8.7% and −0.8%. At 64×64 it does not pay (teapot 3.04e-5 → 3.31e-5): a 5×5 block is
+/// then a large part of a feature.
 const REACH: usize = 2;
 
 /// The most samples one pixel may take, as a multiple of the mean `spp`.
