@@ -93,6 +93,41 @@ impl fmt::Display for RrDepth {
     }
 }
 
+/// Whether paths connect to light vertices (`--light-vertices`): surface points lit by a point
+/// light, sampled from the light, weighed by MIS against next-event estimation after a bounce
+/// (see `crate::integrator::light_vertex`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightVertices {
+    /// Where every light is a point light inside the scene's surfaces.
+    #[default]
+    Auto,
+    /// Wherever every light is a point light.
+    On,
+    Off,
+}
+
+impl FromStr for LightVertices {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(LightVertices::Auto),
+            "on" => Ok(LightVertices::On),
+            "off" => Ok(LightVertices::Off),
+            _ => Err(format!("expected \"auto\", \"on\" or \"off\", found {s:?}")),
+        }
+    }
+}
+
+impl fmt::Display for LightVertices {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            LightVertices::Auto => "auto",
+            LightVertices::On => "on",
+            LightVertices::Off => "off",
+        })
+    }
+}
+
 /// Side of the square tiles an image is rendered in (the last row and column may be cut).
 pub const TILE: u32 = 16;
 
@@ -183,6 +218,8 @@ pub struct RenderSettings {
     pub shard: Option<Shard>,
     /// Where the samples get their numbers.
     pub sampler: SamplerKind,
+    /// Whether paths connect to light vertices.
+    pub light_vertices: LightVertices,
 }
 
 impl RenderSettings {
@@ -229,6 +266,7 @@ impl Default for RenderSettings {
             filter: crate::film::PixelFilter::Box,
             shard: None,
             sampler: SamplerKind::default(),
+            light_vertices: LightVertices::Auto,
         }
     }
 }

@@ -5,6 +5,7 @@
 pub mod adaptive;
 mod aux;
 mod kernel;
+mod light_vertex;
 mod path;
 mod plan;
 mod progressive;

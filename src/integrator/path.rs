@@ -2,6 +2,7 @@
 //! estimation and multiple importance sampling (power heuristic, Veach 1997) against BSDF
 //! sampling, and Russian roulette.
 
+use super::light_vertex::{self, LightVertex, PathVertex};
 use super::surface::{FaceNormals, surface_point};
 use crate::accel::Accel;
 use crate::camera::Camera;
@@ -15,7 +16,7 @@ use glam::Vec3;
 
 /// Power heuristic with β = 2.
 #[inline]
-fn power_heuristic(a: f32, b: f32) -> f32 {
+pub(super) fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
@@ -33,6 +34,8 @@ pub struct PathContext<'a> {
     /// [`super::RenderPlan::roulette_start`]: Russian roulette runs after this many bounces
     /// (`u32::MAX`: never).
     pub roulette_start: u32,
+    /// [`super::RenderPlan::light_vertices`]: paths connect to light vertices.
+    pub light_vertices: bool,
 }
 
 /// Radiance along the camera ray `ray`, whose closest hit `first` the caller traced, then
@@ -73,6 +76,10 @@ pub(crate) fn radiance<
     let mut depth = 0u32;
     // The closest hit of `ray`: the caller's for the camera ray, then traced at each bounce.
     let mut next_hit = first;
+    // The sample's light vertex: traced at the first vertex that can connect to one (see
+    // `super::light_vertex`); `traced` once its numbers are drawn, whatever it found.
+    let mut light_vertex: Option<LightVertex> = None;
+    let mut traced = !ctx.light_vertices;
     loop {
         let Some(hit) = next_hit else {
             // Without non-delta lights the background is black.
@@ -154,10 +161,36 @@ pub(crate) fn radiance<
                 };
                 *rays += 1;
                 if !accel.occluded_deferred(&Ray::new(o, d), 0.0, tmax) {
-                    let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l)) };
+                    let w = if ls.delta && ctx.light_vertices && !specular {
+                        // After a bounce: against the light vertex the last vertex connected to.
+                        light_vertex::nee_weight(ctx.lights, &ls, sp.p, ng, prev_p, prev_pdf)
+                    } else if ls.delta || !mis {
+                        1.0
+                    } else {
+                        power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l))
+                    };
                     l += beta * f * ls.radiance * (w / ls.pdf);
                 }
             }
+        }
+
+        // Connect to the light vertex, tracing it first if this is the first vertex that can.
+        if !traced && nee_here && depth + 2 <= ctx.path_depth {
+            traced = true;
+            let u_choice = if draws.choice { rng.next_f32() } else { 0.0 };
+            let u = rng.next_2d();
+            light_vertex = light_vertex::trace::<A, TEX, GLOSSY, GLASS>(ctx, accel, u_choice, u, rays);
+        }
+        if let Some(y) = &light_vertex
+            && nee_here
+            && depth + 2 <= ctx.path_depth
+        {
+            let x = PathVertex { p: sp.p, leave, ng, frame: &frame, bsdf: &bsdf, wo_l };
+            l += if lambert {
+                light_vertex::connect::<A, true>(accel, &x, y, beta, rays)
+            } else {
+                light_vertex::connect::<A, false>(accel, &x, y, beta, rays)
+            };
         }
 
         // Continue the path by sampling the BSDF.

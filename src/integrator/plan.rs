@@ -12,7 +12,7 @@ use super::kernel::KernelChoice;
 use super::roulette::{auto_start, throughput_depth};
 use crate::film::CheckpointKey;
 use crate::scene::{DepthLimit, Effects, Scene};
-use crate::settings::{RenderSettings, RrDepth};
+use crate::settings::{Estimator, LightVertices, RenderSettings, RrDepth};
 use std::fmt;
 
 /// What a render runs. See the module documentation.
@@ -32,6 +32,8 @@ pub struct RenderPlan {
     pub scene_depth: u32,
     /// Russian roulette runs after this many bounces (`None`: never).
     pub roulette_start: Option<u32>,
+    /// Paths connect to light vertices (`super::light_vertex`).
+    pub light_vertices: bool,
 }
 
 impl RenderPlan {
@@ -55,7 +57,16 @@ impl RenderPlan {
             RrDepth::After(n) => Some(n),
             RrDepth::Off => None,
         };
-        RenderPlan { settings: settings.clone(), effects, kernel, path_depth, scene_depth, roulette_start }
+        let light_vertices = light_vertices_apply(&effects, settings, scene_depth).is_ok();
+        RenderPlan {
+            settings: settings.clone(),
+            effects,
+            kernel,
+            path_depth,
+            scene_depth,
+            roulette_start,
+            light_vertices,
+        }
     }
 
     /// What a checkpoint of this render must match: the scene's fingerprint
@@ -98,6 +109,7 @@ impl RenderPlan {
             "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} sampler={} target-error={te} filter={} {accel}",
             s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator, s.sampler, s.filter
         ) + if s.adaptive { " adaptive=relmse-5x5" } else { "" }
+            + if self.light_vertices { " light-vertices=on" } else { "" }
     }
 
     /// Whether anything in the scene emits light; without light every sample is exactly zero
@@ -143,10 +155,38 @@ impl RenderPlan {
     }
 }
 
-/// `kernel: …; path depth N (why); russian roulette …`
+/// Whether a render connects paths to light vertices (`Ok`, with why) or not (`Err`, why not).
+fn light_vertices_apply(effects: &Effects, s: &RenderSettings, scene_depth: u32) -> Result<&'static str, &'static str> {
+    let asked = match s.light_vertices {
+        LightVertices::Off => return Err("--light-vertices off"),
+        LightVertices::On => "--light-vertices on",
+        LightVertices::Auto => "every light is a point light inside the scene",
+    };
+    if !effects.point_lights || effects.emissive || effects.sky || effects.environment {
+        Err("not every light is a point light")
+    } else if s.estimator != Estimator::NeeMis {
+        Err("only with --estimator nee-mis")
+    } else if scene_depth < 2 {
+        Err("no light bounces")
+    } else if s.light_vertices == LightVertices::Auto && !effects.enclosed_point_lights {
+        Err("a point light is outside the scene's surfaces")
+    } else {
+        Ok(asked)
+    }
+}
+
+/// `kernel: …; path depth N (why); russian roulette …`, then, where every light is a point
+/// light, `light vertices: on|off (why)` on a line of its own.
 impl fmt::Display for RenderPlan {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "kernel: {}; path depth {}; {}", self.kernel, self.depth_text(), self.roulette_text())
+        write!(f, "kernel: {}; path depth {}; {}", self.kernel, self.depth_text(), self.roulette_text())?;
+        if self.effects.point_lights {
+            match light_vertices_apply(&self.effects, &self.settings, self.scene_depth) {
+                Ok(why) => write!(f, "\nlight vertices: on ({why})")?,
+                Err(why) => write!(f, "\nlight vertices: off ({why})")?,
+            }
+        }
+        Ok(())
     }
 }
 

@@ -200,6 +200,7 @@ pub(super) fn run(
         settings,
         path_depth: plan.path_depth,
         roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
+        light_vertices: plan.light_vertices,
     };
     // A shard renders only its own tiles.
     let tiles: Vec<(u32, u32)> =

@@ -91,6 +91,7 @@ impl Background {
             radiance: self.radiance(wi),
             pdf: sel / (4.0 * PI),
             delta: false,
+            light: 0,
         })
     }
 

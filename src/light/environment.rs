@@ -146,6 +146,7 @@ impl Environment {
             radiance: self.radiance_image(l),
             pdf: sel * pdf,
             delta: false,
+            light: 0,
         })
     }
 

@@ -85,6 +85,19 @@ pub struct LightSample {
     pub pdf: f32,
     /// Point lights: the sample cannot be hit by BSDF sampling, so no MIS.
     pub delta: bool,
+    /// Which light of the set (filled in by [`LightSet::sample`]).
+    pub light: u32,
+}
+
+/// A point light chosen to emit from (see [`LightSet::choose_point_by_power`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointEmission {
+    /// Which light of the set.
+    pub light: u32,
+    pub position: Vec3,
+    pub intensity: Vec3,
+    /// The probability of this choice.
+    pub prob: f32,
 }
 
 /// Which light of the set each primitive of a geometry is.
@@ -394,12 +407,41 @@ impl LightSet {
         if sel <= 0.0 {
             return None;
         }
-        match &self.lights[i] {
+        let sample = match &self.lights[i] {
             Emitter::Point(l) => l.sample(p, sel),
             Emitter::Triangle(t) => t.sample(p, sel, u),
             Emitter::Sphere(s) => s.sample(p, sel, u),
             Emitter::Background => self.background.sample(sel, u),
+        };
+        sample.map(|s| LightSample { light: i as u32, ..s })
+    }
+
+    /// A point light chosen by power with `u` (the choice [`LightSet::power_probability`]
+    /// gives), to emit from; `None` unless every light is a point light.
+    #[inline]
+    pub fn choose_point_by_power(&self, u: f32) -> Option<PointEmission> {
+        if self.lights.is_empty() || !self.all_delta() {
+            return None;
         }
+        let (i, prob) = self.choose(&LightChoice::BY_POWER, u);
+        match &self.lights[i] {
+            Emitter::Point(l) if prob > 0.0 => {
+                Some(PointEmission { light: i as u32, position: l.position, intensity: l.intensity, prob })
+            }
+            _ => None,
+        }
+    }
+
+    /// The probability that [`LightSet::choose_point_by_power`] picks light `i`.
+    #[inline]
+    pub fn power_probability(&self, i: u32) -> f32 {
+        self.prob[i as usize]
+    }
+
+    /// The probability that next-event estimation at `p` picks light `i`.
+    #[inline]
+    pub fn choice_probability_at(&self, p: Vec3, i: u32) -> f32 {
+        self.choice_probability(&self.choice_at(p), i as usize)
     }
 
     /// Density with which `sample` from `p` (with `choice`, made there) picks the point `q`

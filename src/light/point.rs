@@ -44,6 +44,7 @@ impl PointLight {
             radiance: self.intensity / d2,
             pdf: sel,
             delta: true,
+            light: 0,
         })
     }
 

@@ -37,6 +37,7 @@ impl EmissiveSphere {
             radiance: self.emission,
             pdf,
             delta: false,
+            light: 0,
         })
     }
 

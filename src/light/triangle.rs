@@ -57,6 +57,7 @@ impl EmissiveTriangle {
             radiance: self.emission,
             pdf,
             delta: false,
+            light: 0,
         })
     }
 

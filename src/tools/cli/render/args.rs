@@ -5,7 +5,7 @@ use crate::embree::BuildQuality;
 use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
 use crate::scene::{CameraOverride, Scene};
-use crate::settings::{Estimator, RenderSettings, RrDepth, SamplerKind, Shard};
+use crate::settings::{Estimator, LightVertices, RenderSettings, RrDepth, SamplerKind, Shard};
 use clap::Args;
 use glam::Vec3;
 use std::path::PathBuf;
@@ -34,6 +34,13 @@ pub struct RenderArgs {
     /// scene's albedo [scene's render.rr_depth, else auto].
     #[arg(long)]
     pub rr_depth: Option<String>,
+    /// Connect each path vertex to a light vertex (a surface point lit by a point light,
+    /// sampled from the light) and weigh it by MIS against next-event estimation: auto, on or
+    /// off. Auto turns it on where every light is a point light inside the scene's surfaces
+    /// (a lamp in a room), where it lowers the noise of light that bounces off surfaces near
+    /// the lamp; unbiased either way [auto].
+    #[arg(long, default_value = "auto")]
+    pub light_vertices: LightVertices,
     /// Worker threads [all cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub threads: Option<u32>,
@@ -252,6 +259,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         aux: s.aux || args.denoise || args.aux,
         filter: args.filter.unwrap_or(s.filter),
         sampler: args.sampler.unwrap_or(s.sampler),
+        light_vertices: args.light_vertices,
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
     })
 }
