@@ -5,7 +5,8 @@
 #
 # Equal path semantics: 512x512, 64 spp, path length 8 (the tutorial's --max-path-length counts
 # bounces, each with one shadow ray per light; ember's --max-depth 8 is the same), 2 threads,
-# and no Russian roulette in ember (the tutorial has none).
+# and no Russian roulette or light vertices in ember (the tutorial, a unidirectional path
+# tracer, has neither): the same rays' work, timed.
 #
 # Usage: scripts/compare-embree-pathtracer.sh [OUT_DIR]   (default: target/compare-embree)
 # Environment: SIZE (512), SPP (64), DEPTH (8), THREADS (2), ROUNDS (3: each round times the
@@ -82,7 +83,7 @@ for round in $(seq "$rounds"); do
         # shellcheck disable=SC2086
         em_times=$(timed "$out/ember$tag.log" \
             "$ember" render "$root/scenes/cornell.toml" -o "$out/ember$tag.png" --width "$size" --height "$size" \
-            --spp "$spp" --max-depth "$depth" --rr-depth off --threads "$threads" $flags)
+            --spp "$spp" --max-depth "$depth" --rr-depth off --light-vertices off --threads "$threads" $flags)
         read -r em_wall em_user em_sys <<<"$em_times"
         em_cpu=$(echo "$em_user $em_sys" | awk '{print $1 + $2}')
         wall_ratio=$(echo "$pt_wall $em_wall" | awk '{print $1 / $2}')

@@ -134,6 +134,7 @@ impl Study {
             aux: matches!(variant.denoise, Some(AuxMode::With(_))),
             sampler: variant.sampler.unwrap_or_default(),
             adaptive: variant.adaptive,
+            light_vertices: variant.light_vertices.unwrap_or_default(),
             ..RenderSettings::default()
         }
     }

@@ -1,10 +1,12 @@
 //! The estimator variants a study compares, and the syntax that names them
-//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/adaptive][/denoise[=MODE]]`
-//! and the groups `estimators`, `no-rr`, `depth`, `samplers`, `adaptive`, `denoise`, `all`).
+//! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/adaptive][/light-vertices=on|off]`
+//! `[/denoise[=MODE]]` and the groups `estimators`, `no-rr`, `depth`, `samplers`, `adaptive`,
+//! `light-vertices`, `denoise`, `all`).
 
 use crate::film::AuxMode;
 use crate::integrator::Estimator;
 use crate::sampler::SamplerKind;
+use crate::settings::LightVertices;
 
 /// The depths of the `depth` variant group: each compared to the full-depth reference, so
 /// their curves flatten at the bias of cutting paths short.
@@ -25,6 +27,8 @@ pub struct Variant {
     pub adaptive: bool,
     /// Where samples get their numbers; `None`: the default sampler.
     pub sampler: Option<SamplerKind>,
+    /// Light vertices on or off; `None`: as the scene analysis decides (`auto`).
+    pub light_vertices: Option<LightVertices>,
     /// Denoised with Open Image Denoise, given the auxiliary images as this says; `None`: the
     /// render's own (noisy) estimate.
     pub denoise: Option<AuxMode>,
@@ -37,6 +41,7 @@ impl Variant {
             russian_roulette: true,
             max_depth: None,
             sampler: None,
+            light_vertices: None,
             uniform_environment: false,
             adaptive: false,
             denoise: None,
@@ -63,6 +68,9 @@ impl Variant {
         }
         if self.adaptive {
             s.push_str("/adaptive");
+        }
+        if let Some(lv) = self.light_vertices {
+            s.push_str(&format!("/light-vertices={lv}"));
         }
         if let Some(m) = self.denoise {
             s.push_str(&format!("/denoise={m}"));
@@ -95,6 +103,8 @@ impl std::str::FromStr for Variant {
                 v.uniform_environment = true;
             } else if part == "adaptive" {
                 v.adaptive = true;
+            } else if let Some(lv) = part.strip_prefix("light-vertices=") {
+                v.light_vertices = Some(lv.parse().map_err(|e| format!("variant {s:?}: light-vertices: {e}"))?);
             } else if let Some(d) = part.strip_prefix("depth=") {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
             } else if let Ok(k) = part.parse::<SamplerKind>() {
@@ -105,7 +115,7 @@ impl std::str::FromStr for Variant {
                 v.denoise = Some(m.parse().map_err(|e| format!("variant {s:?}: {e}"))?);
             } else {
                 return Err(format!(
-                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, env-uniform, adaptive, denoise or denoise=MODE)"
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, env-uniform, adaptive, light-vertices=on|off, denoise or denoise=MODE)"
                 ));
             }
         }
@@ -120,6 +130,7 @@ impl std::str::FromStr for Variant {
 /// - `samplers`: NEE+MIS with each sampler;
 /// - `adaptive`: NEE+MIS with every pixel at the rung's spp, and `/adaptive` (the same cost,
 ///   spent where the image is noisy);
+/// - `light-vertices`: NEE+MIS as the scene analysis decides, with light vertices on, and off;
 /// - `denoise`: NEE+MIS, and NEE+MIS denoised in each [`AuxMode`] (colour only; albedo and
 ///   normal noisy, prefiltered, clean);
 /// - `all`: `estimators`, `no-rr`, `depth` and `denoise`;
@@ -146,6 +157,10 @@ pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, Strin
             "adaptive" => [false, true]
                 .into_iter()
                 .map(|adaptive| Variant { adaptive, ..Variant::new(Estimator::NeeMis) })
+                .collect(),
+            "light-vertices" => [None, Some(LightVertices::On), Some(LightVertices::Off)]
+                .into_iter()
+                .map(|light_vertices| Variant { light_vertices, ..Variant::new(Estimator::NeeMis) })
                 .collect(),
             "denoise" => std::iter::once(None)
                 .chain(AuxMode::ALL.into_iter().map(Some))
@@ -181,11 +196,17 @@ mod tests {
                 russian_roulette: false,
                 max_depth: Some(3),
                 sampler: None,
+                light_vertices: None,
                 uniform_environment: false,
                 adaptive: false,
                 denoise: None
             }
         );
+        let v: Variant = "nee-mis/light-vertices=off".parse().unwrap();
+        assert_eq!(v.light_vertices, Some(LightVertices::Off));
+        assert_eq!(v.name(), "nee-mis/light-vertices=off");
+        assert_eq!(parse_variants("light-vertices", 64).unwrap().len(), 3);
+        assert!("nee-mis/light-vertices=maybe".parse::<Variant>().unwrap_err().contains("light-vertices"));
         let v: Variant = "nee-mis/adaptive".parse().unwrap();
         assert!(v.adaptive);
         assert_eq!(v.name(), "nee-mis/adaptive");

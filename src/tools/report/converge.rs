@@ -6,6 +6,7 @@ use super::plot::{LineStyle, PlotError, PlotOptions, Series, log_log_plot_with};
 use crate::film::AuxMode;
 use crate::integrator::Estimator;
 use crate::oidn::Aux;
+use crate::settings::LightVertices;
 use crate::tools::converge::{ConvergencePoint, ImageDifference, TimeToReach, Variant, time_to_reach_by};
 use std::path::{Path, PathBuf};
 
@@ -66,10 +67,12 @@ fn series(
 /// One colour per estimator, dashed without Russian roulette; depth-limited variants shade
 /// from orange (depth 1) to dark blue (depth 10 and beyond), the full-depth line among them
 /// black; denoised variants one colour per auxiliary mode (prefiltered: black); adaptive
-/// ones black.
+/// ones black; light vertices forced on black, off blue.
 fn line_style(v: &Variant, among_depths: bool) -> LineStyle {
     let color = match (v.max_depth, v.estimator) {
         _ if v.adaptive && v.denoise.is_none() => (0, 0, 0),
+        _ if v.light_vertices == Some(LightVertices::On) => (0, 0, 0),
+        _ if v.light_vertices == Some(LightVertices::Off) => (30, 110, 200),
         _ if v.denoise.is_some() => match v.denoise.unwrap() {
             AuxMode::ColorOnly => (230, 140, 20),
             AuxMode::With(Aux::Noisy) => (0, 160, 160),
