@@ -236,6 +236,7 @@ impl RenderSettings {
             aux: r.denoise.unwrap_or(d.aux),
             filter: r.filter.unwrap_or(d.filter),
             sampler: r.sampler.unwrap_or(d.sampler),
+            light_vertices: r.light_vertices.unwrap_or(d.light_vertices),
             ..d
         }
     }
@@ -287,6 +288,7 @@ pub struct RenderDefaults {
     pub tonemap: Option<crate::film::Tonemap>,
     pub filter: Option<crate::film::PixelFilter>,
     pub sampler: Option<SamplerKind>,
+    pub light_vertices: Option<LightVertices>,
 }
 
 #[cfg(test)]

@@ -284,4 +284,35 @@ fn only_lamps_inside_the_scene_turn_light_vertices_on() {
     let scene = scene_from("lamp-bsdf.toml", &lamp_at(1.5));
     let bsdf_only = RenderSettings { estimator: ember::settings::Estimator::BsdfOnly, ..Default::default() };
     assert!(!ember::integrator::RenderPlan::new(&scene, &bsdf_only).light_vertices);
+    // A scene file may set it under [render]; a value other than auto, on or off is refused,
+    // naming the file.
+    let off = scene_from("lamp-off.toml", &("[render]\nlight_vertices = \"off\"\n".to_string() + &lamp_at(1.5)));
+    let settings = RenderSettings::from_scene(&off.render);
+    assert_eq!(settings.light_vertices, LightVertices::Off);
+    assert!(!ember::integrator::RenderPlan::new(&off, &settings).light_vertices);
+    let path = common::write_scene(
+        "light-vertices",
+        "lamp-bad.toml",
+        &("[render]\nlight_vertices = \"sometimes\"\n".to_string() + &lamp_at(1.5)),
+    );
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(e.contains("lamp-bad.toml") && e.contains("\"auto\", \"on\" or \"off\""), "{e}");
+}
+
+#[test]
+fn the_render_says_what_it_decided() {
+    let out = common::fresh_dir("light-vertices", "cli").join("c.exr");
+    let line = |extra: &[&str]| {
+        let scene = common::scene_path("cornell.toml");
+        let args = ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "8", "--height", "6"];
+        let o = common::ember(&[&args[..], &["--spp", "1"], extra].concat());
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{err}");
+        err.lines().find(|l| l.starts_with("light vertices:")).unwrap_or_else(|| panic!("no line in {err}")).to_string()
+    };
+    assert_eq!(line(&[]), "light vertices: on (every light is a point light inside the scene)");
+    assert_eq!(line(&["--light-vertices", "off"]), "light vertices: off (--light-vertices off)");
+    let o = common::ember(&["render", "x.toml", "-o", "y.exr", "--light-vertices", "maybe"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("\"auto\", \"on\" or \"off\""));
 }

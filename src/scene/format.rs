@@ -262,6 +262,8 @@ pub struct RenderSection {
     /// The pixel reconstruction filter.
     pub filter: Option<FilterValue>,
     pub sampler: Option<SamplerName>,
+    /// Light vertices: `"auto"`, `"on"` or `"off"` (as `--light-vertices`).
+    pub light_vertices: Option<LightVerticesName>,
 }
 
 /// `sampler`: `"sobol"` or `"independent"`.
@@ -272,6 +274,17 @@ impl<'de> Deserialize<'de> for SamplerName {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let s = String::deserialize(d)?;
         s.parse().map(SamplerName).map_err(de::Error::custom)
+    }
+}
+
+/// `light_vertices`: `"auto"`, `"on"` or `"off"`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightVerticesName(pub crate::settings::LightVertices);
+
+impl<'de> Deserialize<'de> for LightVerticesName {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map(LightVerticesName).map_err(de::Error::custom)
     }
 }
 

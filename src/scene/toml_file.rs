@@ -276,6 +276,7 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
         tonemap: r.tonemap.map(|t| t.0),
         filter: r.filter.map(|f| f.0),
         sampler: r.sampler.map(|v| v.0),
+        light_vertices: r.light_vertices.map(|v| v.0),
     }
 }
 

@@ -38,9 +38,9 @@ pub struct RenderArgs {
     /// sampled from the light) and weigh it by MIS against next-event estimation: auto, on or
     /// off. Auto turns it on where every light is a point light inside the scene's surfaces
     /// (a lamp in a room), where it lowers the noise of light that bounces off surfaces near
-    /// the lamp; unbiased either way [auto].
-    #[arg(long, default_value = "auto")]
-    pub light_vertices: LightVertices,
+    /// the lamp; unbiased either way [scene's render.light_vertices, else auto].
+    #[arg(long)]
+    pub light_vertices: Option<LightVertices>,
     /// Worker threads [all cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub threads: Option<u32>,
@@ -259,7 +259,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         aux: s.aux || args.denoise || args.aux,
         filter: args.filter.unwrap_or(s.filter),
         sampler: args.sampler.unwrap_or(s.sampler),
-        light_vertices: args.light_vertices,
+        light_vertices: args.light_vertices.unwrap_or(s.light_vertices),
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
     })
 }
