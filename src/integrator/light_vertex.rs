@@ -5,8 +5,8 @@
 //! A path that bounces at x onto a surface point z and takes z's light by next-event
 //! estimation finds z by sampling x's BSDF. Near a lamp, z's irradiance I cos θ / r² is many
 //! times that of the rest of the scene, and BSDF sampling rarely lands there: the light that
-//! bounces off surfaces close to the lamp is the noise of such a scene (in Embree's Cornell
-//! box, whose lamp hangs beside the tall block, most of it). So each sample also traces one
+//! bounces off surfaces close to the lamp is much of such a scene's noise (Embree's Cornell
+//! box hangs its lamp beside the tall block). So each sample also traces one
 //! ray from a point light (chosen by power, direction uniform): where it lands is its *light
 //! vertex* y, distributed over the surfaces as the lamp's light is. Every path vertex x that
 //! could bounce toward y connects to it with a shadow ray: the path x → y → light, whose
