@@ -62,7 +62,7 @@ fn a_lamp_inside_a_white_sphere_matches_the_closed_form() {
     // depth D the wall's radiance is L(x) = ρ/π (E₁(x) + I/R² Σ_{j=1}^{D−1} ρ^j). The lamp is
     // off-centre, so E₁ varies several-fold over the view and light vertices carry much of it.
     // Tolerances at 1024 spp: the image mean within 0.2% (measured 0.02% with light vertices,
-    // 0.01% without), each pixel within 4% (measured worst 1.8% and 2.0%: the noise).
+    // 0.01% without), each pixel within 4% (measured worst 1.6% and 2.0%: the noise).
     lamp_in_a_sphere("off-centre", Vec3::new(0.6, 0.5, -0.7), &[LightVertices::Auto, LightVertices::Off], 0.002);
 }
 
@@ -73,7 +73,7 @@ fn a_lamp_against_the_wall_of_a_sphere_matches_the_closed_form() {
     // sampling alone almost never lands there: its image mean converges from below, by rare
     // huge samples (0.62× the closed form at 64 spp, 0.71× at 1024). Light vertices land there
     // as the lamp's light does: the image mean within 0.5% (measured 0.05%) and each pixel
-    // within 4% (measured worst 2.6%) at 1024 spp.
+    // within 4% (measured worst 2.4%) at 1024 spp.
     lamp_in_a_sphere("against-the-wall", Vec3::new(0.0, 1.9999, -0.0001), &[LightVertices::Auto], 0.005);
 }
 
@@ -154,7 +154,7 @@ fn lamp_in_a_sphere(name: &str, lamp: Vec3, modes: &[LightVertices], mean_tol: f
 fn the_cornell_box_keeps_its_mean_and_loses_noise() {
     // Embree's Cornell box: its lamp hangs beside the tall block. 8 seeds each way, 24×24 at
     // 16 spp: the image means agree within 3 combined standard errors, and the per-pixel
-    // variance over seeds falls (measured: 0.62× at 128×128; here the sum over pixels of
+    // variance over seeds falls (measured: 0.61× at 128×128; here the sum over pixels of
     // variance / (mean² + 0.01), the relMSE's measure, is asserted below 0.8×).
     let scene = Scene::load(&common::scene_path("cornell.toml")).unwrap();
     let s = RenderSettings { width: 24, height: 24, spp: 16, max_depth: 8, ..Default::default() };

