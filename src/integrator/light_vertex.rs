@@ -24,7 +24,7 @@
 //! connect (not a mirror or glass, and at least two bounces before the path depth); its
 //! numbers are drawn there, after that vertex's light sample. It costs one ray per sample and
 //! one shadow ray per connection. On Embree's Cornell box (512², 64 spp, 2 threads) a sample
-//! traces 1.33× the rays and the render takes 1.45× as long, for 0.62× the relMSE: 1.11× the
+//! traces 1.33× the rays and the render takes 1.45× as long, for 0.61× the relMSE: 1.13× the
 //! efficiency (docs/performance.md, "Light vertices").
 
 use super::path::PathContext;
