@@ -53,14 +53,25 @@ pub fn fresh_dir(group: &str, name: &str) -> PathBuf {
 pub fn write_scene(group: &str, name: &str, text: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("ember-{group}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
+    // Tests of one binary run in parallel and share this folder: every file appears whole, by
+    // a rename, so that no test reads another's half-written scene or half-copied asset.
+    let put = |dst: &std::path::Path, write: &dyn Fn(&std::path::Path)| {
+        static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let tmp = dir.join(format!(".partial-{n}"));
+        write(&tmp);
+        std::fs::rename(&tmp, dst).unwrap();
+    };
     for asset in ["teapot.obj", "cornell_box.obj", "cornell_box.mtl", "earthmap.jpg"] {
         let dst = dir.join(asset);
         if !dst.exists() {
-            std::fs::copy(scene_path(asset), dst).unwrap();
+            put(&dst, &|tmp| {
+                std::fs::copy(scene_path(asset), tmp).unwrap();
+            });
         }
     }
     let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
+    put(&p, &|tmp| std::fs::write(tmp, text).unwrap());
     p
 }
 
