@@ -79,7 +79,7 @@ pub(crate) fn radiance<
     // The sample's light vertex: traced at the first vertex that can connect to one (see
     // `super::light_vertex`); `traced` once its numbers are drawn, whatever it found.
     let mut light_vertex: Option<LightVertex> = None;
-    let mut traced = !ctx.light_vertices;
+    let mut traced = false;
     loop {
         let Some(hit) = next_hit else {
             // Without non-delta lights the background is black.
@@ -174,17 +174,16 @@ pub(crate) fn radiance<
             }
         }
 
-        // Connect to the light vertex, tracing it first if this is the first vertex that can.
-        if !traced && nee_here && depth + 2 <= ctx.path_depth {
+        // Connect to the light vertex (a path as long as the depth allows ends at it), tracing
+        // it first if this is the first vertex that can.
+        let connects = ctx.light_vertices && nee_here && depth + 2 <= ctx.path_depth;
+        if connects && !traced {
             traced = true;
             let u_choice = if draws.choice { rng.next_f32() } else { 0.0 };
             let u = rng.next_2d();
             light_vertex = light_vertex::trace::<A, TEX, GLOSSY, GLASS>(ctx, accel, u_choice, u, rays);
         }
-        if let Some(y) = &light_vertex
-            && nee_here
-            && depth + 2 <= ctx.path_depth
-        {
+        if connects && let Some(y) = &light_vertex {
             let x = PathVertex { p: sp.p, leave, ng, frame: &frame, bsdf: &bsdf, wo_l };
             l += if lambert {
                 light_vertex::connect::<A, true>(accel, &x, y, beta, rays)

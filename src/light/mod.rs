@@ -416,11 +416,12 @@ impl LightSet {
         sample.map(|s| LightSample { light: i as u32, ..s })
     }
 
-    /// A point light chosen by power with `u` (the choice [`LightSet::power_probability`]
-    /// gives), to emit from; `None` unless every light is a point light.
+    /// A light chosen by power with `u` (the choice [`LightSet::power_probability`] gives),
+    /// to emit from if it is a point light (`None` otherwise: the render plan uses this only
+    /// where every light is one). Runs once per sample: no pass over the lights.
     #[inline]
     pub fn choose_point_by_power(&self, u: f32) -> Option<PointEmission> {
-        if self.lights.is_empty() || !self.all_delta() {
+        if self.lights.is_empty() {
             return None;
         }
         let (i, prob) = self.choose(&LightChoice::BY_POWER, u);

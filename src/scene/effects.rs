@@ -54,9 +54,9 @@ pub struct Effects {
     /// The largest albedo of a material in use (0 if nothing scatters): the best fraction of
     /// light one bounce can send on ([`MaterialModel::albedo`]).
     pub albedo: f32,
-    /// Every light is a point light inside the bounds of the surfaces that scatter light
-    /// (and nothing else emits): most of what the lights emit lands on a surface, which is
-    /// where paths gain from connecting to light vertices (`integrator::light_vertex`).
+    /// Every point light lies inside the bounds of the surfaces that scatter light: most of
+    /// what it emits lands on a surface, which is where paths gain from connecting to light
+    /// vertices (`integrator::light_vertex`; the plan also asks that every light be a point).
     pub enclosed_point_lights: bool,
 }
 
@@ -153,16 +153,12 @@ impl Effects {
             let (lo, hi) = (scatterer_bounds.min - glam::Vec3::splat(r), scatterer_bounds.max + glam::Vec3::splat(r));
             c.position.cmpge(lo).all() && c.position.cmple(hi).all()
         });
-        e.enclosed_point_lights = e.point_lights
-            && !e.emissive
-            && !e.sky
-            && !e.environment
-            && scene.lights.iter().filter(|l| l.emits()).all(|l| match l {
-                crate::light::Light::Point(p) => {
-                    p.position.cmpgt(scatterer_bounds.min).all() && p.position.cmplt(scatterer_bounds.max).all()
-                }
-                _ => false,
-            });
+        e.enclosed_point_lights = scene.lights.iter().all(|l| match l {
+            crate::light::Light::Point(p) if p.emits() => {
+                p.position.cmpgt(scatterer_bounds.min).all() && p.position.cmplt(scatterer_bounds.max).all()
+            }
+            _ => true,
+        });
         e.indirect = scattering_prims > 1 || transmissive_scatterer || (scattering_prims == 1 && camera_inside);
         e
     }

@@ -170,25 +170,20 @@ impl<'de> Deserialize<'de> for Exposure {
     }
 }
 
-/// `tonemap`: `"clamp"`, `"aces"` or `"neutral"`.
+/// A setting written as a string and read by its type's `FromStr`, whose error is the
+/// message: `tonemap` (`"clamp"`, `"aces"` or `"neutral"`), `filter` (`"box"` or
+/// `"gaussian"`), `sampler` (`"sobol"` or `"independent"`), `light_vertices` (`"auto"`,
+/// `"on"` or `"off"`).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TonemapValue(pub crate::film::Tonemap);
+pub struct Named<T>(pub T);
 
-impl<'de> Deserialize<'de> for TonemapValue {
+impl<'de, T: std::str::FromStr> Deserialize<'de> for Named<T>
+where
+    T::Err: std::fmt::Display,
+{
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let s = String::deserialize(d)?;
-        s.parse().map(TonemapValue).map_err(de::Error::custom)
-    }
-}
-
-/// `filter`: `"box"` or `"gaussian"`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FilterValue(pub crate::film::PixelFilter);
-
-impl<'de> Deserialize<'de> for FilterValue {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let s = String::deserialize(d)?;
-        s.parse().map(FilterValue).map_err(de::Error::custom)
+        s.parse().map(Named).map_err(de::Error::custom)
     }
 }
 
@@ -258,34 +253,12 @@ pub struct RenderSection {
     /// Stops of exposure for 8-bit output.
     pub exposure: Option<Exposure>,
     /// The tone curve of 8-bit output.
-    pub tonemap: Option<TonemapValue>,
+    pub tonemap: Option<Named<crate::film::Tonemap>>,
     /// The pixel reconstruction filter.
-    pub filter: Option<FilterValue>,
-    pub sampler: Option<SamplerName>,
+    pub filter: Option<Named<crate::film::PixelFilter>>,
+    pub sampler: Option<Named<crate::settings::SamplerKind>>,
     /// Light vertices: `"auto"`, `"on"` or `"off"` (as `--light-vertices`).
-    pub light_vertices: Option<LightVerticesName>,
-}
-
-/// `sampler`: `"sobol"` or `"independent"`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SamplerName(pub crate::settings::SamplerKind);
-
-impl<'de> Deserialize<'de> for SamplerName {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let s = String::deserialize(d)?;
-        s.parse().map(SamplerName).map_err(de::Error::custom)
-    }
-}
-
-/// `light_vertices`: `"auto"`, `"on"` or `"off"`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LightVerticesName(pub crate::settings::LightVertices);
-
-impl<'de> Deserialize<'de> for LightVerticesName {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let s = String::deserialize(d)?;
-        s.parse().map(LightVerticesName).map_err(de::Error::custom)
-    }
+    pub light_vertices: Option<Named<crate::settings::LightVertices>>,
 }
 
 #[derive(Debug, Deserialize, Clone)]
