@@ -7,6 +7,8 @@
 
 mod common;
 
+use common::image_mean;
+use ember::film::Film;
 use ember::integrator::RenderSettings;
 use ember::scene::Scene;
 use ember::settings::{LightVertices, SamplerKind};
@@ -16,41 +18,39 @@ fn scene_from(name: &str, text: &str) -> Scene {
     Scene::load(&common::write_scene("light-vertices", name, text)).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The renders of `settings` with seeds 0..seeds (each checked to have no non-finite sample),
+/// and whether their plan connects paths to light vertices.
+fn renders(scene: &Scene, settings: &RenderSettings, seeds: u64) -> (Vec<Film>, bool) {
+    let mut light_vertices = false;
+    let films = (0..seeds)
+        .map(|seed| {
+            let (film, stats) = common::render_embree(scene, &RenderSettings { seed, ..settings.clone() });
+            assert_eq!(stats.nonfinite, 0, "non-finite samples");
+            light_vertices = stats.plan.light_vertices;
+            film
+        })
+        .collect();
+    (films, light_vertices)
+}
+
 /// Per-pixel mean and variance over `seeds` renders of `settings` with seeds 0..seeds.
 fn seed_stats(scene: &Scene, settings: &RenderSettings, seeds: u64) -> (Vec<Vec3>, Vec<Vec3>, bool) {
-    let films: Vec<_> = (0..seeds)
-        .map(|seed| {
-            let (film, stats) = common::render_embree(scene, &RenderSettings { seed, ..settings.clone() });
-            assert_eq!(stats.nonfinite, 0, "non-finite samples");
-            (film, stats.plan.light_vertices)
-        })
-        .collect();
-    let n = films[0].0.pixels.len();
-    let mean: Vec<Vec3> = (0..n).map(|i| films.iter().map(|(f, _)| f.pixels[i]).sum::<Vec3>() / seeds as f32).collect();
+    let (films, light_vertices) = renders(scene, settings, seeds);
+    let n = films[0].pixels.len();
+    let mean: Vec<Vec3> = (0..n).map(|i| films.iter().map(|f| f.pixels[i]).sum::<Vec3>() / seeds as f32).collect();
     let var: Vec<Vec3> = (0..n)
-        .map(|i| films.iter().map(|(f, _)| (f.pixels[i] - mean[i]).powf(2.0)).sum::<Vec3>() / (seeds - 1) as f32)
+        .map(|i| films.iter().map(|f| (f.pixels[i] - mean[i]).powf(2.0)).sum::<Vec3>() / (seeds - 1) as f32)
         .collect();
-    (mean, var, films[0].1)
+    (mean, var, light_vertices)
 }
 
-fn image_mean(pixels: &[Vec3]) -> f64 {
-    pixels.iter().map(|p| (p.x + p.y + p.z) as f64 / 3.0).sum::<f64>() / pixels.len() as f64
-}
-
-/// The standard error of the image mean over seeds, from per-seed image means.
+/// The image mean over `seeds` renders and its standard error, from per-seed image means.
 fn mean_and_error(scene: &Scene, settings: &RenderSettings, seeds: u64) -> (f64, f64, bool) {
-    let mut lv = false;
-    let means: Vec<f64> = (0..seeds)
-        .map(|seed| {
-            let (film, stats) = common::render_embree(scene, &RenderSettings { seed, ..settings.clone() });
-            assert_eq!(stats.nonfinite, 0, "non-finite samples");
-            lv = stats.plan.light_vertices;
-            image_mean(&film.pixels)
-        })
-        .collect();
+    let (films, light_vertices) = renders(scene, settings, seeds);
+    let means: Vec<f64> = films.iter().map(|f| image_mean(&f.pixels)).collect();
     let m = means.iter().sum::<f64>() / seeds as f64;
     let var = means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (seeds - 1) as f64;
-    (m, (var / seeds as f64).sqrt(), lv)
+    (m, (var / seeds as f64).sqrt(), light_vertices)
 }
 
 #[test]

@@ -66,7 +66,7 @@ fn white_furnace_sphere_in_uniform_sky_is_one_everywhere() {
     let film = embree_render(&scene, &RenderSettings { max_depth: 50, ..settings(8, 8, 16384) });
     let worst = film.pixels.iter().map(|p| (*p - Vec3::ONE).abs().max_element()).fold(0.0f32, f32::max);
     assert!(worst < 0.01, "worst pixel off by {worst}");
-    assert!((image_mean(&film) - 1.0).abs() < 0.002, "mean {}", image_mean(&film));
+    assert!((common::image_mean(&film.pixels) - 1.0).abs() < 0.002, "mean {}", common::image_mean(&film.pixels));
 }
 
 /// Writes a `width` x `height` OpenEXR image (f32 RGB) of `f(x, y)` with the `exr` crate.
@@ -114,7 +114,7 @@ fn white_furnace_sphere_under_a_constant_environment_image_is_that_value_everywh
     let film = embree_render(&scene, &RenderSettings { max_depth: 50, ..settings(8, 8, 16384) });
     let worst = film.pixels.iter().map(|p| (*p - Vec3::ONE).abs().max_element()).fold(0.0f32, f32::max);
     assert!(worst < 0.01, "worst pixel off by {worst}");
-    assert!((image_mean(&film) - 1.0).abs() < 0.002, "mean {}", image_mean(&film));
+    assert!((common::image_mean(&film.pixels) - 1.0).abs() < 0.002, "mean {}", common::image_mean(&film.pixels));
 }
 
 #[test]
@@ -355,10 +355,6 @@ fn mtl_ke_is_emission() {
     check_plane_under_quad_light(&scene, albedo, le);
 }
 
-fn image_mean(f: &Film) -> f64 {
-    f.pixels.iter().map(|p| (p.x + p.y + p.z) as f64 / 3.0).sum::<f64>() / f.pixels.len() as f64
-}
-
 #[test]
 fn all_estimators_agree_in_the_mean() {
     // The Cornell box with its area light, 8 independent seeds per estimator: the two image
@@ -375,7 +371,7 @@ fn all_estimators_agree_in_the_mean() {
         let means: Vec<f64> = (0..8)
             .map(|seed| {
                 let s = RenderSettings { estimator, seed, max_depth: 4, sampler, ..settings(24, 24, 16) };
-                image_mean(&render(&scene, &accel, &s).unwrap().0)
+                common::image_mean(&render(&scene, &accel, &s).unwrap().0.pixels)
             })
             .collect();
         let m = means.iter().sum::<f64>() / means.len() as f64;
@@ -466,7 +462,7 @@ fn estimators_agree_under_an_environment_image() {
                     sampler: SamplerKind::Independent,
                     ..settings(24, 24, 64)
                 };
-                image_mean(&render(&scene, &accel, &s).unwrap().0)
+                common::image_mean(&render(&scene, &accel, &s).unwrap().0.pixels)
             })
             .collect();
         let m = means.iter().sum::<f64>() / means.len() as f64;
@@ -496,7 +492,7 @@ fn naive_and_embree_give_the_same_image() {
     let diffs: Vec<f32> = a.pixels.iter().zip(&b.pixels).map(|(p, q)| (*p - *q).abs().max_element()).collect();
     let mean_diff = diffs.iter().sum::<f32>() / diffs.len() as f32;
     let close = diffs.iter().filter(|&&d| d <= 1e-3).count();
-    assert!(mean_diff <= 0.005 * image_mean(&a) as f32, "mean difference {mean_diff}");
+    assert!(mean_diff <= 0.005 * common::image_mean(&a.pixels) as f32, "mean difference {mean_diff}");
     assert!(close * 100 >= diffs.len() * 99, "{close} of {} pixels within 1e-3", diffs.len());
 }
 
@@ -521,7 +517,10 @@ fn every_bvh_build_gives_the_same_image() {
             let mean_diff = diffs.iter().sum::<f32>() / diffs.len() as f32;
             let close = diffs.iter().filter(|&&d| d <= 1e-3).count();
             let what = format!("{quality} quality, robust {robust}");
-            assert!(mean_diff <= 0.005 * image_mean(&reference) as f32, "{what}: mean difference {mean_diff}");
+            assert!(
+                mean_diff <= 0.005 * common::image_mean(&reference.pixels) as f32,
+                "{what}: mean difference {mean_diff}"
+            );
             assert!(close * 100 >= diffs.len() * 99, "{what}: {close} of {} pixels within 1e-3", diffs.len());
         }
     }
@@ -557,7 +556,7 @@ fn every_sample_scene_renders_finite() {
         let scene = Scene::load(&common::scene_path(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
         let film = embree_render(&scene, &settings(32, 24, 2));
         assert!(film.pixels.iter().all(|p| p.is_finite()), "{name}");
-        assert!(image_mean(&film) > 0.005, "{name} is black");
+        assert!(common::image_mean(&film.pixels) > 0.005, "{name} is black");
     }
 }
 

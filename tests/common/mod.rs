@@ -82,6 +82,11 @@ pub const OVERFLOW_SCENE: &str = "[camera]\nposition = [0.0, 0.3, 3.0]\nlook_at 
     [[quads]]\ncorner = [-2.0, 0.0, -2.0]\nedge1 = [0.0, 0.0, 4.0]\nedge2 = [4.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
     [[quads]]\ncorner = [-2.0, 0.5, -2.0]\nedge1 = [4.0, 0.0, 0.0]\nedge2 = [0.0, 0.0, 4.0]\nmaterial = \"hot\"\n";
 
+/// The mean of an image's pixels over its three channels.
+pub fn image_mean(pixels: &[Vec3]) -> f64 {
+    pixels.iter().map(|p| (p.x + p.y + p.z) as f64 / 3.0).sum::<f64>() / pixels.len() as f64
+}
+
 /// Path of a file in `scenes/`.
 pub fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
