@@ -164,14 +164,30 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
         camera_rays.d = cam.pinhole_dirs(&fx, &fy);
     }
     let active: [bool; LANES] = std::array::from_fn(|i| i < n);
-    let aux = aux.map(|a| (a, (pixel, samples.start as u64)));
+    let first_sample = (pixel, samples.start as u64);
     match ctx.accel.as_embree() {
-        Some(embree) => {
-            trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, embree, &camera_rays, active, &mut rngs, out, aux, rays)
-        }
-        None => {
-            trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, ctx.accel, &camera_rays, active, &mut rngs, out, aux, rays)
-        }
+        Some(embree) => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
+            ctx,
+            embree,
+            &camera_rays,
+            active,
+            &mut rngs,
+            first_sample,
+            out,
+            aux,
+            rays,
+        ),
+        None => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
+            ctx,
+            ctx.accel,
+            &camera_rays,
+            active,
+            &mut rngs,
+            first_sample,
+            out,
+            aux,
+            rays,
+        ),
     }
 }
 
@@ -184,18 +200,20 @@ fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     camera_rays: &RayPacket,
     active: [bool; LANES],
     rngs: &mut [SampleStream<'_>; LANES],
+    (pixel, first_sample): (u64, u64),
     out: &mut [Vec3; LANES],
-    aux: Option<(&mut [AuxSample; LANES], (u64, u64))>,
+    aux: Option<&mut [AuxSample; LANES]>,
     rays: &mut u64,
 ) -> Result<(), AccelError> {
     let hits = accel.intersect_packet_deferred(camera_rays, active, 0.0, f32::INFINITY);
     for i in (0..LANES).filter(|&i| active[i]) {
         *rays += 1;
         let ray = camera_rays.ray(i);
-        out[i] = radiance::<A, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, accel, ray, hits[i], &mut rngs[i], rays);
+        let y = ctx.light_vertices.and_then(|p| p.vertex(pixel, first_sample + i as u64));
+        out[i] = radiance::<A, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, accel, ray, hits[i], y, &mut rngs[i], rays);
     }
     // Beside the paths, from the same camera rays and first hits (see `super::aux`).
-    if let Some((aux, (pixel, first_sample))) = aux {
+    if let Some(aux) = aux {
         for i in (0..LANES).filter(|&i| active[i]) {
             let sample = first_sample + i as u64;
             let ray = camera_rays.ray(i);

@@ -6,9 +6,9 @@
 //! estimation finds z by sampling x's BSDF. Near a lamp, z's irradiance I cos θ / r² is many
 //! times that of the rest of the scene, and BSDF sampling rarely lands there: the light that
 //! bounces off surfaces close to the lamp is much of such a scene's noise (Embree's Cornell
-//! box hangs its lamp beside the tall block). So each sample also traces one
-//! ray from a point light (chosen by power, direction uniform): where it lands is its *light
-//! vertex* y, distributed over the surfaces as the lamp's light is. Every path vertex x that
+//! box hangs its lamp beside the tall block). So each sample also has a *light vertex* y: the
+//! point where a ray from a point light (chosen by power, direction uniform) lands,
+//! distributed over the surfaces as the lamp's light is. Every path vertex x that
 //! could bounce toward y connects to it with a shadow ray: the path x → y → light, whose
 //! density is p_conn(y) = P(light) cos θ_y / (4π r²) over surface area at y. The same path
 //! found the usual way has density p_uni(y) = P_nee(light | y) p_bsdf(x → y) cos θ_y' / d².
@@ -20,12 +20,16 @@
 //! 0.005863 against 0.005995 at 512² and 64 spp; next-event estimation against BSDF-found
 //! emission keeps the power heuristic.)
 //!
-//! The light vertex is traced once per sample, when the path first reaches a vertex that can
-//! connect (not a mirror or glass, and at least two bounces before the path depth); its
-//! numbers are drawn there, after that vertex's light sample. It costs one ray per sample and
-//! one shadow ray per connection. On Embree's Cornell box (512², 64 spp, 2 threads) a sample
-//! traces 1.33× the rays and the render takes 1.45× as long, for 0.61× the relMSE: 1.13× the
-//! efficiency (docs/performance.md, "Light vertices").
+//! The light vertices are traced once per render, before the first pixel, into a pool of
+//! [`LightVertexPool::SIZE`] entries from which each sample takes its own (see there): a light
+//! vertex does not depend on the path that connects to it, so the pool's are as good as a
+//! sample's own, and an image's samples share one ray's work among many. Within a pixel no two
+//! samples share one (up to `SIZE` samples), so a pixel's error is what it would be with fresh
+//! vertices; pixels that share vertices have correlated errors, at random places. The pool is
+//! the same for any kernel, thread count, tile order and shard. A connection costs one shadow
+//! ray. On Embree's Cornell box (512², 64 spp, 2 threads) a sample traces 1.21× the rays of
+//! a render without light vertices, for 0.57× the relMSE (docs/performance.md, "Light
+//! vertices").
 
 use super::path::PathContext;
 use super::surface::surface_point;
@@ -56,24 +60,81 @@ pub(super) struct LightVertex {
     pub p_choice: f32,
 }
 
-/// The light vertex of a sample: a point light chosen by power with `u_choice`, a ray in the
-/// direction `uniform_sphere(u)` from it, and the surface it hits (`None` if it leaves the
-/// scene or lands on a mirror or glass, where no path could connect).
-#[inline(never)]
-pub(super) fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bool>(
-    ctx: &PathContext,
-    accel: &A,
-    u_choice: f32,
-    u: Vec2,
-    rays: &mut u64,
-) -> Option<LightVertex> {
+/// The vertices paths connect to: one per entry, traced once per render before the first
+/// pixel, each from a point light chosen by power with a ray in a uniform direction (see the
+/// module documentation). Sample `s` of pixel `i` takes entry `(h(i) B + s) mod SIZE`, B the
+/// render's spp rounded up to a power of two and h a hash of the pixel and seed: a pixel's
+/// samples take consecutive entries, which are consecutive points of one Owen-scrambled Sobol
+/// sequence (well spread over the directions around the lamp, as a pixel's own Sobol samples
+/// were), and no two of them share a vertex up to `SIZE` samples.
+pub(crate) struct LightVertexPool {
+    vertices: Vec<Option<LightVertex>>,
+    index: PoolIndex,
+    /// The rays traced to build it.
+    pub rays: u64,
+}
+
+/// Which entry of a [`LightVertexPool`] each sample takes.
+#[derive(Clone, Copy, Debug)]
+struct PoolIndex {
+    /// log2 of B, the block of consecutive entries a pixel's samples start in.
+    block_bits: u32,
+    seed: u64,
+}
+
+impl PoolIndex {
+    fn new(seed: u64, spp: u32) -> PoolIndex {
+        let block_bits = spp.max(1).next_power_of_two().trailing_zeros().min(LightVertexPool::SIZE.trailing_zeros());
+        PoolIndex { block_bits, seed }
+    }
+
+    #[inline]
+    fn entry(self, pixel: u64, sample: u64) -> usize {
+        let blocks = (LightVertexPool::SIZE >> self.block_bits) as u64;
+        let block = crate::sampler::mix64(self.seed ^ pixel.wrapping_mul(0x9e37_79b9_7f4a_7c15)) % blocks;
+        ((block << self.block_bits).wrapping_add(sample) % LightVertexPool::SIZE as u64) as usize
+    }
+}
+
+impl LightVertexPool {
+    /// Entries (the Sobol sequence's index limit).
+    pub const SIZE: u32 = 1 << 16;
+
+    /// The pool of a render of `spp` samples per pixel with `seed`, traced through `accel`
+    /// (errors deferred, as the path's queries are: the caller checks
+    /// [`Accel::deferred_error`]). The same for every kernel, thread count and shard.
+    pub fn build(ctx: &PathContext, accel: &dyn Accel, seed: u64, spp: u32) -> LightVertexPool {
+        let scramble = crate::sampler::mix64(seed ^ 0x6c76_706f_6f6c) as u32; // "lvpool"
+        let mut rays = 0;
+        let vertices = (0..Self::SIZE)
+            .map(|i| {
+                let u = sobol_burley::sample_4d(i, 0, scramble);
+                trace(ctx, accel, u[2], Vec2::new(u[0], u[1]), &mut rays)
+            })
+            .collect();
+        LightVertexPool { vertices, index: PoolIndex::new(seed, spp), rays }
+    }
+
+    /// The light vertex of sample `sample` of pixel `pixel` (`None` if its ray left the scene
+    /// or landed on a mirror or glass).
+    #[inline]
+    pub(super) fn vertex(&self, pixel: u64, sample: u64) -> Option<&LightVertex> {
+        self.vertices[self.index.entry(pixel, sample)].as_ref()
+    }
+}
+
+/// The light vertex of a point light chosen by power with `u_choice` and a ray in the
+/// direction `uniform_sphere(u)` from it: the surface the ray hits (`None` if it leaves the
+/// scene or lands on a mirror or glass, where no path could connect). Built with the general
+/// kernel's code (every switch on), whose results are the specialised kernels' bit for bit.
+fn trace(ctx: &PathContext, accel: &dyn Accel, u_choice: f32, u: Vec2, rays: &mut u64) -> Option<LightVertex> {
     let e = ctx.lights.choose_point_by_power(u_choice)?;
     let ray = Ray::new(e.position, uniform_sphere(u));
     *rays += 1;
     let hit = accel.intersect_deferred(&ray, 0.0, f32::INFINITY)?;
-    let sp = surface_point::<TEX>(ctx.scene, ctx.normals, &ray, &hit);
-    let bsdf = if GLOSSY || GLASS { sp.material.bsdf_at::<TEX>(sp.uv) } else { sp.material.lambert_at::<TEX>(sp.uv) };
-    if (GLOSSY || GLASS) && bsdf.is_delta() {
+    let sp = surface_point::<true>(ctx.scene, ctx.normals, &ray, &hit);
+    let bsdf = sp.material.bsdf_at::<true>(sp.uv);
+    if bsdf.is_delta() {
         return None;
     }
     let (ng, ns) = if ray.d.dot(sp.ng) > 0.0 { (-sp.ng, -sp.ns) } else { (sp.ng, sp.ns) };
@@ -170,4 +231,36 @@ pub(super) fn nee_weight(lights: &LightSet, ls: &LightSample, p: Vec3, ng: Vec3,
 #[inline]
 fn balance_heuristic(a: f32, b: f32) -> f32 {
     if a + b > 0.0 { a / (a + b) } else { 0.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashSet;
+
+    #[test]
+    fn a_pixel_takes_consecutive_entries_of_one_aligned_block() {
+        for (spp, block) in [(1, 1), (64, 64), (100, 128), (1 << 20, 1 << 16)] {
+            let index = PoolIndex::new(7, spp);
+            for pixel in [0, 1, 513, 262_143] {
+                let first = index.entry(pixel, 0);
+                assert_eq!(first % block, 0, "spp {spp}: pixel {pixel} starts a block");
+                let n = (spp as usize).min(LightVertexPool::SIZE as usize);
+                let entries: HashSet<usize> = (0..n as u64).map(|s| index.entry(pixel, s)).collect();
+                assert_eq!(entries.len(), n, "spp {spp}: a pixel's samples never share an entry");
+                assert_eq!(index.entry(pixel, n as u64 - 1), (first + n - 1) % LightVertexPool::SIZE as usize);
+            }
+        }
+    }
+
+    #[test]
+    fn pixels_and_seeds_spread_over_the_blocks() {
+        let index = PoolIndex::new(7, 64);
+        let blocks: HashSet<usize> = (0..4096).map(|p| index.entry(p, 0) / 64).collect();
+        // 4096 pixels over 1024 blocks: about 1024 (1 - e^-4) = 1005 of them taken.
+        assert!(blocks.len() > 950, "{} blocks", blocks.len());
+        let other = PoolIndex::new(8, 64);
+        let moved = (0..4096).filter(|&p| other.entry(p, 0) != index.entry(p, 0)).count();
+        assert!(moved > 4000, "another seed moves the pixels: {moved}");
+    }
 }

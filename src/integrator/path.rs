@@ -2,7 +2,7 @@
 //! estimation and multiple importance sampling (power heuristic, Veach 1997) against BSDF
 //! sampling, and Russian roulette.
 
-use super::light_vertex::{self, LightVertex, PathVertex};
+use super::light_vertex::{self, LightVertex, LightVertexPool, PathVertex};
 use super::surface::{FaceNormals, surface_point};
 use crate::accel::Accel;
 use crate::camera::Camera;
@@ -34,12 +34,13 @@ pub struct PathContext<'a> {
     /// [`super::RenderPlan::roulette_start`]: Russian roulette runs after this many bounces
     /// (`u32::MAX`: never).
     pub roulette_start: u32,
-    /// [`super::RenderPlan::light_vertices`]: paths connect to light vertices.
-    pub light_vertices: bool,
+    /// The light vertices paths connect to, if [`super::RenderPlan::light_vertices`].
+    pub light_vertices: Option<&'a LightVertexPool>,
 }
 
 /// Radiance along the camera ray `ray`, whose closest hit `first` the caller traced, then
-/// through `accel` (`ctx.accel`, possibly as its concrete type); `rays` counts the rays traced
+/// through `accel` (`ctx.accel`, possibly as its concrete type), connecting to `light_vertex`
+/// (the sample's entry of `ctx.light_vertices`, if any); `rays` counts the rays traced
 /// after the first. Queries defer their errors: the caller checks
 /// [`Accel::deferred_error`] before using the result. The const switches are those of
 /// [`super::kernel::KernelChoice`]: each one off removes the code of an effect the scene
@@ -56,6 +57,7 @@ pub(crate) fn radiance<
     accel: &A,
     mut ray: Ray,
     first: Option<Hit>,
+    light_vertex: Option<&LightVertex>,
     rng: &mut SampleStream<'_>,
     rays: &mut u64,
 ) -> Vec3 {
@@ -76,10 +78,6 @@ pub(crate) fn radiance<
     let mut depth = 0u32;
     // The closest hit of `ray`: the caller's for the camera ray, then traced at each bounce.
     let mut next_hit = first;
-    // The sample's light vertex: traced at the first vertex that can connect to one (see
-    // `super::light_vertex`); `traced` once its numbers are drawn, whatever it found.
-    let mut light_vertex: Option<LightVertex> = None;
-    let mut traced = false;
     loop {
         let Some(hit) = next_hit else {
             // Without non-delta lights the background is black.
@@ -161,7 +159,7 @@ pub(crate) fn radiance<
                 };
                 *rays += 1;
                 if !accel.occluded_deferred(&Ray::new(o, d), 0.0, tmax) {
-                    let w = if ls.delta && ctx.light_vertices && !specular {
+                    let w = if ls.delta && ctx.light_vertices.is_some() && !specular {
                         // After a bounce: against the light vertex the last vertex connected to.
                         light_vertex::nee_weight(ctx.lights, &ls, sp.p, ng, prev_p, prev_pdf)
                     } else if ls.delta || !mis {
@@ -174,16 +172,11 @@ pub(crate) fn radiance<
             }
         }
 
-        // Connect to the light vertex (a path as long as the depth allows ends at it), tracing
-        // it first if this is the first vertex that can.
-        let connects = ctx.light_vertices && nee_here && depth + 2 <= ctx.path_depth;
-        if connects && !traced {
-            traced = true;
-            let u_choice = if draws.choice { rng.next_f32() } else { 0.0 };
-            let u = rng.next_2d();
-            light_vertex = light_vertex::trace::<A, TEX, GLOSSY, GLASS>(ctx, accel, u_choice, u, rays);
-        }
-        if connects && let Some(y) = &light_vertex {
+        // Connect to the light vertex (a path as long as the depth allows ends at it).
+        if nee_here
+            && depth + 2 <= ctx.path_depth
+            && let Some(y) = light_vertex
+        {
             let x = PathVertex { p: sp.p, leave, ng, frame: &frame, bsdf: &bsdf, wo_l };
             l += if lambert {
                 light_vertex::connect::<A, true>(accel, &x, y, beta, rays)

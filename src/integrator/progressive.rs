@@ -14,6 +14,7 @@
 
 use super::adaptive;
 use super::aux::AuxSample;
+use super::light_vertex::LightVertexPool;
 use super::path::PathContext;
 use super::surface::FaceNormals;
 use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
@@ -191,7 +192,7 @@ pub(super) fn run(
     }
     let sample = plan.kernel.sample_fn();
     let normals = FaceNormals::of(scene);
-    let ctx = PathContext {
+    let mut ctx = PathContext {
         scene,
         accel,
         lights: &lights,
@@ -200,13 +201,16 @@ pub(super) fn run(
         settings,
         path_depth: plan.path_depth,
         roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
-        light_vertices: plan.light_vertices,
+        light_vertices: None,
     };
+    let pool = plan.light_vertices.then(|| LightVertexPool::build(&ctx, accel, settings.seed, settings.spp));
+    accel.deferred_error()?;
+    ctx.light_vertices = pool.as_ref();
     // A shard renders only its own tiles.
     let tiles: Vec<(u32, u32)> =
         tile_order(w, h).into_iter().filter(|&(tx, ty)| settings.shard.is_none_or(|s| s.owns_tile(tx, ty))).collect();
     let n_rounds = rounds(settings);
-    let rays_total = AtomicU64::new(0);
+    let rays_total = AtomicU64::new(pool.as_ref().map_or(0, |p| p.rays));
     let samples_before = accum.samples();
     let samples_done = AtomicU64::new(samples_before);
     let nonfinite = AtomicU64::new(0);
