@@ -20,12 +20,13 @@
 //! 0.005863 against 0.005995 at 512² and 64 spp; next-event estimation against BSDF-found
 //! emission keeps the power heuristic.)
 //!
-//! The light vertices are traced once per render, before the first pixel, into a pool of
-//! [`LightVertexPool::SIZE`] entries from which each sample takes its own (see there): a light
-//! vertex does not depend on the path that connects to it, so the pool's are as good as a
-//! sample's own, and an image's samples share one ray's work among many. Within a pixel no two
-//! samples share one (up to `SIZE` samples), so a pixel's error is what it would be with fresh
-//! vertices; pixels that share vertices have correlated errors, at random places. The pool is
+//! The light vertices are traced once per render, before the first pixel, into a pool (one
+//! per sample of the render, at most [`LightVertexPool::SIZE`]) from which each sample takes
+//! its own (see there): a light vertex does not depend on the path that connects to it, so the
+//! pool's are as good as a sample's own, and a large image's samples share one ray's work
+//! among many. Within a pixel no two samples share one (up to the pool's size, at least the
+//! spp), so a pixel's error is what it would be with fresh vertices; pixels that share
+//! vertices have correlated errors, at random places. The pool is
 //! the same for any kernel, thread count, tile order and shard. A connection costs one shadow
 //! ray. On Embree's Cornell box (512², 64 spp, 2 threads) a sample traces 1.21× the rays of
 //! a render without light vertices, for 0.57× the relMSE (docs/performance.md, "Light
@@ -62,11 +63,12 @@ pub(super) struct LightVertex {
 
 /// The vertices paths connect to: one per entry, traced once per render before the first
 /// pixel, each from a point light chosen by power with a ray in a uniform direction (see the
-/// module documentation). Sample `s` of pixel `i` takes entry `(h(i) B + s) mod SIZE`, B the
-/// render's spp rounded up to a power of two and h a hash of the pixel and seed: a pixel's
-/// samples take consecutive entries, which are consecutive points of one Owen-scrambled Sobol
-/// sequence (well spread over the directions around the lamp, as a pixel's own Sobol samples
-/// were), and no two of them share a vertex up to `SIZE` samples.
+/// module documentation): as many as the render has samples, at most [`Self::SIZE`]. Sample
+/// `s` of pixel `i` takes entry `(h(i) B + s) mod size`, B the render's spp rounded up to a
+/// power of two and h a hash of the pixel and seed: a pixel's samples take consecutive
+/// entries, which are consecutive points of one Owen-scrambled Sobol sequence (well spread
+/// over the directions around the lamp, as a pixel's own Sobol samples were), and no two of
+/// them share a vertex up to `size` samples (at least the spp).
 pub(crate) struct LightVertexPool {
     vertices: Vec<Option<LightVertex>>,
     index: PoolIndex,
@@ -75,44 +77,63 @@ pub(crate) struct LightVertexPool {
 }
 
 /// Which entry of a [`LightVertexPool`] each sample takes.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct PoolIndex {
+    /// log2 of the pool's size.
+    size_bits: u32,
     /// log2 of B, the block of consecutive entries a pixel's samples start in.
     block_bits: u32,
     seed: u64,
 }
 
 impl PoolIndex {
-    fn new(seed: u64, spp: u32) -> PoolIndex {
-        let block_bits = spp.max(1).next_power_of_two().trailing_zeros().min(LightVertexPool::SIZE.trailing_zeros());
-        PoolIndex { block_bits, seed }
+    /// For a render of `samples` samples in all, `spp` per pixel: B = `spp` rounded up to a
+    /// power of two, and as many entries as samples (rounded up to a power of two, at least B,
+    /// at most [`LightVertexPool::SIZE`]), so that a small render traces no more light
+    /// vertices than it takes.
+    fn new(seed: u64, spp: u32, samples: u64) -> PoolIndex {
+        let max_bits = LightVertexPool::SIZE.trailing_zeros();
+        let block_bits = spp.max(1).next_power_of_two().trailing_zeros().min(max_bits);
+        let size_bits = samples.max(1).next_power_of_two().trailing_zeros().clamp(block_bits, max_bits);
+        PoolIndex { size_bits, block_bits, seed }
+    }
+
+    fn size(self) -> u32 {
+        1 << self.size_bits
     }
 
     #[inline]
     fn entry(self, pixel: u64, sample: u64) -> usize {
-        let blocks = (LightVertexPool::SIZE >> self.block_bits) as u64;
+        let blocks = 1u64 << (self.size_bits - self.block_bits);
         let block = crate::sampler::mix64(self.seed ^ pixel.wrapping_mul(0x9e37_79b9_7f4a_7c15)) % blocks;
-        ((block << self.block_bits).wrapping_add(sample) % LightVertexPool::SIZE as u64) as usize
+        ((block << self.block_bits).wrapping_add(sample) & ((1u64 << self.size_bits) - 1)) as usize
     }
 }
 
 impl LightVertexPool {
-    /// Entries (the Sobol sequence's index limit).
+    /// The most entries (the Sobol sequence's index limit).
     pub const SIZE: u32 = 1 << 16;
 
-    /// The pool of a render of `spp` samples per pixel with `seed`, traced through `accel`
-    /// (errors deferred, as the path's queries are: the caller checks
+    /// The pool of a `width` × `height` render of `spp` samples per pixel with `seed`, traced
+    /// through `accel` (errors deferred, as the path's queries are: the caller checks
     /// [`Accel::deferred_error`]). The same for every kernel, thread count and shard.
-    pub fn build(ctx: &PathContext, accel: &dyn Accel, seed: u64, spp: u32) -> LightVertexPool {
+    pub fn build(
+        ctx: &PathContext,
+        accel: &dyn Accel,
+        seed: u64,
+        (width, height): (u32, u32),
+        spp: u32,
+    ) -> LightVertexPool {
+        let index = PoolIndex::new(seed, spp, width as u64 * height as u64 * spp as u64);
         let scramble = crate::sampler::mix64(seed ^ 0x6c76_706f_6f6c) as u32; // "lvpool"
         let mut rays = 0;
-        let vertices = (0..Self::SIZE)
+        let vertices = (0..index.size())
             .map(|i| {
                 let u = sobol_burley::sample_4d(i, 0, scramble);
                 trace(ctx, accel, u[2], Vec2::new(u[0], u[1]), &mut rays)
             })
             .collect();
-        LightVertexPool { vertices, index: PoolIndex::new(seed, spp), rays }
+        LightVertexPool { vertices, index, rays }
     }
 
     /// The light vertex of sample `sample` of pixel `pixel` (`None` if its ray left the scene
@@ -241,7 +262,7 @@ mod tests {
     #[test]
     fn a_pixel_takes_consecutive_entries_of_one_aligned_block() {
         for (spp, block) in [(1, 1), (64, 64), (100, 128), (1 << 20, 1 << 16)] {
-            let index = PoolIndex::new(7, spp);
+            let index = PoolIndex::new(7, spp, 512 * 512 * spp as u64);
             for pixel in [0, 1, 513, 262_143] {
                 let first = index.entry(pixel, 0);
                 assert_eq!(first % block, 0, "spp {spp}: pixel {pixel} starts a block");
@@ -254,12 +275,26 @@ mod tests {
     }
 
     #[test]
+    fn a_small_render_has_a_small_pool() {
+        // As many entries as samples, rounded up to a power of two, at least the block.
+        let size = |spp, samples| PoolIndex::new(1, spp, samples).size();
+        assert_eq!((size(1, 64), size(16, 16 * 16 * 16), size(64, 100)), (64, 4096, 128));
+        assert_eq!((size(8, 1), size(64, 512 * 512 * 64)), (8, LightVertexPool::SIZE));
+        // A pixel's samples stay distinct within the small pool.
+        let index = PoolIndex::new(3, 16, 10 * 10 * 16);
+        for pixel in 0..100 {
+            let e: HashSet<usize> = (0..16).map(|s| index.entry(pixel, s)).collect();
+            assert!(e.len() == 16 && e.iter().all(|&i| i < index.size() as usize));
+        }
+    }
+
+    #[test]
     fn pixels_and_seeds_spread_over_the_blocks() {
-        let index = PoolIndex::new(7, 64);
+        let index = PoolIndex::new(7, 64, 512 * 512 * 64);
         let blocks: HashSet<usize> = (0..4096).map(|p| index.entry(p, 0) / 64).collect();
         // 4096 pixels over 1024 blocks: about 1024 (1 - e^-4) = 1005 of them taken.
         assert!(blocks.len() > 950, "{} blocks", blocks.len());
-        let other = PoolIndex::new(8, 64);
+        let other = PoolIndex::new(8, 64, 512 * 512 * 64);
         let moved = (0..4096).filter(|&p| other.entry(p, 0) != index.entry(p, 0)).count();
         assert!(moved > 4000, "another seed moves the pixels: {moved}");
     }

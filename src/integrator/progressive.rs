@@ -203,7 +203,7 @@ pub(super) fn run(
         roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
         light_vertices: None,
     };
-    let pool = plan.light_vertices.then(|| LightVertexPool::build(&ctx, accel, settings.seed, settings.spp));
+    let pool = plan.light_vertices.then(|| LightVertexPool::build(&ctx, accel, settings.seed, (w, h), settings.spp));
     accel.deferred_error()?;
     ctx.light_vertices = pool.as_ref();
     // A shard renders only its own tiles.
