@@ -163,48 +163,37 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     } else {
         camera_rays.d = cam.pinhole_dirs(&fx, &fy);
     }
-    let active: [bool; LANES] = std::array::from_fn(|i| i < n);
-    let first_sample = (pixel, samples.start as u64);
+    let packet = CameraPacket {
+        rays: &camera_rays,
+        active: std::array::from_fn(|i| i < n),
+        pixel,
+        first_sample: samples.start as u64,
+    };
     match ctx.accel.as_embree() {
-        Some(embree) => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
-            ctx,
-            embree,
-            &camera_rays,
-            active,
-            &mut rngs,
-            first_sample,
-            out,
-            aux,
-            rays,
-        ),
-        None => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
-            ctx,
-            ctx.accel,
-            &camera_rays,
-            active,
-            &mut rngs,
-            first_sample,
-            out,
-            aux,
-            rays,
-        ),
+        Some(embree) => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, embree, &packet, &mut rngs, out, aux, rays),
+        None => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, ctx.accel, &packet, &mut rngs, out, aux, rays),
     }
 }
 
-// The packet's state and the kernel's switches: grouping them would only rename them.
-#[allow(clippy::too_many_arguments)]
+/// The camera rays of a pixel's samples `first_sample`.. in the `active` lanes.
+struct CameraPacket<'a> {
+    rays: &'a RayPacket,
+    active: [bool; LANES],
+    pixel: u64,
+    first_sample: u64,
+}
+
 #[inline(always)]
 fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const HIT_LIGHTS: bool>(
     ctx: &PathContext,
     accel: &A,
-    camera_rays: &RayPacket,
-    active: [bool; LANES],
+    packet: &CameraPacket,
     rngs: &mut [SampleStream<'_>; LANES],
-    (pixel, first_sample): (u64, u64),
     out: &mut [Vec3; LANES],
     aux: Option<&mut [AuxSample; LANES]>,
     rays: &mut u64,
 ) -> Result<(), AccelError> {
+    let &CameraPacket { rays: camera_rays, active, pixel, first_sample } = packet;
     let hits = accel.intersect_packet_deferred(camera_rays, active, 0.0, f32::INFINITY);
     for i in (0..LANES).filter(|&i| active[i]) {
         *rays += 1;
