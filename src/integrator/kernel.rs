@@ -198,7 +198,7 @@ fn trace<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     for i in (0..LANES).filter(|&i| active[i]) {
         *rays += 1;
         let ray = camera_rays.ray(i);
-        let y = ctx.light_vertices.and_then(|p| p.vertex(pixel, first_sample + i as u64));
+        let y = ctx.light_vertices.map(|p| p.for_sample(pixel, first_sample + i as u64));
         out[i] = radiance::<A, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, accel, ray, hits[i], y, &mut rngs[i], rays);
     }
     // Beside the paths, from the same camera rays and first hits (see `super::aux`).

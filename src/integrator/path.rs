@@ -2,7 +2,7 @@
 //! estimation and multiple importance sampling (power heuristic, Veach 1997) against BSDF
 //! sampling, and Russian roulette.
 
-use super::light_vertex::{self, LightVertex, LightVertexPool, PathVertex};
+use super::light_vertex::{self, LightVertexPool, PathVertex, SampleLightVertices};
 use super::surface::{FaceNormals, surface_point};
 use crate::accel::Accel;
 use crate::camera::Camera;
@@ -39,8 +39,8 @@ pub struct PathContext<'a> {
 }
 
 /// Radiance along the camera ray `ray`, whose closest hit `first` the caller traced, then
-/// through `accel` (`ctx.accel`, possibly as its concrete type), connecting to `light_vertex`
-/// (the sample's entry of `ctx.light_vertices`, if any); `rays` counts the rays traced
+/// through `accel` (`ctx.accel`, possibly as its concrete type), connecting to
+/// `light_vertices` (the sample's entries of `ctx.light_vertices`, if any); `rays` counts the rays traced
 /// after the first. Queries defer their errors: the caller checks
 /// [`Accel::deferred_error`] before using the result. The const switches are those of
 /// [`super::kernel::KernelChoice`]: each one off removes the code of an effect the scene
@@ -57,7 +57,7 @@ pub(crate) fn radiance<
     accel: &A,
     mut ray: Ray,
     first: Option<Hit>,
-    light_vertex: Option<&LightVertex>,
+    light_vertices: Option<SampleLightVertices>,
     rng: &mut SampleStream<'_>,
     rays: &mut u64,
 ) -> Vec3 {
@@ -172,10 +172,10 @@ pub(crate) fn radiance<
             }
         }
 
-        // Connect to the light vertex (a path as long as the depth allows ends at it).
+        // Connect to this vertex's light vertex (a path as long as the depth allows ends at it).
         if nee_here
             && depth + 2 <= ctx.path_depth
-            && let Some(y) = light_vertex
+            && let Some(y) = light_vertices.and_then(|v| v.at(depth))
         {
             let x = PathVertex { p: sp.p, leave, ng, frame: &frame, bsdf: &bsdf, wo_l };
             l += if lambert {

@@ -109,7 +109,7 @@ impl RenderPlan {
             "width={} height={} spp={} max-depth={} rr-depth={rr} seed={} estimator={} sampler={} target-error={te} filter={} {accel}",
             s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator, s.sampler, s.filter
         ) + if s.adaptive { " adaptive=relmse-5x5" } else { "" }
-            + if self.light_vertices { " light-vertices=pool" } else { "" }
+            + if self.light_vertices { " light-vertices=pool-by-depth" } else { "" }
     }
 
     /// Whether anything in the scene emits light; without light every sample is exactly zero
