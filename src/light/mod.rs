@@ -332,11 +332,6 @@ impl LightSet {
         format!("{n} light{} in {g} group{}: {how}", s(n), s(g))
     }
 
-    /// Whether every light is a point light.
-    pub fn all_delta(&self) -> bool {
-        self.lights.iter().all(|l| matches!(l, Emitter::Point(_)))
-    }
-
     /// How next-event estimation chooses a light at the shading point `p`. Computed once per
     /// vertex: it serves [`LightSet::sample`] there and, at the next vertex, the densities
     /// MIS weighs a BSDF-sampled ray's find against ([`LightSet::pdf_emitter`],
