@@ -11,6 +11,7 @@
 pub mod accel;
 pub mod atomic_write;
 pub mod camera;
+pub mod choice;
 pub mod embree;
 pub mod fastmath;
 pub mod film;

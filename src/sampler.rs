@@ -96,21 +96,7 @@ impl SamplerKind {
     }
 }
 
-impl std::str::FromStr for SamplerKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        SamplerKind::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| format!("unknown sampler {s:?} (expected sobol or independent)"))
-    }
-}
-
-impl std::fmt::Display for SamplerKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+crate::choice::named_choice!(SamplerKind, "sampler");
 
 /// The numbers of one sample: see the module documentation.
 #[derive(Clone, Debug)]

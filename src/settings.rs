@@ -39,21 +39,7 @@ impl Estimator {
     }
 }
 
-impl FromStr for Estimator {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Estimator::ALL
-            .into_iter()
-            .find(|e| e.name() == s)
-            .ok_or_else(|| format!("unknown estimator {s:?} (expected nee-mis, nee, bsdf or bsdf-uniform)"))
-    }
-}
-
-impl fmt::Display for Estimator {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
+crate::choice::named_choice!(Estimator, "estimator");
 
 /// When Russian roulette should start, as asked for (`--rr-depth`, `[render] rr_depth`). The
 /// start in force for a scene is [`crate::integrator::RenderPlan::roulette_start`].

@@ -41,21 +41,7 @@ impl AuxMode {
     }
 }
 
-impl std::str::FromStr for AuxMode {
-    type Err = String;
-    fn from_str(s: &str) -> Result<AuxMode, String> {
-        AuxMode::ALL
-            .into_iter()
-            .find(|m| m.name() == s)
-            .ok_or_else(|| format!("unknown auxiliary mode {s:?} (expected color, noisy, prefilter or clean)"))
-    }
-}
-
-impl std::fmt::Display for AuxMode {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+crate::choice::named_choice!(AuxMode, "auxiliary mode");
 
 /// The denoised image of `accum` (its mean, linear HDR), with its auxiliary images as `mode`
 /// says. Panics if `mode` uses auxiliary images and `accum` has none (the render must take

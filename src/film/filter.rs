@@ -16,8 +16,6 @@
 //!   peak).
 
 use glam::Vec2;
-use std::fmt;
-use std::str::FromStr;
 
 /// How a pixel's samples are placed (see the module documentation).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -70,21 +68,7 @@ impl PixelFilter {
     }
 }
 
-impl FromStr for PixelFilter {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        PixelFilter::ALL
-            .into_iter()
-            .find(|f| f.name() == s)
-            .ok_or_else(|| format!("unknown pixel filter {s:?} (expected box or gaussian)"))
-    }
-}
-
-impl fmt::Display for PixelFilter {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
+crate::choice::named_choice!(PixelFilter, "pixel filter");
 
 /// An offset from the pixel centre distributed as the truncated Gaussian, for `u` in [0, 1):
 /// the inverse of its distribution function.

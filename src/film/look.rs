@@ -15,9 +15,6 @@
 //!   lit by unit white come out exactly, minus 0.04 (the Fresnel reflection of a dielectric
 //!   facing the camera); brighter colours are compressed towards white without hue shifts.
 
-use std::fmt;
-use std::str::FromStr;
-
 /// A tone curve (see the module documentation).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Tonemap {
@@ -53,21 +50,7 @@ impl Tonemap {
     }
 }
 
-impl FromStr for Tonemap {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Tonemap::ALL
-            .into_iter()
-            .find(|t| t.name() == s)
-            .ok_or_else(|| format!("unknown tone curve {s:?} (expected clamp, aces or neutral)"))
-    }
-}
-
-impl fmt::Display for Tonemap {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
+crate::choice::named_choice!(Tonemap, "tone curve");
 
 /// The exposures accepted, in stops: 2^±64 covers any radiance scale a scene may use.
 pub const MAX_EXPOSURE: f32 = 64.0;
