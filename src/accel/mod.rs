@@ -14,8 +14,6 @@ pub use naive::NaiveAccel;
 use crate::embree::EmbreeError;
 pub use crate::geometry::LANES;
 use crate::geometry::{Hit, Ray, RayPacket};
-use std::fmt;
-use std::str::FromStr;
 
 /// Why a query or a build failed.
 #[derive(Debug, thiserror::Error)]
@@ -88,18 +86,19 @@ pub enum AccelKind {
     Naive,
 }
 
-impl FromStr for AccelKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "embree" => Ok(AccelKind::Embree),
-            "naive" => Ok(AccelKind::Naive),
-            _ => Err(format!("unknown accelerator {s:?} (expected embree or naive)")),
-        }
-    }
-}
+crate::choice::named_choice!(AccelKind, "accelerator");
 
 impl AccelKind {
+    pub const ALL: [AccelKind; 2] = [AccelKind::Embree, AccelKind::Naive];
+
+    /// The name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            AccelKind::Embree => "embree",
+            AccelKind::Naive => "naive",
+        }
+    }
+
     /// Builds this accelerator over `geometry` as `ember render` does by default (Embree: on a
     /// new default device, with [`build_options_for`] the geometry; the scene keeps its device
     /// alive).
@@ -138,14 +137,5 @@ impl AccelKind {
             ),
             AccelKind::Naive => "accel=naive".to_string(),
         }
-    }
-}
-
-impl fmt::Display for AccelKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            AccelKind::Embree => "embree",
-            AccelKind::Naive => "naive",
-        })
     }
 }

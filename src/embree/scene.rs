@@ -18,27 +18,20 @@ pub enum BuildQuality {
     High,
 }
 
-impl std::str::FromStr for BuildQuality {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "low" => Ok(BuildQuality::Low),
-            "medium" => Ok(BuildQuality::Medium),
-            "high" => Ok(BuildQuality::High),
-            _ => Err(format!("unknown BVH quality {s:?} (expected low, medium or high)")),
+impl BuildQuality {
+    pub const ALL: [BuildQuality; 3] = [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High];
+
+    /// The name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            BuildQuality::Low => "low",
+            BuildQuality::Medium => "medium",
+            BuildQuality::High => "high",
         }
     }
 }
 
-impl std::fmt::Display for BuildQuality {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            BuildQuality::Low => "low",
-            BuildQuality::Medium => "medium",
-            BuildQuality::High => "high",
-        })
-    }
-}
+crate::choice::named_choice!(BuildQuality, "BVH quality");
 
 /// How a scene is built. The default is medium quality, robust, not compact.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
