@@ -24,6 +24,7 @@ LOAD_MAX) are compare_all.py's; results go to RESULTS_DIR (default $SCRATCH/resu
 """
 import csv
 import importlib.util
+import json
 import os
 import statistics
 import sys
@@ -38,18 +39,13 @@ spec = importlib.util.spec_from_file_location("compare_all", os.path.join(PEERS_
 ca = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(ca)
 
-# name: (ember flags, binary or None for EMBER)
+# name: (ember flags, the variable naming its binary or None for EMBER, label)
 EXTRA = {
-    "ember_adaptive": (["--adaptive"], None),
-    "ember_old": ([], "EMBER_OLD"),
-    "ember_old_adaptive": (["--adaptive"], "EMBER_OLD"),
+    "ember_adaptive": (["--adaptive"], None, "ember --adaptive"),
+    "ember_old": ([], "EMBER_OLD", "ember (EMBER_OLD), defaults"),
+    "ember_old_adaptive": (["--adaptive"], "EMBER_OLD", "ember (EMBER_OLD) --adaptive"),
 }
-LABELS = {
-    "ember_adaptive": "ember --adaptive",
-    "ember_old": "ember (EMBER_OLD), defaults",
-    "ember_old_adaptive": "ember (EMBER_OLD) --adaptive",
-}
-ca.LABEL.update(LABELS)
+ca.LABEL.update({cfg: label for cfg, (_, _, label) in EXTRA.items()})
 ca.SELF_REF.update({cfg: "ember" for cfg in EXTRA})
 _command = ca.command
 
@@ -57,7 +53,7 @@ _command = ca.command
 def command(cfg, scene, spp, seed, threads, out, extra=()):
     if cfg not in EXTRA:
         return _command(cfg, scene, spp, seed, threads, out, extra)
-    flags, binary = EXTRA[cfg]
+    flags, binary, _ = EXTRA[cfg]
     argv, env = _command("ember", scene, spp, seed, threads, out, tuple(extra) + tuple(flags))
     if binary:
         if not os.environ.get(binary):
@@ -84,7 +80,6 @@ def phase_refs():
 def phase_rounds():
     """Efficiency against Mitsuba (rr off) round by round, from the timing records and the
     relMSE (float, corrected for the reference's noise) of the last `analyze`."""
-    import json
     summary = os.path.join(ca.RESULTS, "compare_all.tsv")
     rel = {(r["scene"], r["cfg"]): float(r["relmse_own_float"])
            for r in csv.DictReader(open(summary), delimiter="\t") if r["relmse_own_float"] not in ("", "None")}

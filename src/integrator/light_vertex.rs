@@ -6,10 +6,10 @@
 //! estimation finds z by sampling x's BSDF. Near a lamp, z's irradiance I cos θ / r² is many
 //! times that of the rest of the scene, and BSDF sampling rarely lands there: the light that
 //! bounces off surfaces close to the lamp is much of such a scene's noise (Embree's Cornell
-//! box hangs its lamp beside the tall block). So each sample also has a *light vertex* y: the
-//! point where a ray from a point light (chosen by power, direction uniform) lands,
-//! distributed over the surfaces as the lamp's light is. Every path vertex x that
-//! could bounce toward y connects to it with a shadow ray: the path x → y → light, whose
+//! box hangs its lamp beside the tall block). So each path vertex x also has a *light vertex*
+//! y of its own: the point where a ray from a point light (chosen by power, direction
+//! uniform) lands, distributed over the surfaces as the lamp's light is. If x could bounce
+//! toward y, it connects to it with a shadow ray: the path x → y → light, whose
 //! density is p_conn(y) = P(light) cos θ_y / (4π r²) over surface area at y. The same path
 //! found the usual way has density p_uni(y) = P_nee(light | y) p_bsdf(x → y) cos θ_y' / d².
 //! Both estimates are weighted by the balance heuristic over the two (Veach 1997: this is a
