@@ -8,8 +8,9 @@
 #   scripts/ci-slurm.sh EMBER_BINARY [SCENE]       # SCENE defaults to scenes/cornell.toml
 #
 # Environment: EMBER_ARGS, the render settings of both renders (default
-# "--spp 8 --width 64 --height 48"); CI_SLURM_SHARDS (default 4); CI_SLURM_KEEP=1 keeps the
-# temporary folder (images, shard logs, daemon logs) instead of deleting it.
+# "--spp 32 --width 64 --height 48": adaptive, so a shard's second stage plans from the whole
+# image's first round); CI_SLURM_SHARDS (default 4); CI_SLURM_KEEP=1 keeps the temporary
+# folder (images, shard logs, daemon logs) instead of deleting it.
 # Prints the time of each phase. Exits 0 only if the images are identical and no process of
 # the cluster is left running.
 set -euo pipefail
@@ -20,7 +21,7 @@ log() { echo "ci-slurm: $*"; }
 die() { echo "ci-slurm: error: $*" >&2; exit 2; }
 now() { date +%s.%N; }
 
-if [ $# -lt 1 ] || [ $# -gt 2 ]; then sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; fi
+if [ $# -lt 1 ] || [ $# -gt 2 ]; then sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; fi
 ember=$1
 scene=${2:-scenes/cornell.toml}
 if [ ! -f "$ember" ] || [ ! -x "$ember" ]; then die "not an executable file: $ember"; fi
@@ -30,7 +31,7 @@ if [ ! -f "$scene" ] && [ -f "$root/$scene" ]; then scene=$root/$scene; fi
 scene=$(realpath -- "$scene")
 shards=${CI_SLURM_SHARDS:-4}
 [[ $shards =~ ^[1-9][0-9]*$ ]] || die "CI_SLURM_SHARDS must be a positive integer, not '$shards'"
-settings=${EMBER_ARGS:-"--spp 8 --width 64 --height 48"}
+settings=${EMBER_ARGS:-"--spp 32 --width 64 --height 48"}
 read -r -a settings_words <<<"$settings"
 
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/ember-ci-slurm.XXXXXX")

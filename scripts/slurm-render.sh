@@ -1,8 +1,15 @@
 #!/usr/bin/env bash
 # Renders one image as N shards on a Slurm cluster, then merges them (bit-identical to a
-# render on one machine): a Slurm array job of N tasks, task K running
-#     $EMBER render SCENE --shard K/N -o PARTS_DIR/part-K.shard [ember options]
-# and a merge job that starts only if all of them succeeded (--dependency=afterok)
+# render on one machine), in three jobs, each starting only if the one before succeeded
+# (--dependency=afterok):
+#   stage 1, an array of N tasks, task K running
+#     $EMBER render SCENE --shard K/N --first-round -o PARTS_DIR/first-K.shard [ember options]
+#   (an adaptive render's first round; all of a uniform render's samples),
+#   stage 2, an array of N tasks, task K running
+#     $EMBER render SCENE --shard K/N -o PARTS_DIR/part-K.shard [ember options] \
+#         --plan-from PARTS_DIR/first-0.shard ... PARTS_DIR/first-(N-1).shard
+#   (the rest of shard K, planned from the whole image's first round),
+#   and the merge
 #     $EMBER merge PARTS_DIR/part-0.shard ... PARTS_DIR/part-(N-1).shard -o OUT
 #
 #   scripts/slurm-render.sh [--wait] [--only K[,K...]] SCENE OUT N [sbatch options...] [-- ember render options...]
@@ -16,9 +23,9 @@
 #   --wait           block until the merge job ends (polling squeue every 0.2 s); exit 0 if
 #                    every shard and the merge succeeded, 1 otherwise, naming the failed
 #                    shards and their logs
-#   --only K[,K...]  re-render only these shards (e.g. one that failed), then merge all N
-#                    again; the other part files are kept. The same as re-running the batch
-#                    script with sbatch --array=K, as printed after each submission.
+#   --only K[,K...]  re-render only these shards (e.g. ones that failed), then merge all N
+#                    again; the other part files are kept, and so are the first rounds
+#                    (stage 1 runs only for the listed shards that lack theirs).
 #
 # Environment:
 #   EMBER       the ember binary (default: ember on PATH), resolved to an absolute path here;
@@ -26,24 +33,24 @@
 #   EMBER_ARGS  more ember render options, split on whitespace (no quoting), placed before
 #               the ones after "--"
 #   PARTS_DIR   where the shards and logs go (default: OUT.parts beside OUT); holds
-#               part-K.shard, the batch scripts shard.sbatch and merge.sbatch, and logs/:
-#               part-K.log (appended to by every run of shard K) and merge-JOBID.log
+#               first-K.shard and part-K.shard, the batch scripts first.sbatch, shard.sbatch
+#               and merge.sbatch, and logs/: first-K.log and part-K.log (appended to by every
+#               run of shard K's stage) and merge-JOBID.log
 #
-# Submission: stale PARTS_DIR/part-K.shard of the shards to render are deleted first. The merge
-# job is submitted with --kill-on-invalid-dep=yes, so Slurm cancels it when a shard fails
-# (without that, afterok leaves it pending forever with reason DependencyNeverSatisfied;
-# --wait also cancels it in that case). To finish after a failed shard K, re-run it alone and
-# a new merge: the exact commands are printed (sbatch --array=K on PARTS_DIR/shard.sbatch, then
-# sbatch --dependency=afterok:THAT_JOB on PARTS_DIR/merge.sbatch), or use --only K.
-# The shard count N is written into shard.sbatch (SLURM_ARRAY_TASK_COUNT would be 1 when a
-# single shard is re-run with --array=K).
+# Submission: stale PARTS_DIR/part-K.shard of the shards to render are deleted first (and,
+# without --only, every first-K.shard). Stage 2 and the merge are submitted with
+# --kill-on-invalid-dep=yes, so Slurm cancels them when a task they wait for fails (without
+# that, afterok leaves them pending forever with reason DependencyNeverSatisfied; --wait also
+# cancels them in that case). To finish after a failure, re-run the failed shards with --only
+# (the command is printed). The shard count N is written into the batch scripts
+# (SLURM_ARRAY_TASK_COUNT would be 1 when a single shard is re-run with --array=K).
 set -euo pipefail
 
 prog=slurm-render
 die() { echo "$prog: error: $*" >&2; exit 2; }    # bad arguments or setup
 fail() { echo "$prog: error: $*" >&2; exit 1; }   # Slurm refused or failed
 say() { echo "$prog: $*"; }
-usage() { sed -n '2,39p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-2}"; }
+usage() { sed -n '2,46p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-2}"; }
 now() { date +%s.%N; }
 since() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.1f", b - a }'; }
 quote() { local a out=""; for a in "$@"; do out+=" $(printf '%q' "$a")"; done; printf '%s' "${out# }"; }
@@ -93,7 +100,7 @@ if [ -n "${EMBER_ARGS:-}" ]; then read -r -a eargs <<<"$EMBER_ARGS"; fi
 eargs+=("${extra[@]}")
 for a in "${eargs[@]}"; do
   case $a in
-    --shard|--shard=*|-o|--output|--output=*|--resume) die "ember option '$a' is set by this script (or makes no sense for a shard)" ;;
+    --shard|--shard=*|-o|--output|--output=*|--resume|--first-round|--plan-from|--plan-from=*) die "ember option '$a' is set by this script (or makes no sense for a shard)" ;;
   esac
 done
 
@@ -127,26 +134,37 @@ fi
 
 # ---------------------------------------------------------------- batch scripts
 
-part_files=()
-for ((k = 0; k < n; k++)); do part_files+=("$parts/part-$k.shard"); done
+part_files=() first_files=()
+for ((k = 0; k < n; k++)); do part_files+=("$parts/part-$k.shard") first_files+=("$parts/first-$k.shard"); done
 
-# shellcheck disable=SC2016 # $-expressions in single quotes are for the batch scripts
-{
-  echo '#!/bin/bash'
-  echo "# Shard job written by scripts/slurm-render.sh: shard K (= the array task id) of $n of"
-  echo "# $scene. Re-run shard K alone: sbatch --array=K [same options] $parts/shard.sbatch"
-  echo 'set -uo pipefail'
-  echo "n=$n"
-  echo 'k=${SLURM_ARRAY_TASK_ID:?"run it as a Slurm array task: sbatch --array=K"}'
-  echo 'if [ "$k" -ge "$n" ]; then echo "error: array task $k is not a shard: 0..$((n - 1))" >&2; exit 2; fi'
-  echo 'echo "== shard $k/$n: job ${SLURM_ARRAY_JOB_ID:-?}_$k (${SLURM_JOB_ID:-?}) on $(hostname) at $(date "+%F %T")"'
-  printf '%s render %s --shard "$k/$n" -o %s/part-"$k".shard' "$(quote "$ember")" "$(quote "$scene")" "$(quote "$parts")"
-  [ ${#eargs[@]} = 0 ] || printf ' %s' "$(quote "${eargs[@]}")"
-  echo
-  echo 'rc=$?'
-  echo 'echo "== shard $k/$n: exit $rc at $(date "+%F %T")"'
-  echo 'exit $rc'
-} >"$parts/shard.sbatch"
+# stage_script STAGE WHAT: the batch script of one stage; ember's arguments follow the
+# common part (with --plan-from last: it takes every file after it).
+stage_script() {
+  local stage=$1 what=$2
+  # shellcheck disable=SC2016 # $-expressions in single quotes are for the batch scripts
+  {
+    echo '#!/bin/bash'
+    echo "# $what job written by scripts/slurm-render.sh: shard K (= the array task id) of $n of"
+    echo "# $scene. Re-run shard K alone: sbatch --array=K [same options] $parts/$stage.sbatch"
+    echo 'set -uo pipefail'
+    echo "n=$n"
+    echo 'k=${SLURM_ARRAY_TASK_ID:?"run it as a Slurm array task: sbatch --array=K"}'
+    echo 'if [ "$k" -ge "$n" ]; then echo "error: array task $k is not a shard: 0..$((n - 1))" >&2; exit 2; fi'
+    echo "echo \"== $stage \$k/\$n: job \${SLURM_ARRAY_JOB_ID:-?}_\$k (\${SLURM_JOB_ID:-?}) on \$(hostname) at \$(date '+%F %T')\""
+    printf '%s render %s --shard "$k/$n"' "$(quote "$ember")" "$(quote "$scene")"
+    [ ${#eargs[@]} = 0 ] || printf ' %s' "$(quote "${eargs[@]}")"
+    if [ "$stage" = first ]; then
+      printf ' --first-round -o %s/first-"$k".shard\n' "$(quote "$parts")"
+    else
+      printf ' -o %s/part-"$k".shard --plan-from %s\n' "$(quote "$parts")" "$(quote "${first_files[@]}")"
+    fi
+    echo 'rc=$?'
+    echo "echo \"== $stage \$k/\$n: exit \$rc at \$(date '+%F %T')\""
+    echo 'exit $rc'
+  } >"$parts/$stage.sbatch"
+}
+stage_script first "Stage 1 (first round)"
+stage_script shard "Stage 2 (the rest of the shard)"
 
 # shellcheck disable=SC2016
 {
@@ -159,19 +177,18 @@ for ((k = 0; k < n; k++)); do part_files+=("$parts/part-$k.shard"); done
   echo 'echo "== merge: exit $rc at $(date "+%F %T")"'
   echo 'exit $rc'
 } >"$parts/merge.sbatch"
-chmod +x "$parts/shard.sbatch" "$parts/merge.sbatch"
+chmod +x "$parts/first.sbatch" "$parts/shard.sbatch" "$parts/merge.sbatch"
 
 name=ember-$(basename -- "$out")
-shard_sbatch=(sbatch --parsable --job-name="$name" --output="$parts/logs/part-%a.log" --open-mode=append)
+first_sbatch=(sbatch --parsable --job-name="$name-first" --output="$parts/logs/first-%a.log" --open-mode=append)
+shard_sbatch=(sbatch --parsable --job-name="$name" --output="$parts/logs/part-%a.log" --open-mode=append
+              --kill-on-invalid-dep=yes)
 merge_sbatch=(sbatch --parsable --job-name="$name-merge" --output="$parts/logs/merge-%j.log"
               --kill-on-invalid-dep=yes)
 
-# How to re-run shards LIST alone and merge again, as shell commands.
+# How to re-run shards LIST and merge again, as a shell command.
 resubmit_help() {
   local list=$1
-  echo "  a=\$($(quote "${shard_sbatch[@]}" --array="$list" "${sbopts[@]}" "$parts/shard.sbatch")) &&"
-  echo "  $(quote "${merge_sbatch[@]}" "${sbopts[@]}")" "--dependency=afterok:\${a%%;*} $(quote "$parts/merge.sbatch")"
-  echo "or, the same and waiting for the result:"
   local envs=""
   [ -z "${EMBER:-}" ] || envs+="EMBER=$(quote "$EMBER") "
   [ -z "${EMBER_ARGS:-}" ] || envs+="EMBER_ARGS=$(quote "$EMBER_ARGS") "
@@ -180,39 +197,70 @@ resubmit_help() {
   [ ${#extra[@]} = 0 ] || tail=" -- $(quote "${extra[@]}")"
   local opts=""
   [ ${#sbopts[@]} = 0 ] || opts=" $(quote "${sbopts[@]}")"
-  echo "  $envs$(quote "$(realpath -- "$0")") --wait --only $list $(quote "${pos[@]}")$opts$tail"
+  echo "  $envs$(quote "$(realpath -- "$0")") [--wait] --only $list $(quote "${pos[@]}")$opts$tail"
 }
 
 # ---------------------------------------------------------------- submission
 
-for k in "${todo[@]}"; do rm -f "$parts/part-$((10#$k)).shard"; done
+# The shards whose stage 1 runs: all, or those of --only's list without a first round.
+firsts=()
+for k in "${todo[@]}"; do
+  k=$((10#$k))
+  rm -f "$parts/part-$k.shard"
+  if [ -z "$only" ]; then rm -f "$parts/first-$k.shard"; fi
+  [ -f "$parts/first-$k.shard" ] || firsts+=("$k")
+done
+if [ -n "$only" ]; then
+  for ((k = 0; k < n; k++)); do
+    case ",$only," in *",$k,"*) continue ;; esac
+    [ -f "$parts/first-$k.shard" ] || die "--only: $parts/first-$k.shard (the first round of shard $k, which stage 2 reads) is missing: add $k to the list"
+  done
+fi
 
 t0=$(now)
 # (sbatch's own messages go to stderr, straight to the user; its stdout is the job id)
-if ! a=$(timeout 60 "${shard_sbatch[@]}" --array="$array" "${sbopts[@]}" "$parts/shard.sbatch"); then
-  fail "sbatch of the shards failed"
+f="" dep=()
+if [ ${#firsts[@]} -gt 0 ]; then
+  first_array=$(IFS=,; echo "${firsts[*]}")
+  [ -n "$only" ] || first_array="0-$((n - 1))"
+  if ! f=$(timeout 60 "${first_sbatch[@]}" --array="$first_array" "${sbopts[@]}" "$parts/first.sbatch"); then
+    fail "sbatch of the first rounds failed"
+  fi
+  f=${f%%;*}
+  [[ $f =~ ^[0-9]+$ ]] || fail "unexpected answer from sbatch: $f"
+  dep=(--dependency="afterok:$f")
+fi
+if ! a=$(timeout 60 "${shard_sbatch[@]}" --array="$array" "${dep[@]}" "${sbopts[@]}" "$parts/shard.sbatch"); then
+  [ -z "$f" ] || timeout 30 scancel "$f" || true
+  fail "sbatch of the shards failed${f:+ (first rounds job $f cancelled)}"
 fi
 a=${a%%;*}
 [[ $a =~ ^[0-9]+$ ]] || fail "unexpected answer from sbatch: $a"
 if ! m=$(timeout 60 "${merge_sbatch[@]}" --dependency="afterok:$a" "${sbopts[@]}" "$parts/merge.sbatch"); then
-  timeout 30 scancel "$a" || true
-  fail "sbatch of the merge failed (shards job $a cancelled)"
+  timeout 30 scancel $f "$a" || true
+  fail "sbatch of the merge failed (jobs ${f:+$f and }$a cancelled)"
 fi
 m=${m%%;*}
 
 tasks="${#todo[@]} tasks"; [ ${#todo[@]} != 1 ] || tasks="1 task"
-say "shards: job $a, array $array of $n ($tasks), logs $parts/logs/part-K.log"
-say "merge:  job $m after all of them -> $out, log $parts/logs/merge-$m.log"
+if [ -n "$f" ]; then
+  say "stage 1: job $f, the first rounds of ${#firsts[@]} shard(s), logs $parts/logs/first-K.log"
+else
+  say "stage 1: none (every first round is there)"
+fi
+say "stage 2: job $a, array $array of $n ($tasks), logs $parts/logs/part-K.log"
+say "merge:   job $m after all of them -> $out, log $parts/logs/merge-$m.log"
+jobs=$a,$m; [ -z "$f" ] || jobs=$f,$jobs
 if [ $wait_mode = 0 ]; then
-  say "follow with: squeue -j $a,$m"
-  say "if shard K fails, Slurm cancels the merge job (dependency never satisfied); then re-run shard K alone and merge again:"
+  say "follow with: squeue -j $jobs"
+  say "if a shard fails, Slurm cancels what waits for it; then re-run the failed shards and merge again:"
   resubmit_help K
   exit 0
 fi
 
 # ---------------------------------------------------------------- --wait
 
-trap 'echo; say "interrupted: jobs $a (shards) and $m (merge) go on; cancel them with: scancel $a $m"; exit 130' INT
+trap 'echo; say "interrupted: jobs $jobs go on; cancel them with: scancel ${jobs//,/ }"; exit 130' INT
 
 # Final states that never change again.
 final_state() {
@@ -224,9 +272,9 @@ final_state() {
 
 merge_state="" merge_reason="" shards_done_at="" errors=0
 while :; do
-  if ! q=$(timeout 30 squeue -h -t all -j "$a,$m" -o '%i %T %r' 2>&1); then
+  if ! q=$(timeout 30 squeue -h -t all -j "$jobs" -o '%i %T %r' 2>&1); then
     case $q in
-      *"Invalid job id"*) q="" ;;   # both purged already (MinJobAge)
+      *"Invalid job id"*) q="" ;;   # all purged already (MinJobAge)
       *)
         errors=$((errors + 1))
         [ $errors -lt 30 ] || fail "squeue keeps failing: $q"
@@ -234,18 +282,19 @@ while :; do
     esac
   fi
   errors=0
-  active=0 merge_state="" merge_reason=""
+  active=0 stuck=0 merge_state="" merge_reason=""
   while read -r id st reason; do
     [ -n "${id:-}" ] || continue
     if [ "$id" = "$m" ]; then merge_state=$st merge_reason=$reason
-    elif ! final_state "$st"; then active=1
+    elif ! final_state "$st"; then
+      if [ "$st" = PENDING ] && [ "$reason" = DependencyNeverSatisfied ]; then stuck=1; else active=1; fi
     fi
   done <<<"$q"
   if [ $active = 0 ] && [ -z "$shards_done_at" ]; then shards_done_at=$(since "$t0"); fi
-  [ -n "$merge_state" ] || [ $active = 1 ] || break
+  [ -n "$merge_state" ] || [ $active = 1 ] || [ $stuck = 1 ] || break
   if [ -n "$merge_state" ] && final_state "$merge_state"; then break; fi
-  if [ $active = 0 ] && [ "$merge_state" = PENDING ] && [ "$merge_reason" = DependencyNeverSatisfied ]; then
-    timeout 30 scancel "$m" || true
+  if [ $active = 0 ] && { [ $stuck = 1 ] || [ "$merge_reason" = DependencyNeverSatisfied ]; }; then
+    timeout 30 scancel "$a" "$m" || true
     merge_state="CANCELLED" merge_reason="DependencyNeverSatisfied (cancelled by $prog)"
     break
   fi
@@ -253,10 +302,10 @@ while :; do
 done
 total=$(since "$t0")
 
-# The last run's part of a shard log (each run of the shard appends to it, with a header).
+# The last run's part of a stage's log (each run of the stage appends to it, with a header).
 last_run() {
   [ -r "$1" ] || return 0
-  awk '/^== shard [0-9]+\/[0-9]+: job / { buf = "" } { buf = buf $0 "\n" } END { printf "%s", buf }' "$1"
+  awk '/^== (first|shard) [0-9]+\/[0-9]+: job / { buf = "" } { buf = buf $0 "\n" } END { printf "%s", buf }' "$1"
 }
 
 field() { grep -o "\(^\| \)$1=[^ ]*" <<<"$2" | head -n 1 | sed "s/^ *$1=//" || true; }
@@ -283,23 +332,40 @@ records() {
   fi
 }
 
+# Stage 1: a failed first round cancels all of stage 2, so every listed shard is then to redo.
+first_failed=0
+if [ -n "$f" ]; then
+  while read -r tid st ec _; do
+    [ -n "${tid:-}" ] || continue
+    if [ "$st" != COMPLETED ] || [ "$ec" != 0:0 ]; then
+      first_failed=1
+      say "first round of shard $tid failed: $st, exit code $ec (code:signal), log $parts/logs/first-$tid.log:"
+      last_run "$parts/logs/first-$tid.log" | tail -n 8 | sed 's/^/    /' || true
+    fi
+  done < <(records "$f")
+fi
 failed=() ok=0 seen=" "
-while read -r tid st ec _; do
-  [ -n "${tid:-}" ] || continue
-  seen+="$tid "
-  if [ "$st" = COMPLETED ] && [ "$ec" = 0:0 ]; then
-    ok=$((ok + 1))
-  else
-    failed+=("$tid")
-    say "shard $tid failed: $st, exit code $ec (code:signal), log $parts/logs/part-$tid.log:"
-    last_run "$parts/logs/part-$tid.log" | tail -n 8 | sed 's/^/    /' || true
-  fi
-done < <(records "$a")
-for k in "${todo[@]}"; do
-  case $seen in *" $((10#$k)) "*) ;; *)
-    failed+=("$((10#$k))"); say "shard $((10#$k)): no record left in Slurm (see $parts/logs/part-$((10#$k)).log)" ;;
-  esac
-done
+if [ $first_failed = 1 ]; then
+  for k in "${todo[@]}"; do failed+=("$((10#$k))"); done
+  say "stage 2 (job $a) did not run: it needs every first round"
+else
+  while read -r tid st ec _; do
+    [ -n "${tid:-}" ] || continue
+    seen+="$tid "
+    if [ "$st" = COMPLETED ] && [ "$ec" = 0:0 ]; then
+      ok=$((ok + 1))
+    else
+      failed+=("$tid")
+      say "shard $tid failed: $st, exit code $ec (code:signal), log $parts/logs/part-$tid.log:"
+      last_run "$parts/logs/part-$tid.log" | tail -n 8 | sed 's/^/    /' || true
+    fi
+  done < <(records "$a")
+  for k in "${todo[@]}"; do
+    case $seen in *" $((10#$k)) "*) ;; *)
+      failed+=("$((10#$k))"); say "shard $((10#$k)): no record left in Slurm (see $parts/logs/part-$((10#$k)).log)" ;;
+    esac
+  done
+fi
 
 merge_ec="?"
 read -r _ st ec reason < <(records "$m") || true

@@ -139,6 +139,7 @@ fn adaptive_renders_are_the_same_for_any_thread_count_and_after_a_resume() {
             checkpoint: Some((&ckpt, None)),
             resume: resume.take().map(|c| (ckpt.as_path(), c)),
             progress: Some(&progress),
+            ..Default::default()
         };
         let r = render_controlled(&scene, &accel, &plan, control).unwrap();
         if !r.complete {
@@ -155,21 +156,27 @@ fn adaptive_renders_are_the_same_for_any_thread_count_and_after_a_resume() {
 }
 
 #[test]
-fn the_cli_says_what_adaptive_did_and_refuses_it_with_shards() {
+fn the_cli_renders_adaptive_by_default_and_says_so() {
     let dir = common::fresh_dir("adaptive_budget", "cli");
     let scene = teapot_path();
-    let out = dir.join("a.exr");
-    let args = ["render", scene.to_str().unwrap(), "--width", "32", "--height", "24", "--spp", "16", "--adaptive"];
-    let o = common::ember(&[&args[..], &["-o", out.to_str().unwrap()]].concat());
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{stderr}");
-    assert!(stderr.contains("spp (mean ") && stderr.contains("adaptive, at the cost of 16 spp)"), "{stderr}");
-    assert!(out.exists());
-    // A shard cannot plan from the whole image: refused before anything is written.
-    let part = dir.join("p.shard");
-    let o = common::ember(&[&args[..], &["--shard", "0/2", "-o", part.to_str().unwrap()]].concat());
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success());
-    assert!(stderr.contains("'--adaptive' cannot be used with '--shard"), "{stderr}");
-    assert!(!part.exists());
+    let args = ["render", scene.to_str().unwrap(), "--width", "32", "--height", "24"];
+    let said = |extra: &[&str], name: &str| {
+        let out = dir.join(name);
+        let o = common::ember(&[&args[..], extra, &["-o", out.to_str().unwrap()]].concat());
+        let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{stderr}");
+        assert!(out.exists());
+        stderr
+    };
+    // The default above 8 spp, and --adaptive, are the same render.
+    for extra in [&["--spp", "16"][..], &["--spp", "16", "--adaptive"]] {
+        let e = said(extra, "a.exr");
+        assert!(e.contains("spp (mean ") && e.contains("adaptive, at the cost of 16 spp)"), "{e}");
+    }
+    // --uniform, a target error, or 8 spp or fewer (the first round is all of it): every
+    // pixel takes its samples on its own.
+    for extra in [&["--spp", "16", "--uniform"][..], &["--spp", "8"], &["--spp", "16", "--target-error", "0.5"]] {
+        let e = said(extra, "u.exr");
+        assert!(!e.contains("adaptive, at the cost"), "{extra:?}: {e}");
+    }
 }

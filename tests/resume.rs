@@ -38,7 +38,9 @@ fn ember(out: &Path, extra: &[&str]) -> Command {
 /// --seed S` with the default Embree accelerator (or `accel`).
 fn cli_key(width: u32, height: u32, spp: u32, seed: u64, accel: Option<&str>) -> CheckpointKey {
     let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
-    let settings = RenderSettings { width, height, spp, seed, ..RenderSettings::from_scene(&scene.render) };
+    // Adaptive unless the spp is at most one packet, as `ember render` decides.
+    let adaptive = ember::integrator::adaptive::by_default(spp);
+    let settings = RenderSettings { width, height, spp, seed, adaptive, ..RenderSettings::from_scene(&scene.render) };
     // As `ember render` builds it (the low quality, for this box).
     let cli = ember::accel::build_options_for(&scene.geometry);
     let accel = accel.map_or_else(|| AccelKind::Embree.image_key(cli), str::to_string);
@@ -258,8 +260,10 @@ fn resume_refuses_checkpoints_that_lie() {
         settings: key.settings.clone(),
         nonfinite: 0,
         elapsed: Duration::from_secs(1),
-        accum: Accumulator::new(32, 24),
+        // At 10000 spp, an adaptive render's: with its plan.
+        accum: Accumulator::new(32, 24).adaptive(),
     };
+    assert!(key.adaptive);
     good.save(&ckpt).unwrap();
     assert_eq!(Checkpoint::load(&ckpt, &key).unwrap(), good);
 
@@ -270,7 +274,7 @@ fn resume_refuses_checkpoints_that_lie() {
         std::fs::write(&ckpt, with_size(&good, w, h)).unwrap();
         expect_refused(&out, &[], &needle);
         if (w as u64) * (h as u64) <= 65536 {
-            Checkpoint { accum: Accumulator::new(w, h), ..good.clone() }.save(&ckpt).unwrap();
+            Checkpoint { accum: Accumulator::new(w, h).adaptive(), ..good.clone() }.save(&ckpt).unwrap();
             expect_refused(&out, &[], &needle);
         }
     }
@@ -283,7 +287,7 @@ fn resume_refuses_checkpoints_that_lie() {
     with_pixel(5, &|p| p.sum.x = f64::NAN);
     expect_refused(&out, &[], "(pixel (5, 0): the sum of its samples is not finite ([NaN, 0, 0]))");
     with_pixel(33, &|p| p.count = u32::MAX);
-    expect_refused(&out, &[], "(pixel (1, 1): 4294967295 samples, more than the 10000 spp of this render)");
+    expect_refused(&out, &[], "(pixel (1, 1): 4294967295 samples, more than the 160000 spp of this render)");
     with_pixel(0, &|p| {
         p.count = 1;
         p.sum_lum_sq = f64::INFINITY

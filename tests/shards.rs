@@ -222,14 +222,21 @@ fn a_shard_needs_a_shard_file_name_and_a_valid_index() {
 fn a_shard_interrupted_and_resumed_merges_to_the_same_image() {
     let d = common::fresh_dir("shards", "resume");
     let scene = common::scene_path("cornell-area.toml");
-    // Long enough to be interrupted part-way.
-    let long = ["--width", "48", "--height", "32", "--spp", "2000", "--threads", "2"];
+    // Long enough to be interrupted part-way; adaptive, so in two stages, the second
+    // interrupted and resumed.
+    let long = ["--width", "48", "--height", "32", "--spp", "3000", "--threads", "2"];
     let whole = d.join("whole.exr");
     ok(&ember(&[&["render", s(&scene), "-o", s(&whole)][..], &long].concat()));
+    let firsts: Vec<PathBuf> = (0..2).map(|k| d.join(format!("first{k}.shard"))).collect();
+    for (k, f) in firsts.iter().enumerate() {
+        let shard = format!("{k}/2");
+        ok(&ember(&[&["render", s(&scene), "--shard", &shard, "--first-round", "-o", s(f)][..], &long].concat()));
+    }
+    let plan_from = ["--plan-from", s(&firsts[0]), s(&firsts[1])];
     let parts: Vec<PathBuf> = (0..2).map(|k| d.join(format!("p{k}.shard"))).collect();
-    ok(&ember(&[&["render", s(&scene), "--shard", "0/2", "-o", s(&parts[0])][..], &long].concat()));
+    ok(&ember(&[&["render", s(&scene), "--shard", "0/2", "-o", s(&parts[0])][..], &long, &plan_from].concat()));
     let mut c = Command::new(env!("CARGO_BIN_EXE_ember"));
-    c.args([&["render", s(&scene), "--shard", "1/2", "-o", s(&parts[1])][..], &long].concat());
+    c.args([&["render", s(&scene), "--shard", "1/2", "-o", s(&parts[1])][..], &long, &plan_from].concat());
     let run = Running::start_rendering(&mut c);
     std::thread::sleep(std::time::Duration::from_millis(300));
     run.signal("INT");
@@ -239,8 +246,82 @@ fn a_shard_interrupted_and_resumed_merges_to_the_same_image() {
     let mut checkpoint = parts[1].clone().into_os_string();
     checkpoint.push(".checkpoint");
     assert!(Path::new(&checkpoint).is_file(), "{stderr}");
-    ok(&ember(&[&["render", s(&scene), "--shard", "1/2", "-o", s(&parts[1]), "--resume"][..], &long].concat()));
+    let resume = [&["render", s(&scene), "--shard", "1/2", "-o", s(&parts[1]), "--resume"][..], &long, &plan_from];
+    ok(&ember(&resume.concat()));
     let merged = d.join("merged.exr");
     ok(&merge(&parts, &merged));
     assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "the resumed shard's merge differs");
+}
+
+/// Adaptive sampling (the default above 8 spp) plans from the whole image's first round, so a
+/// shard of it takes two stages: `--first-round` (what needs no other shard), then
+/// `--plan-from` every shard's first round. The merged image is the whole render's, byte for
+/// byte; each stage refuses what is not its input.
+#[test]
+fn adaptive_shards_render_in_two_stages_and_merge_to_the_whole_render() {
+    let d = common::fresh_dir("shards", "two-stages");
+    let scene = common::scene_path("cornell-area.toml");
+    let size = ["--width", "53", "--height", "37", "--spp", "32"];
+    let render = |extra: &[&str]| ember(&[&["render", s(&scene)][..], &size, extra].concat());
+    let stages = |mode: &[&str], n: u32| -> Vec<PathBuf> {
+        let firsts: Vec<PathBuf> = (0..n).map(|k| d.join(format!("first-{k}-of-{n}.shard"))).collect();
+        for (k, f) in firsts.iter().enumerate() {
+            ok(&render(&[mode, &["--shard", &format!("{k}/{n}"), "--first-round", "-o", s(f)]].concat()));
+        }
+        (0..n)
+            .map(|k| {
+                let out = d.join(format!("part-{k}-of-{n}.shard"));
+                let mut args = vec!["--shard".to_string(), format!("{k}/{n}"), "-o".into(), s(&out).into()];
+                args.push("--plan-from".into());
+                // In reverse order: any order does.
+                args.extend(firsts.iter().rev().map(|f| s(f).to_string()));
+                let args: Vec<&str> = mode.iter().copied().chain(args.iter().map(String::as_str)).collect();
+                ok(&render(&args));
+                out
+            })
+            .collect()
+    };
+    for (mode, n) in [(&[][..], 3), (&["--uniform"][..], 2)] {
+        let whole = d.join("whole.exr");
+        let o = render(&[mode, &["-o", s(&whole)]].concat());
+        ok(&o);
+        let said = String::from_utf8_lossy(&o.stderr);
+        // The default is adaptive: pixels take different counts at the cost of 32 spp.
+        assert_eq!(said.contains("adaptive, at the cost of 32 spp"), mode.is_empty(), "{said}");
+        let parts = stages(mode, n);
+        let merged = d.join("merged.exr");
+        ok(&merge(&parts, &merged));
+        assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "{mode:?}: merged EXR differs");
+    }
+    // One stage is refused for an adaptive shard, before anything is written.
+    let one = d.join("one.shard");
+    let o = render(&["--shard", "0/3", "-o", s(&one)]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("two stages, --first-round then --plan-from"), "{e}");
+    assert!(!one.exists());
+    // The merge refuses first rounds; stage 2 refuses a missing first round, a finished shard,
+    // other settings, and writing over its input.
+    let firsts: Vec<PathBuf> = (0..3).map(|k| d.join(format!("first-{k}-of-3.shard"))).collect();
+    refused(&d, &firsts, "is the first round of a shard (ember render --first-round)");
+    let stage2 = |out: &Path, from: &[&Path], extra: &[&str]| {
+        let mut args = vec!["--shard", "1/3", "-o", s(out)];
+        args.extend(extra);
+        args.push("--plan-from");
+        args.extend(from.iter().map(|p| s(p)));
+        let o = render(&args);
+        assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(!out.exists() || out == firsts[1].as_path());
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let out = d.join("refused.shard");
+    let e = stage2(&out, &[&firsts[0], &firsts[1]], &[]);
+    assert!(e.contains("shard 2/3 of the image missing"), "{e}");
+    let finished = d.join("part-2-of-3.shard");
+    let e = stage2(&out, &[&firsts[0], &firsts[1], &finished], &[]);
+    assert!(e.contains("not a first-round file"), "{e}");
+    let e = stage2(&out, &[&firsts[0], &firsts[1], &firsts[2]], &["--seed", "3"]);
+    assert!(e.contains("seed=0 in"), "{e}");
+    let e = stage2(&firsts[1], &[&firsts[0], &firsts[1], &firsts[2]], &[]);
+    assert!(e.contains("--plan-from reads this file"), "{e}");
 }

@@ -4,9 +4,10 @@
 compare_all.py times ember, Intel's Embree tutorial, Mitsuba 3 and Blender Cycles on two matched
 scenes (Embree's Cornell box and the Utah teapot, 512x512, 64 spp, path length 8, 2 threads) and
 measures each image's relMSE against the renderer's own 1,024-spp reference. Its ember
-configurations are the defaults and --no-robust. This driver loads it from PEERS_DIR
-(../shared/peers by default; it is not part of this repository) and adds:
-  ember_adaptive      ember --adaptive
+configurations are the defaults (adaptive sampling) and --no-robust. This driver loads it
+from PEERS_DIR (../shared/peers by default; it is not part of this repository) and adds:
+  ember_uniform       ember --uniform (every pixel takes 64 samples)
+  ember_adaptive      ember --adaptive (the default since adaptive sampling became it)
   ember_old           another build of ember (the binary EMBER_OLD), defaults
   ember_old_adaptive  the same with --adaptive
 Its warm-up and reference phases keep to CONFIGS (compare_all.py's own also run Cycles and the
@@ -17,7 +18,7 @@ relMSE from the `analyze` summary (the images are the same in every round).
 Setup: that of shared/peers/README.md (Debian's embree-tools, libllvm19 and time; a venv with
 mitsuba==3.9.1 drjit pillow numpy OpenEXR), and a release build of ember.
 Command, from the repository root (~25 min with the references, ~10 min without):
-    SCRATCH=/tmp/peers/run CONFIGS="ember ember_adaptive mitsuba_rroff" ROUNDS=5 \\
+    SCRATCH=/tmp/peers/run CONFIGS="ember ember_uniform mitsuba_rroff" ROUNDS=5 \\
         VENV/bin/python scripts/peers/compare_configs.py warmup refs timing analyze rounds
 Phases and the other environment variables (SCRATCH, EMBER, ROUNDS, REF_SPP, IDLE_MAX_S,
 LOAD_MAX) are compare_all.py's; results go to RESULTS_DIR (default $SCRATCH/results).
@@ -41,6 +42,7 @@ spec.loader.exec_module(ca)
 
 # name: (ember flags, the variable naming its binary or None for EMBER, label)
 EXTRA = {
+    "ember_uniform": (["--uniform"], None, "ember --uniform"),
     "ember_adaptive": (["--adaptive"], None, "ember --adaptive"),
     "ember_old": ([], "EMBER_OLD", "ember (EMBER_OLD), defaults"),
     "ember_old_adaptive": (["--adaptive"], "EMBER_OLD", "ember (EMBER_OLD) --adaptive"),

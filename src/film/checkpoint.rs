@@ -159,11 +159,7 @@ impl Checkpoint {
                 w.write_all(&encode_aux(&aux[i]))?;
             }
             if let Some(plan) = &self.accum.adaptive {
-                w.write_all(&plan[i].rays.to_le_bytes())?;
-                w.write_all(&plan[i].target.to_le_bytes())?;
-                for c in plan[i].sum_sq.to_array() {
-                    w.write_all(&c.to_le_bytes())?;
-                }
+                w.write_all(&encode_plan(&plan[i]))?;
             }
         }
         let sum = w.hash.finish();
@@ -283,13 +279,7 @@ impl Checkpoint {
                     aux[c * 4096 + j] = decode_aux(&b[PIXEL_BYTES as usize..]);
                 }
                 if let Some(plan) = &mut accum.adaptive {
-                    let u = |k: usize| u32::from_le_bytes(b[plan_at + 4 * k..plan_at + 4 * k + 4].try_into().unwrap());
-                    let f = |k: usize| {
-                        let at = plan_at + 8 + 8 * k;
-                        f64::from_le_bytes(b[at..at + 8].try_into().unwrap())
-                    };
-                    plan[c * 4096 + j] =
-                        AdaptivePixel { rays: u(0), target: u(1), sum_sq: DVec3::new(f(0), f(1), f(2)) };
+                    plan[c * 4096 + j] = decode_plan(&b[plan_at..]);
                 }
             }
         }
@@ -410,6 +400,25 @@ pub(super) fn encode_aux(a: &AuxSums) -> [u8; AUX_BYTES as usize] {
 pub(super) fn decode_aux(b: &[u8]) -> AuxSums {
     let f = |i: usize| f64::from_le_bytes(b[8 * i..8 * i + 8].try_into().unwrap());
     AuxSums { albedo: DVec3::new(f(0), f(1), f(2)), normal: DVec3::new(f(3), f(4), f(5)) }
+}
+
+/// A pixel's part in an adaptive render's plan as stored: first-round rays and target (u32),
+/// first-round sums of squares r, g, b (f64), little-endian.
+pub(super) fn encode_plan(a: &AdaptivePixel) -> [u8; ADAPTIVE_BYTES as usize] {
+    let mut b = [0u8; ADAPTIVE_BYTES as usize];
+    b[..4].copy_from_slice(&a.rays.to_le_bytes());
+    b[4..8].copy_from_slice(&a.target.to_le_bytes());
+    for (i, x) in a.sum_sq.to_array().into_iter().enumerate() {
+        b[8 + 8 * i..16 + 8 * i].copy_from_slice(&x.to_le_bytes());
+    }
+    b
+}
+
+/// [`encode_plan`] read back from the first [`ADAPTIVE_BYTES`] of `b`.
+pub(super) fn decode_plan(b: &[u8]) -> AdaptivePixel {
+    let u = |k: usize| u32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap());
+    let f = |k: usize| f64::from_le_bytes(b[8 + 8 * k..16 + 8 * k].try_into().unwrap());
+    AdaptivePixel { rays: u(0), target: u(1), sum_sq: DVec3::new(f(0), f(1), f(2)) }
 }
 
 /// A pixel's state as stored: its count (u32) and sums r, g, b and of squared luminance (f64),

@@ -12,18 +12,24 @@
 //! so that the merged image can be denoised (`ember merge --denoise`, or by default when the
 //! shards were rendered with `--denoise`): the flags say which.
 //!
+//! A shard of an adaptive render is rendered in two stages (`--first-round`, then
+//! `--plan-from`): the first writes a *first-round* file, which also holds each pixel's part of
+//! the plan (the first round's rays and sums of squares), and which only the second stage reads:
+//! the merge refuses it.
+//!
 //! Layout: `EMBERSH\x02`, scene (u64), settings length (u32) and text, shard index and count,
 //! width, height and spp (u32 each), non-finite samples (u64), render nanoseconds (u64), flags
-//! (u32: 1 = auxiliary sums, 2 = denoising asked for), then per pixel of the shard its count
-//! (u32) and sums r, g, b and of squared luminance (f64), and with auxiliary sums those of the
-//! albedo and normal (six f64), and the FNV-1a hash of all that (u64). A file is read only if
+//! (u32: 1 = auxiliary sums, 2 = denoising asked for, 4 = a first round, 8 = with the plan's
+//! data), then per pixel of the shard its count (u32) and sums r, g, b and of squared luminance
+//! (f64), with auxiliary sums those of the albedo and normal (six f64), with the plan's data
+//! the first round's rays and target (u32, target 0) and sums of squares r, g, b (f64), and the FNV-1a hash of all that (u64). A file is read only if
 //! it is a regular file of exactly the size its header implies, and every pixel must be one
 //! the render could have produced.
 
 use super::accum::{Accumulator, PixelState};
 use super::checkpoint::{
-    AUX_BYTES, Hashing, PIXEL_BYTES, check_aux, decode_aux, decode_pixel, encode_aux, encode_pixel, pixel_problem,
-    words_diff,
+    ADAPTIVE_BYTES, AUX_BYTES, Hashing, PIXEL_BYTES, check_aux, decode_aux, decode_pixel, decode_plan, encode_aux,
+    encode_pixel, encode_plan, pixel_problem, words_diff,
 };
 use crate::hash::Fnv1a;
 use crate::settings::Shard;
@@ -40,6 +46,8 @@ const PREFIX_BYTES: u64 = 8 + 8 + 4;
 const FIELDS_BYTES: u64 = 5 * 4 + 8 + 8 + 4;
 const FLAG_AUX: u32 = 1;
 const FLAG_DENOISE: u32 = 2;
+const FLAG_FIRST_ROUND: u32 = 4;
+const FLAG_PLAN: u32 = 8;
 const CHECKSUM_BYTES: u64 = 8;
 /// The longest settings text accepted.
 const MAX_SETTINGS: u64 = 64 * 1024;
@@ -65,6 +73,11 @@ pub struct ShardHeader {
     /// The render was asked to denoise (`--denoise` or the scene's `denoise = true`), which is
     /// the merge's to do; implies `aux`.
     pub denoise: bool,
+    /// Stage 1 of a two-stage shard (`--first-round`): what the shard renders before it needs
+    /// the others; for `--plan-from`, not for the merge.
+    pub first_round: bool,
+    /// The file holds each pixel's part in an adaptive render's plan (a first round only).
+    pub plan: bool,
 }
 
 impl ShardHeader {
@@ -84,7 +97,7 @@ impl ShardHeader {
 
     /// Bytes of one pixel's record.
     fn pixel_bytes(&self) -> u64 {
-        PIXEL_BYTES + if self.aux { AUX_BYTES } else { 0 }
+        PIXEL_BYTES + if self.aux { AUX_BYTES } else { 0 } + if self.plan { ADAPTIVE_BYTES } else { 0 }
     }
 }
 
@@ -104,6 +117,7 @@ pub fn save(path: &Path, header: &ShardHeader, accum: &Accumulator) -> Result<()
     assert_eq!((accum.width, accum.height), (header.width, header.height), "the accumulator is the image's");
     assert_eq!(accum.aux.is_some(), header.aux, "the header says whether the render took auxiliary sums");
     assert!(header.aux || !header.denoise, "denoising needs the auxiliary sums");
+    assert_eq!(accum.adaptive.is_some() && header.first_round, header.plan, "a first round keeps the plan's data");
     crate::atomic_write::write_atomically(path, |file| {
         let mut out = std::io::BufWriter::new(file);
         write(&mut out, header, accum).map_err(|e| e.to_string())?;
@@ -123,12 +137,20 @@ fn write(out: impl Write, h: &ShardHeader, accum: &Accumulator) -> std::io::Resu
     }
     w.write_all(&h.nonfinite.to_le_bytes())?;
     w.write_all(&(h.elapsed.as_nanos().min(u64::MAX as u128) as u64).to_le_bytes())?;
-    let flags = if h.aux { FLAG_AUX } else { 0 } | if h.denoise { FLAG_DENOISE } else { 0 };
+    let flags = if h.aux { FLAG_AUX } else { 0 }
+        | if h.denoise { FLAG_DENOISE } else { 0 }
+        | if h.first_round { FLAG_FIRST_ROUND } else { 0 }
+        | if h.plan { FLAG_PLAN } else { 0 };
     w.write_all(&flags.to_le_bytes())?;
     for i in h.shard.pixels(h.width, h.height) {
         w.write_all(&encode_pixel(&accum.pixels[i]))?;
         if let Some(aux) = &accum.aux {
             w.write_all(&encode_aux(&aux[i]))?;
+        }
+        if h.plan
+            && let Some(plan) = &accum.adaptive
+        {
+            w.write_all(&encode_plan(&plan[i]))?;
         }
     }
     let sum = w.hash.finish();
@@ -177,6 +199,8 @@ impl ShardReader {
                 elapsed: Duration::ZERO,
                 aux: false,
                 denoise: false,
+                first_round: false,
+                plan: false,
             },
             reader: std::io::BufReader::with_capacity(1 << 16, file),
             hash: Fnv1a::default(),
@@ -220,12 +244,17 @@ impl ShardReader {
             elapsed: Duration::from_nanos(u64_at(28)),
             aux: false,
             denoise: false,
+            first_round: false,
+            plan: false,
         };
         let flags = u32_at(9);
-        if flags & !(FLAG_AUX | FLAG_DENOISE) != 0 || flags == FLAG_DENOISE {
+        let known = FLAG_AUX | FLAG_DENOISE | FLAG_FIRST_ROUND | FLAG_PLAN;
+        let lacking = |flag: u32, needs: u32| flags & flag != 0 && flags & needs == 0;
+        if flags & !known != 0 || lacking(FLAG_DENOISE, FLAG_AUX) || lacking(FLAG_PLAN, FLAG_FIRST_ROUND) {
             return Err(corrupt(format!("unknown flags {flags:#x}")));
         }
         (r.header.aux, r.header.denoise) = (flags & FLAG_AUX != 0, flags & FLAG_DENOISE != 0);
+        (r.header.first_round, r.header.plan) = (flags & FLAG_FIRST_ROUND != 0, flags & FLAG_PLAN != 0);
         if len != r.header.file_size() {
             return Err(corrupt(format!(
                 "{len} bytes, but shard {} of a {width}x{height} image takes {}: truncated or damaged",
@@ -257,8 +286,9 @@ impl ShardReader {
         let h = self.header.clone();
         assert_eq!((accum.width, accum.height), (h.width, h.height), "the accumulator is the image's");
         assert_eq!(accum.aux.is_some(), h.aux, "the accumulator takes the shard's auxiliary sums");
+        assert_eq!(accum.adaptive.is_some(), h.plan, "the accumulator takes the shard's plan data");
         let corrupt = |why: String| ShardError::Corrupt(self.path.clone(), why);
-        let mut record = [0u8; (PIXEL_BYTES + AUX_BYTES) as usize];
+        let mut record = [0u8; (PIXEL_BYTES + AUX_BYTES + ADAPTIVE_BYTES) as usize];
         let b = &mut record[..h.pixel_bytes() as usize];
         let mut samples = 0u64;
         for i in h.shard.pixels(h.width, h.height) {
@@ -266,7 +296,16 @@ impl ShardReader {
             self.hash.write(b);
             let p: PixelState = decode_pixel(b);
             let aux = h.aux.then(|| decode_aux(&b[PIXEL_BYTES as usize..]));
+            let plan_at = (PIXEL_BYTES + if h.aux { AUX_BYTES } else { 0 }) as usize;
+            let plan = h.plan.then(|| decode_plan(&b[plan_at..]));
             let problem = pixel_problem(&p, h.spp).or_else(|| aux.and_then(|a| check_aux(&a, p.count).err()));
+            let problem = problem.or_else(|| {
+                let a = plan?;
+                if !(a.sum_sq.is_finite() && a.sum_sq.min_element() >= 0.0) {
+                    return Some(format!("first-round sums of squares {} are not finite and non-negative", a.sum_sq));
+                }
+                (a.target != 0).then(|| format!("a plan of {} samples in a first round", a.target))
+            });
             if let Some(why) = problem {
                 let (x, y) = (i % h.width as usize, i / h.width as usize);
                 return Err(corrupt(format!("pixel ({x}, {y}): {why}")));
@@ -275,6 +314,9 @@ impl ShardReader {
             accum.pixels[i] = p;
             if let (Some(sums), Some(a)) = (accum.aux.as_mut(), aux) {
                 sums[i] = a;
+            }
+            if let (Some(plans), Some(a)) = (accum.adaptive.as_mut(), plan) {
+                plans[i] = a;
             }
         }
         let mut tail = [0u8; CHECKSUM_BYTES as usize];
@@ -287,6 +329,30 @@ impl ShardReader {
         }
         Ok(())
     }
+}
+
+/// Why the shard files `readers` (each checked by [`mismatch`] against the first) are not every
+/// shard of one image exactly once, if they are not: a duplicate or a missing shard.
+pub fn incomplete(readers: &[ShardReader]) -> Option<String> {
+    let count = readers.first()?.header.shard.count;
+    let mut by_index: Vec<Option<&Path>> = vec![None; count as usize];
+    for r in readers {
+        let slot = &mut by_index[r.header.shard.index as usize];
+        if let Some(other) = slot {
+            return Some(format!("{} and {} are both shard {}", other.display(), r.path.display(), r.header.shard));
+        }
+        *slot = Some(&r.path);
+    }
+    let missing: Vec<String> =
+        by_index.iter().enumerate().filter(|(_, p)| p.is_none()).map(|(i, _)| format!("{i}/{count}")).collect();
+    (!missing.is_empty()).then(|| {
+        format!(
+            "shard{} {} of the image missing (given {} of {count})",
+            if missing.len() == 1 { "" } else { "s" },
+            missing.join(", "),
+            readers.len()
+        )
+    })
 }
 
 /// Why the shard `b` (from `b_path`) cannot be merged with `a` (from `a_path`), if it cannot:
@@ -315,6 +381,10 @@ pub fn mismatch(a: &ShardHeader, a_path: &Path, b: &ShardHeader, b_path: &Path) 
             _ => "without --aux or --denoise",
         };
         return Some(format!("{bn} was rendered {}, {an} {}", says(b), says(a)));
+    }
+    if a.first_round != b.first_round {
+        let says = |h: &ShardHeader| if h.first_round { "a first round (--first-round)" } else { "a finished shard" };
+        return Some(format!("{bn} is {}, {an} {}", says(b), says(a)));
     }
     if a.shard.count != b.shard.count {
         return Some(format!("{bn} is shard {} but {an} is shard {}: the counts differ", b.shard, a.shard));
@@ -350,6 +420,8 @@ mod tests {
             elapsed: Duration::from_millis(5),
             aux: false,
             denoise: false,
+            first_round: false,
+            plan: false,
         };
         let path = dir.join("p.shard");
         save(&path, &header, &accum).unwrap();

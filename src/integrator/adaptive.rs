@@ -50,6 +50,12 @@ pub fn first_round_spp(spp: u32) -> u32 {
     (spp / 4).div_ceil(LANES as u32).max(1).saturating_mul(LANES as u32).min(spp)
 }
 
+/// Whether `ember render` samples adaptively at `spp` unless told otherwise (`--uniform`, a
+/// target error): whenever the first round is not all of it, i.e. above [`LANES`] samples.
+pub fn by_default(spp: u32) -> bool {
+    first_round_spp(spp) < spp
+}
+
 /// The most samples a pixel may take in an adaptive render of mean `spp`.
 pub fn max_spp(spp: u32) -> u32 {
     spp.saturating_mul(MAX_FACTOR)

@@ -15,7 +15,7 @@ mod surface;
 pub use aux::AuxSample;
 pub use kernel::KernelChoice;
 pub use plan::RenderPlan;
-pub use progressive::{Progress, RenderControl, RenderResult, tile_order};
+pub use progressive::{FirstRounds, Progress, RenderControl, RenderResult, tile_order};
 pub use surface::{FaceNormals, SurfacePoint, surface_point};
 
 use crate::accel::{Accel, AccelError};
@@ -57,7 +57,9 @@ pub enum RenderError {
     Threads(usize, String),
     #[error(transparent)]
     Checkpoint(#[from] crate::film::CheckpointError),
-    #[error("adaptive sampling plans from the whole image's first round: it cannot render a shard")]
+    #[error(
+        "an adaptive render plans from the whole image's first round: render a shard of it in two stages, --first-round then --plan-from the N first-round files (or render it with --uniform)"
+    )]
     AdaptiveShard,
 }
 

@@ -69,6 +69,12 @@ impl RenderPlan {
         }
     }
 
+    /// The most samples one pixel takes: `spp`, or in an adaptive render its cap.
+    pub fn max_pixel_spp(&self) -> u32 {
+        let s = &self.settings;
+        if s.adaptive { super::adaptive::max_spp(s.spp) } else { s.spp }
+    }
+
     /// What a checkpoint of this render must match: the scene's fingerprint
     /// ([`Scene::fingerprint`]), the image size and spp, and everything else that changes the
     /// image as `key=value` words — the requests that matter (the pixel filter among them), the
@@ -87,7 +93,7 @@ impl RenderPlan {
         if s.aux {
             settings.push_str(" aux=albedo+normal");
         }
-        let spp = if s.adaptive { super::adaptive::max_spp(s.spp) } else { s.spp };
+        let spp = self.max_pixel_spp();
         CheckpointKey {
             scene: scene_fingerprint,
             settings,

@@ -5,7 +5,10 @@
 //! share of time spent (row by row, the cheap tiles of a sky come first and a progress bar
 //! runs ahead of the work). The order changes no pixel: a pixel's samples depend only on it.
 //!
-//! Without a target error there is one round: every pixel goes to `spp`. With one, rounds
+//! A uniform render has one round: every pixel goes to `spp`. An adaptive one
+//! ([`super::adaptive`]) has two: the first round everywhere, then the plan made from the whole
+//! image's first round (a shard takes them in two stages: [`RenderControl::first_round_only`],
+//! then [`RenderControl::first_rounds`]). With a target error, rounds
 //! double the sample count (16, 32, 64, … up to `spp`) of the pixels whose estimated error is
 //! still above the target. A pixel's samples are always taken in index order and its decision
 //! depends only on its own samples, so the image is the same whatever the thread count, and
@@ -43,6 +46,21 @@ pub struct RenderControl<'a> {
     pub resume: Option<(&'a Path, Checkpoint)>,
     /// Called from the worker threads as tiles finish (see [`Progress`]).
     pub progress: Option<&'a (dyn Fn(Progress) + Sync)>,
+    /// Stage 1 of a two-stage shard: render only what needs no other shard (an adaptive
+    /// render's first round; all of a uniform render).
+    pub first_round_only: bool,
+    /// Stage 2 of a two-stage shard: start from the whole image's first round (every shard's
+    /// stage 1, put together), planned as a whole render plans it; unless resumed.
+    pub first_rounds: Option<FirstRounds>,
+}
+
+/// The whole image's first round, for stage 2 of a two-stage shard ([`RenderControl`]).
+pub struct FirstRounds {
+    /// Every pixel's first-round state, with the plan's data in an adaptive render.
+    pub accum: Accumulator,
+    /// The time this shard's first round took, and the non-finite samples it dropped.
+    pub elapsed: Duration,
+    pub nonfinite: u64,
 }
 
 /// How far a render has got, reported to [`RenderControl::progress`] each time a tile
@@ -143,19 +161,25 @@ pub(super) fn run(
 ) -> Result<RenderResult, RenderError> {
     let start = Instant::now();
     let settings = &plan.settings;
-    if settings.adaptive && settings.shard.is_some() {
+    let staged = control.first_round_only || control.first_rounds.is_some() || control.resume.is_some();
+    if settings.adaptive && settings.shard.is_some() && !staged {
         return Err(RenderError::AdaptiveShard);
     }
     let (w, h) = (settings.width, settings.height);
     // Hashing the scene reads all of its data: done only when a checkpoint is read or written.
     let key = std::sync::OnceLock::new();
     let key = || key.get_or_init(|| plan.checkpoint_key(scene.fingerprint(), &accel.image_key()));
-    let (mut accum, prior_elapsed, prior_nonfinite) = match control.resume {
-        Some((path, c)) => {
+    let (mut accum, prior_elapsed, prior_nonfinite) = match (control.resume, control.first_rounds) {
+        (Some((path, c)), _) => {
             c.check_matches(path, key())?;
             (c.accum, c.elapsed, c.nonfinite)
         }
-        None => {
+        (None, Some(first)) => {
+            assert_eq!((first.accum.width, first.accum.height), (w, h), "the first rounds are the image's");
+            assert_eq!(first.accum.adaptive.is_some(), settings.adaptive, "an adaptive render's first rounds have a plan");
+            (first.accum, first.elapsed, first.nonfinite)
+        }
+        (None, None) => {
             let a = if settings.aux { Accumulator::with_aux(w, h) } else { Accumulator::new(w, h) };
             (if settings.adaptive { a.adaptive() } else { a }, Duration::ZERO, 0)
         }
@@ -209,9 +233,11 @@ pub(super) fn run(
     // A shard renders only its own tiles.
     let tiles: Vec<(u32, u32)> =
         tile_order(w, h).into_iter().filter(|&(tx, ty)| settings.shard.is_none_or(|s| s.owns_tile(tx, ty))).collect();
-    let n_rounds = rounds(settings);
+    // Stage 1 of an adaptive shard stops before the plan; every other render needs no other
+    // shard, and stage 1 is all of it.
+    let n_rounds = if control.first_round_only && settings.adaptive { 1 } else { rounds(settings) };
     let rays_total = AtomicU64::new(pool.as_ref().map_or(0, |p| p.rays));
-    let samples_before = accum.samples();
+    let samples_before = accum.samples_of(owned);
     let samples_done = AtomicU64::new(samples_before);
     let nonfinite = AtomicU64::new(0);
     let stopped = AtomicBool::new(false);
@@ -252,7 +278,7 @@ pub(super) fn run(
         let allocated = |a: &Accumulator, i: usize| a.adaptive.as_ref().map(|plan| plan[i].target);
         let planned = {
             let a = shared.lock().unwrap_or_else(|e| e.into_inner());
-            a.samples()
+            a.samples_of(owned)
                 + a.pixels
                     .iter()
                     .enumerate()

@@ -132,7 +132,9 @@ pub fn cli_checkpoint_key(
     seed: u64,
 ) -> ember::film::CheckpointKey {
     let scene = Scene::load(scene).unwrap();
-    let settings = RenderSettings { width, height, spp, seed, ..RenderSettings::from_scene(&scene.render) };
+    // Adaptive unless the spp is at most one packet, as `ember render` decides.
+    let adaptive = ember::integrator::adaptive::by_default(spp);
+    let settings = RenderSettings { width, height, spp, seed, adaptive, ..RenderSettings::from_scene(&scene.render) };
     // As `ember render` builds it.
     let accel = ember::accel::AccelKind::Embree.image_key(ember::accel::build_options_for(&scene.geometry));
     ember::integrator::RenderPlan::new(&scene, &settings).checkpoint_key(scene.fingerprint(), &accel)

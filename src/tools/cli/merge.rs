@@ -9,7 +9,7 @@
 //! the shards were rendered with `--denoise` or the merge is given it.
 
 use super::render::parse_exposure;
-use crate::film::shard::{ShardHeader, ShardReader, mismatch};
+use crate::film::shard::{ShardHeader, ShardReader, incomplete, mismatch};
 use crate::film::{Accumulator, AuxMode, ImageFormat, Look, Tonemap};
 use crate::memory::{self, MemoryLimit};
 use clap::Args;
@@ -65,30 +65,16 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             anyhow::bail!("{why}; nothing was written");
         }
     }
-    let count = first.header.shard.count;
-    let mut by_index: Vec<Option<&PathBuf>> = vec![None; count as usize];
-    for r in &readers {
-        let slot = &mut by_index[r.header.shard.index as usize];
-        if let Some(other) = slot {
-            anyhow::bail!(
-                "{} and {} are both shard {}; nothing was written",
-                other.display(),
-                r.path.display(),
-                r.header.shard
-            );
-        }
-        *slot = Some(&r.path);
+    if let Some(why) = incomplete(&readers) {
+        anyhow::bail!("{why}; nothing was written");
     }
-    let missing: Vec<String> =
-        by_index.iter().enumerate().filter(|(_, p)| p.is_none()).map(|(i, _)| format!("{i}/{count}")).collect();
-    if !missing.is_empty() {
+    if first.header.first_round {
         anyhow::bail!(
-            "shard{} {} of the image missing (given {} of {count}); nothing was written",
-            if missing.len() == 1 { "" } else { "s" },
-            missing.join(", "),
-            readers.len()
+            "{} is the first round of a shard (ember render --first-round), not a finished one: render each shard's second stage with --plan-from the first-round files, then merge those; nothing was written",
+            first.path.display()
         );
     }
+    let count = first.header.shard.count;
     let ShardHeader { width, height, aux, .. } = first.header;
     let denoise = args.denoise || first.header.denoise;
     if denoise && !aux {

@@ -2,6 +2,7 @@
 
 use crate::accel::AccelKind;
 use crate::embree::BuildQuality;
+use crate::integrator::adaptive;
 use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
 use crate::scene::{CameraOverride, Scene};
@@ -18,7 +19,8 @@ pub struct RenderArgs {
     /// Output image: .png (8-bit sRGB) or .exr (linear float); with --shard, a .shard file.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Samples per pixel [scene's render.spp, else 64].
+    /// Samples per pixel: their mean over the image when sampling adaptively (the default
+    /// above 8) [scene's render.spp, else 64].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: Option<u32>,
     /// Image width in pixels [scene's render.width, else 640].
@@ -66,13 +68,16 @@ pub struct RenderArgs {
     /// bound of its own (it is usually closer, but biased).
     #[arg(long, value_parser = parse_target_error)]
     pub target_error: Option<f32>,
-    /// Adaptive sampling at a fixed budget: --spp becomes the mean samples per pixel; a quarter
-    /// is taken everywhere, the rest goes where the first samples of each pixel's neighbours
-    /// are noisy, for about the time --spp would take everywhere (at most 16× --spp in one
-    /// pixel). Unbiased: no pixel decides from its own samples. Not with --shard: the plan
-    /// needs the whole image's first round.
-    #[arg(long, conflicts_with_all = ["target_error", "shard"])]
+    /// Adaptive sampling at a fixed budget, the default: --spp is the mean samples per pixel; a
+    /// quarter is taken everywhere, the rest goes where the first samples of each pixel's
+    /// neighbours are noisy, for about the time --spp would take everywhere (at most 16× --spp
+    /// in one pixel). Unbiased: no pixel decides from its own samples. A shard renders it in
+    /// two stages (--first-round, then --plan-from). Up to 8 spp every pixel takes --spp.
+    #[arg(long, conflicts_with_all = ["target_error", "uniform"])]
     pub adaptive: bool,
+    /// Every pixel takes --spp samples (no adaptive sampling).
+    #[arg(long, conflicts_with = "target_error")]
+    pub uniform: bool,
     /// Denoise the image with Intel Open Image Denoise, given the albedo and normal of the first
     /// non-specular surface each path reaches [scene's render.denoise, else off]. A PNG gets
     /// the denoised image; an EXR gets it as its main layer, with the noisy image, albedo,
@@ -140,9 +145,22 @@ pub struct RenderArgs {
     /// `ember merge` puts together with the others; "auto" takes K and N from Slurm
     /// (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT), "auto/N" K from Slurm or a Kubernetes
     /// Indexed Job (JOB_COMPLETION_INDEX). With --aux or --denoise the shard keeps the albedo
-    /// and normal sums, and the merge writes their layers (and, for --denoise, denoises).
+    /// and normal sums, and the merge writes their layers (and, for --denoise, denoises). An
+    /// adaptive render (the default above 8 spp) takes two stages: --first-round, then
+    /// --plan-from; a uniform one may take them too, or one.
     #[arg(long, value_name = "K/N|auto|auto/N")]
     pub shard: Option<String>,
+    /// Stage 1 of a shard: render what needs no other shard (an adaptive render's first
+    /// round; a uniform render's every sample) to a first-round shard file, which stage 2
+    /// (--plan-from) reads.
+    #[arg(long, requires = "shard", conflicts_with = "plan_from")]
+    pub first_round: bool,
+    /// Stage 2 of a shard: the first-round files of all N shards (stage 1's outputs, any
+    /// order), from which an adaptive render plans the rest of the image as a whole render
+    /// would; the shard then finishes its own pixels. Put it last (it takes every file that
+    /// follows).
+    #[arg(long, requires = "shard", num_args = 1.., value_name = "FIRST_ROUND_FILES")]
+    pub plan_from: Vec<PathBuf>,
 }
 
 /// Three comma-separated finite numbers.
@@ -244,10 +262,11 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         Some(v) => v.parse::<RrDepth>().map_err(|e| anyhow::anyhow!("--rr-depth: {e}"))?,
         None => s.rr_depth,
     };
+    let spp = args.spp.or(scene.render.spp).unwrap_or(if args.target_error.is_some() { 1024 } else { s.spp });
     Ok(RenderSettings {
         width: args.width.unwrap_or(s.width),
         height: args.height.unwrap_or(s.height),
-        spp: args.spp.or(scene.render.spp).unwrap_or(if args.target_error.is_some() { 1024 } else { s.spp }),
+        spp,
         max_depth: args.max_depth.unwrap_or(s.max_depth),
         rr_depth,
         seed: args.seed.unwrap_or(s.seed),
@@ -255,7 +274,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         estimator: args.estimator,
         specialize: !args.no_specialize,
         target_error: args.target_error,
-        adaptive: args.adaptive,
+        adaptive: !args.uniform && args.target_error.is_none() && adaptive::by_default(spp),
         aux: s.aux || args.denoise || args.aux,
         filter: args.filter.unwrap_or(s.filter),
         sampler: args.sampler.unwrap_or(s.sampler),

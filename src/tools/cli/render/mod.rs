@@ -56,6 +56,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     let settings = args::settings(&args, &scene)?;
+    if settings.adaptive && settings.shard.is_some() && !args.first_round && args.plan_from.is_empty() {
+        anyhow::bail!("{}: {}", args.scene.display(), crate::integrator::RenderError::AdaptiveShard);
+    }
     // The library is loaded before rendering: a render is not spent on a denoise that fails.
     // A shard is not a whole image: it keeps the albedo and normal sums, and `ember merge`
     // denoises the merged image.
@@ -112,6 +115,29 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None
     };
+    // What a shard file of this render says of itself (a first round keeps the plan's data).
+    let shard_header = |shard, first_round: bool, nonfinite: u64, elapsed| ShardHeader {
+        scene: scene.fingerprint(),
+        settings: plan.image_key(&args.accel.image_key(bvh)),
+        shard,
+        width: settings.width,
+        height: settings.height,
+        spp: plan.max_pixel_spp(),
+        nonfinite,
+        elapsed,
+        aux: settings.aux,
+        denoise,
+        first_round,
+        plan: first_round && settings.adaptive,
+    };
+    // Stage 2 of a shard: the whole image's first round, from every shard's stage 1.
+    let first_rounds = match settings.shard {
+        Some(shard) if !args.plan_from.is_empty() => {
+            let expected = shard_header(shard, true, 0, std::time::Duration::ZERO);
+            Some(read_first_rounds(&args.plan_from, &expected, &args.output)?)
+        }
+        _ => None,
+    };
     let accel = args.accel.build_with(&scene.geometry, bvh)?;
     eprintln!("{}", plan.effects);
     eprintln!("{plan}");
@@ -128,6 +154,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         checkpoint: Some((checkpoint.as_path(), args.checkpoint_every.map(|d| d.0))),
         resume,
         progress: Some(&|p| bar.update(p)),
+        first_round_only: args.first_round,
+        first_rounds,
     };
     let result = render_controlled(&scene, accel.as_ref(), &plan, control);
     bar.finish();
@@ -166,18 +194,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut denoised = None;
     match settings.shard {
         Some(shard) => {
-            let header = ShardHeader {
-                scene: scene.fingerprint(),
-                settings: plan.image_key(&args.accel.image_key(bvh)),
-                shard,
-                width: settings.width,
-                height: settings.height,
-                spp: settings.spp,
-                nonfinite: stats.nonfinite,
-                elapsed: stats.elapsed + stats.earlier_sessions,
-                aux: settings.aux,
-                denoise,
-            };
+            let elapsed = stats.elapsed + stats.earlier_sessions;
+            let header = shard_header(shard, args.first_round, stats.nonfinite, elapsed);
             crate::film::shard::save(&args.output, &header, &result.accum)?;
         }
         None => {
@@ -200,6 +218,52 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     eprintln!("{}", summary::error_estimate(&stats));
     Ok(())
+}
+
+/// The whole image's first round for stage 2 of shard `expected.shard`: the first-round files
+/// `paths` (every shard's once, each of this render: `expected` but for the shard index and the
+/// time and non-finite count), put together; with the time and non-finite count of the shard's
+/// own first round. None of them may be `output`.
+fn read_first_rounds(
+    paths: &[std::path::PathBuf],
+    expected: &ShardHeader,
+    output: &Path,
+) -> anyhow::Result<crate::integrator::FirstRounds> {
+    use crate::film::shard::{ShardReader, incomplete, mismatch};
+    let this = Path::new("this render");
+    let readers = paths.iter().map(|p| ShardReader::open(p)).collect::<Result<Vec<_>, _>>()?;
+    let out_id = std::fs::metadata(output).ok().map(|m| (m.dev(), m.ino()));
+    for r in &readers {
+        if !r.header.first_round {
+            anyhow::bail!(
+                "--plan-from {}: not a first-round file (rendered without --first-round)",
+                r.path.display()
+            );
+        }
+        if out_id.is_some() && std::fs::metadata(&r.path).ok().map(|m| (m.dev(), m.ino())) == out_id {
+            anyhow::bail!(
+                "{}: --plan-from reads this file; the shard's output must go elsewhere",
+                output.display()
+            );
+        }
+        if let Some(why) = mismatch(expected, this, &r.header, &r.path) {
+            anyhow::bail!("--plan-from: {why}");
+        }
+    }
+    if let Some(why) = incomplete(&readers) {
+        anyhow::bail!("--plan-from: {why}");
+    }
+    let own = readers.iter().find(|r| r.header.shard == expected.shard).expect("every shard is there");
+    let (elapsed, nonfinite) = (own.header.elapsed, own.header.nonfinite);
+    let (w, h) = (expected.width, expected.height);
+    let mut accum = if expected.aux { Accumulator::with_aux(w, h) } else { Accumulator::new(w, h) };
+    if expected.plan {
+        accum = accum.adaptive();
+    }
+    for r in readers {
+        r.read_into(&mut accum).map_err(|e| anyhow::anyhow!("--plan-from: {e}"))?;
+    }
+    Ok(crate::integrator::FirstRounds { accum, elapsed, nonfinite })
 }
 
 /// Whether `path` is a regular file itself (not a link to one).

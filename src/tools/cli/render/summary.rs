@@ -17,7 +17,8 @@ pub(super) fn rendered(stats: &RenderStats, accel: &str, output: &Path) -> Strin
     let earlier = if stats.earlier_sessions.is_zero() {
         String::new()
     } else {
-        format!(" (plus {:.2} s before the interruption)", stats.earlier_sessions.as_secs_f64())
+        // An interrupted session resumed, or a shard's first round (`--first-round`).
+        format!(" (plus {:.2} s earlier)", stats.earlier_sessions.as_secs_f64())
     };
     format!(
         "rendered {}x{} at {spp} in {:.2} s{earlier}: {:.2} Mrays/s ({} rays, {accel}), {} non-finite samples dropped -> {}",
