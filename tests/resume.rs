@@ -287,7 +287,11 @@ fn resume_refuses_checkpoints_that_lie() {
     with_pixel(5, &|p| p.sum.x = f64::NAN);
     expect_refused(&out, &[], "(pixel (5, 0): the sum of its samples is not finite ([NaN, 0, 0]))");
     with_pixel(33, &|p| p.count = u32::MAX);
-    expect_refused(&out, &[], "(pixel (1, 1): 4294967295 samples, more than the 160000 spp of this render)");
+    expect_refused(
+        &out,
+        &[],
+        "(pixel (1, 1): 4294967295 samples, more than the 160000 a pixel of this render takes at most)",
+    );
     with_pixel(0, &|p| {
         p.count = 1;
         p.sum_lum_sq = f64::INFINITY

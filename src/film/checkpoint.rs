@@ -447,7 +447,7 @@ pub(super) fn decode_pixel(b: &[u8]) -> PixelState {
 /// squares, sums without samples.
 pub(super) fn pixel_problem(p: &PixelState, spp: u32) -> Option<String> {
     if p.count > spp {
-        return Some(format!("{} samples, more than the {spp} spp of this render", p.count));
+        return Some(format!("{} samples, more than the {spp} a pixel of this render takes at most", p.count));
     }
     if !p.sum.is_finite() {
         return Some(format!("the sum of its samples is not finite ({})", p.sum));
@@ -675,9 +675,12 @@ mod tests {
         let e = refused(&edit(|p| p.sum.x = f64::INFINITY));
         assert!(e.contains("pixel (1, 1): the sum of its samples is not finite"), "{e}");
         let e = refused(&edit(|p| p.count = u32::MAX));
-        assert!(e.ends_with("(pixel (1, 1): 4294967295 samples, more than the 16 spp of this render)"), "{e}");
+        assert!(
+            e.ends_with("(pixel (1, 1): 4294967295 samples, more than the 16 a pixel of this render takes at most)"),
+            "{e}"
+        );
         let e = refused(&edit(|p| p.count = 17));
-        assert!(e.contains("17 samples, more than the 16 spp"), "{e}");
+        assert!(e.contains("17 samples, more than the 16 a pixel"), "{e}");
         let e = refused(&edit(|p| p.sum_lum_sq = -1.0));
         assert!(e.contains("the sum of its squared luminances is -1 (must be finite and not negative)"), "{e}");
         let e = refused(&edit(|p| p.sum_lum_sq = f64::NAN));

@@ -176,7 +176,11 @@ pub(super) fn run(
         }
         (None, Some(first)) => {
             assert_eq!((first.accum.width, first.accum.height), (w, h), "the first rounds are the image's");
-            assert_eq!(first.accum.adaptive.is_some(), settings.adaptive, "an adaptive render's first rounds have a plan");
+            assert_eq!(
+                first.accum.adaptive.is_some(),
+                settings.adaptive,
+                "an adaptive render's first rounds have a plan"
+            );
             (first.accum, first.elapsed, first.nonfinite)
         }
         (None, None) => {

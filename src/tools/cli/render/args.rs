@@ -2,8 +2,8 @@
 
 use crate::accel::AccelKind;
 use crate::embree::BuildQuality;
-use crate::integrator::adaptive;
 use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
+use crate::integrator::adaptive;
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
 use crate::scene::{CameraOverride, Scene};
 use crate::settings::{Estimator, LightVertices, RenderSettings, RrDepth, SamplerKind, Shard};

@@ -235,16 +235,10 @@ fn read_first_rounds(
     let out_id = std::fs::metadata(output).ok().map(|m| (m.dev(), m.ino()));
     for r in &readers {
         if !r.header.first_round {
-            anyhow::bail!(
-                "--plan-from {}: not a first-round file (rendered without --first-round)",
-                r.path.display()
-            );
+            anyhow::bail!("--plan-from {}: not a first-round file (rendered without --first-round)", r.path.display());
         }
         if out_id.is_some() && std::fs::metadata(&r.path).ok().map(|m| (m.dev(), m.ino())) == out_id {
-            anyhow::bail!(
-                "{}: --plan-from reads this file; the shard's output must go elsewhere",
-                output.display()
-            );
+            anyhow::bail!("{}: --plan-from reads this file; the shard's output must go elsewhere", output.display());
         }
         if let Some(why) = mismatch(expected, this, &r.header, &r.path) {
             anyhow::bail!("--plan-from: {why}");
