@@ -348,12 +348,12 @@ impl Checkpoint {
         for (i, p) in a.pixels.iter().enumerate() {
             let problem = pixel_problem(p, key.spp);
             let problem = problem.or_else(|| {
-                let AdaptivePixel { target: t, sum_sq, .. } = a.adaptive.as_ref()?[i];
-                if !(sum_sq.is_finite() && sum_sq.min_element() >= 0.0) {
-                    return Some(format!("first-round sums of squares {sum_sq} are not finite and non-negative"));
-                }
-                (t > key.spp || (t > 0 && p.count > t))
-                    .then(|| format!("{} samples planned (of at most {}), {} taken", t, key.spp, p.count))
+                let plan = a.adaptive.as_ref()?[i];
+                let t = plan.target;
+                sum_sq_problem(&plan).or_else(|| {
+                    (t > key.spp || (t > 0 && p.count > t))
+                        .then(|| format!("{} samples planned (of at most {}), {} taken", t, key.spp, p.count))
+                })
             });
             let problem = problem.or_else(|| a.aux.as_ref().and_then(|aux| check_aux(&aux[i], p.count).err()));
             if let Some(why) = problem {
@@ -419,6 +419,14 @@ pub(super) fn decode_plan(b: &[u8]) -> AdaptivePixel {
     let u = |k: usize| u32::from_le_bytes(b[4 * k..4 * k + 4].try_into().unwrap());
     let f = |k: usize| f64::from_le_bytes(b[8 + 8 * k..16 + 8 * k].try_into().unwrap());
     AdaptivePixel { rays: u(0), target: u(1), sum_sq: DVec3::new(f(0), f(1), f(2)) }
+}
+
+/// Why a stored plan's first-round sums of squares could not have come from a render, if they
+/// could not: one is negative or not finite.
+pub(super) fn sum_sq_problem(a: &AdaptivePixel) -> Option<String> {
+    let s = a.sum_sq;
+    (!(s.is_finite() && s.min_element() >= 0.0))
+        .then(|| format!("first-round sums of squares {s} are not finite and non-negative"))
 }
 
 /// A pixel's state as stored: its count (u32) and sums r, g, b and of squared luminance (f64),

@@ -22,14 +22,14 @@
 //! (u32: 1 = auxiliary sums, 2 = denoising asked for, 4 = a first round, 8 = with the plan's
 //! data), then per pixel of the shard its count (u32) and sums r, g, b and of squared luminance
 //! (f64), with auxiliary sums those of the albedo and normal (six f64), with the plan's data
-//! the first round's rays and target (u32, target 0) and sums of squares r, g, b (f64), and the FNV-1a hash of all that (u64). A file is read only if
-//! it is a regular file of exactly the size its header implies, and every pixel must be one
-//! the render could have produced.
+//! the first round's rays and target (u32, target 0) and sums of squares r, g, b (f64), and
+//! the FNV-1a hash of all that (u64). A file is read only if it is a regular file of exactly
+//! the size its header implies, and every pixel must be one the render could have produced.
 
 use super::accum::{Accumulator, PixelState};
 use super::checkpoint::{
     ADAPTIVE_BYTES, AUX_BYTES, Hashing, PIXEL_BYTES, check_aux, decode_aux, decode_pixel, decode_plan, encode_aux,
-    encode_pixel, encode_plan, pixel_problem, words_diff,
+    encode_pixel, encode_plan, pixel_problem, sum_sq_problem, words_diff,
 };
 use crate::hash::Fnv1a;
 use crate::settings::Shard;
@@ -301,10 +301,8 @@ impl ShardReader {
             let problem = pixel_problem(&p, h.spp).or_else(|| aux.and_then(|a| check_aux(&a, p.count).err()));
             let problem = problem.or_else(|| {
                 let a = plan?;
-                if !(a.sum_sq.is_finite() && a.sum_sq.min_element() >= 0.0) {
-                    return Some(format!("first-round sums of squares {} are not finite and non-negative", a.sum_sq));
-                }
-                (a.target != 0).then(|| format!("a plan of {} samples in a first round", a.target))
+                sum_sq_problem(&a)
+                    .or_else(|| (a.target != 0).then(|| format!("a plan of {} samples in a first round", a.target)))
             });
             if let Some(why) = problem {
                 let (x, y) = (i % h.width as usize, i / h.width as usize);

@@ -161,7 +161,9 @@ pub(super) fn run(
 ) -> Result<RenderResult, RenderError> {
     let start = Instant::now();
     let settings = &plan.settings;
-    let staged = control.first_round_only || control.first_rounds.is_some() || control.resume.is_some();
+    // A resumed stage is still told which it is: resuming stage 1 as a whole shard would plan
+    // from this shard's pixels alone.
+    let staged = control.first_round_only || control.first_rounds.is_some();
     if settings.adaptive && settings.shard.is_some() && !staged {
         return Err(RenderError::AdaptiveShard);
     }

@@ -232,12 +232,12 @@ fn read_first_rounds(
     use crate::film::shard::{ShardReader, incomplete, mismatch};
     let this = Path::new("this render");
     let readers = paths.iter().map(|p| ShardReader::open(p)).collect::<Result<Vec<_>, _>>()?;
-    let out_id = std::fs::metadata(output).ok().map(|m| (m.dev(), m.ino()));
+    let out_id = file_id(output);
     for r in &readers {
         if !r.header.first_round {
             anyhow::bail!("--plan-from {}: not a first-round file (rendered without --first-round)", r.path.display());
         }
-        if out_id.is_some() && std::fs::metadata(&r.path).ok().map(|m| (m.dev(), m.ino())) == out_id {
+        if out_id.is_some() && file_id(&r.path) == out_id {
             anyhow::bail!("{}: --plan-from reads this file; the shard's output must go elsewhere", output.display());
         }
         if let Some(why) = mismatch(expected, this, &r.header, &r.path) {
@@ -265,13 +265,18 @@ fn is_file(path: &Path) -> bool {
     std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file())
 }
 
+/// The device and inode of the file at `p` (links followed), if there is one: the same file
+/// whatever the spelling of its path.
+fn file_id(p: &Path) -> Option<(u64, u64)> {
+    std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()))
+}
+
 /// Refuses to write any of `outputs` (path, what it would hold) that is a file the scene reads
 /// (the same file, whatever the spelling, links followed): rendering would destroy it.
 fn refuse_overwriting_inputs(scene: &Scene, outputs: &[(&Path, &str)]) -> anyhow::Result<()> {
-    let id = |p: &Path| std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()));
     for &(out, what) in outputs {
-        let Some(out_id) = id(out) else { continue };
-        if let Some(input) = scene.inputs.iter().find(|i| id(i) == Some(out_id)) {
+        let Some(out_id) = file_id(out) else { continue };
+        if let Some(input) = scene.inputs.iter().find(|i| file_id(i) == Some(out_id)) {
             anyhow::bail!(
                 "{}: the scene reads this file ({}); writing {what} of the render there would destroy it: choose another output",
                 out.display(),
