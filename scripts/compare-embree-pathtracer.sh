@@ -5,15 +5,17 @@
 #
 # Equal path semantics: 512x512, 64 spp, path length 8 (the tutorial's --max-path-length counts
 # bounces, each with one shadow ray per light; ember's --max-depth 8 is the same), 2 threads,
-# and no Russian roulette or light vertices in ember (the tutorial, a unidirectional path
-# tracer, has neither): the same rays' work, timed.
+# and no Russian roulette, light vertices or adaptive sampling in ember (the tutorial, a
+# unidirectional path tracer taking the same samples in every pixel, has none of them): the
+# same rays' work, timed.
 #
 # Usage: scripts/compare-embree-pathtracer.sh [OUT_DIR]   (default: target/compare-embree)
 # Environment: SIZE (512), SPP (64), DEPTH (8), THREADS (2), ROUNDS (3: each round times the
 # tutorial and ember's three runs; medians and ranges of the ratios are printed at the end).
 #
-# ember runs three times: with its defaults, with the tutorial's Embree settings
-# (--no-robust), and with those and the low-quality BVH (--no-robust --bvh-quality low).
+# ember runs three times: with its defaults (robust; the low-quality BVH it builds for a scene
+# this small), with the tutorial's Embree settings (--no-robust --bvh-quality medium), and
+# without the robust flag on its own low-quality BVH (--no-robust).
 #
 # Images: OUT_DIR/pathtracer.ppm (the tutorial writes linear values, clamped, without the sRGB
 # curve) and OUT_DIR/ember.png (sRGB, default settings). When python3 with Pillow is available, the mean linear
@@ -58,10 +60,11 @@ timed() {
 echo "scene: $ecs = $root/scenes/cornell.toml; ${size}x${size}, $spp spp, path length $depth, $threads threads"
 echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 
-# ember three ways: its defaults (robust BVH), the tutorial's Embree settings (no robust
-# flag, medium quality), and those with the low-quality build, the fastest on this 34-triangle
-# box (ember bench --scene scenes/cornell_box.obj).
-variants=("default (robust, medium)|" "--no-robust (as the tutorial)|--no-robust" "--no-robust --bvh-quality low|--no-robust --bvh-quality low")
+# ember three ways: its defaults (robust BVH, low quality: what `ember render` builds for at
+# most 1,000 triangles), the tutorial's Embree settings (no robust flag, medium quality), and
+# no robust flag with the low-quality build, the fastest on this 34-triangle box (ember bench
+# --scene scenes/cornell_box.obj).
+variants=("default (robust, low)|" "--no-robust --bvh-quality medium (as the tutorial)|--no-robust --bvh-quality medium" "--no-robust (low)|--no-robust")
 # Each round runs the tutorial and then the three ember variants, so a change in the
 # machine's load between rounds affects both sides of a round's ratios alike; the medians over
 # the rounds are printed at the end.
@@ -83,7 +86,7 @@ for round in $(seq "$rounds"); do
         # shellcheck disable=SC2086
         em_times=$(timed "$out/ember$tag.log" \
             "$ember" render "$root/scenes/cornell.toml" -o "$out/ember$tag.png" --width "$size" --height "$size" \
-            --spp "$spp" --max-depth "$depth" --rr-depth off --light-vertices off --threads "$threads" $flags)
+            --spp "$spp" --max-depth "$depth" --rr-depth off --light-vertices off --uniform --threads "$threads" $flags)
         read -r em_wall em_user em_sys <<<"$em_times"
         em_cpu=$(echo "$em_user $em_sys" | awk '{print $1 + $2}')
         wall_ratio=$(echo "$pt_wall $em_wall" | awk '{print $1 / $2}')
