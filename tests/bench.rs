@@ -125,6 +125,11 @@ fn quick_run_writes_the_matrix_plot_and_render_table() {
         assert!(header.iter().any(|h| h == col), "render.csv lacks {col}: {header:?}");
     }
     assert_eq!(rows.iter().map(|r| r["scene"].as_str()).collect::<Vec<_>>(), ["cornell.toml", "teapot.toml"]);
+    // Without --bvh-quality, each scene gets the BVH `ember render` builds for it: low for the
+    // 34-triangle box, medium for the 6,320-triangle teapot; robust.
+    let builds: Vec<(&str, &str)> =
+        rows.iter().map(|r| (r["bvh_quality"].as_str(), r["bvh_robust"].as_str())).collect();
+    assert_eq!(builds, [("low", "true"), ("medium", "true")]);
     for r in &rows {
         // Every ray the path tracer counted was recorded and replayed.
         assert_eq!(num(r, "rays"), num(r, "closest_queries") + num(r, "occlusion_queries"));
@@ -178,6 +183,7 @@ fn render_section_takes_the_bvh_build_of_ember_render() {
     assert!(text.contains("Russian roulette, low BVH)"), "the table says which build it measured: {text}");
     let (_, rows) = read_csv(&out.join("render.csv"));
     assert_eq!(rows.len(), 2);
+    assert!(rows.iter().all(|r| r["bvh_quality"] == "low" && r["bvh_robust"] == "false"), "{rows:?}");
     std::fs::remove_dir_all(&out).unwrap();
     // The build is a setting of the render section only.
     let o = ember(&["bench", "--quick", "--no-robust", "--out", dir]);

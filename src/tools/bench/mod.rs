@@ -18,7 +18,7 @@ pub mod strategy;
 pub mod tessellate;
 pub mod versus_naive;
 
-pub use run::{Options, Section, run};
+pub use run::{Options, RenderBvh, Section, run};
 
 use crate::accel::AccelError;
 use crate::atomic_write::WriteError;

@@ -13,6 +13,7 @@ use super::BenchError;
 use super::cputime::cpu_of;
 use super::measure::{Timing, median};
 use super::record::{RecordedQuery, RecordingAccel, replay, replay_chunks};
+use super::run::RenderBvh;
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
 use crate::integrator::{RenderSettings, render};
@@ -59,6 +60,8 @@ pub struct RenderMeasurement {
     pub rays: u64,
     pub closest_queries: usize,
     pub occlusion_queries: usize,
+    /// The BVH the renders and the replay were built with.
+    pub bvh: BuildOptions,
     /// The rounds measured, in order.
     pub rounds: Vec<Round>,
 }
@@ -156,9 +159,10 @@ pub fn measure_scene(
     path: &Path,
     device: &Device,
     cfg: &RenderConfig,
-    bvh: BuildOptions,
+    bvh: RenderBvh,
 ) -> Result<RenderMeasurement, BenchError> {
     let scene = Scene::load(path)?;
+    let bvh = bvh.for_geometry(&scene.geometry);
     let accel = EmbreeAccel::new(device, &scene.geometry, bvh)?;
     let settings = cfg.settings(&scene, None);
     let (one, two) = (pool(1)?, pool(2)?);
@@ -221,6 +225,7 @@ pub fn measure_scene(
         rays: recorded_stats.rays,
         closest_queries: queries.len() - occlusion_queries,
         occlusion_queries,
+        bvh,
         rounds,
     })
 }
@@ -257,7 +262,7 @@ pub fn summary_table(ms: &[RenderMeasurement]) -> Table {
 }
 
 /// Column names of render.csv.
-pub const CSV_COLUMNS: [&str; 19] = [
+pub const CSV_COLUMNS: [&str; 21] = [
     "scene",
     "width",
     "height",
@@ -277,6 +282,8 @@ pub const CSV_COLUMNS: [&str; 19] = [
     "two_threads_cpu_s",
     "replay_cpu_s",
     "path_tracer_percent_of_embree_cpu",
+    "bvh_quality",
+    "bvh_robust",
 ];
 
 pub fn csv_table(ms: &[RenderMeasurement]) -> Table {
@@ -302,6 +309,8 @@ pub fn csv_table(ms: &[RenderMeasurement]) -> Table {
             m.two_threads_cpu().map_or(String::new(), |c| format!("{:.6}", c.as_secs_f64())),
             m.replay_cpu().map_or(String::new(), |c| format!("{:.6}", c.as_secs_f64())),
             m.cpu_efficiency_percent().map_or(String::new(), |p| format!("{p:.1}")),
+            m.bvh.quality.to_string(),
+            m.bvh.robust.to_string(),
         ]);
     }
     t

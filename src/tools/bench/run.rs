@@ -6,9 +6,10 @@ use super::matrix::{self, MatrixConfig};
 use super::render::{self, RenderConfig};
 use super::scenes::{BenchScene, DEFAULT_SET, QUICK_SET};
 use super::specialize;
-use crate::accel::EmbreeAccel;
+use crate::accel::{EmbreeAccel, build_quality_for};
 use crate::atomic_write::write_file;
-use crate::embree::{BuildOptions, Device};
+use crate::embree::{BuildOptions, BuildQuality, Device};
+use crate::geometry::Geometry;
 use crate::tools::report::Table;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -35,7 +36,33 @@ pub struct Options {
     pub threads: Option<usize>,
     pub scenes_dir: PathBuf,
     /// The BVH build of the render section (its renders and the replay).
-    pub render_bvh: BuildOptions,
+    pub render_bvh: RenderBvh,
+}
+
+/// The BVH build of the render section: a quality, or for each scene the one `ember render`
+/// builds ([`build_quality_for`]), so that the section measures the renderer as it runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderBvh {
+    pub quality: Option<BuildQuality>,
+    pub robust: bool,
+}
+
+impl RenderBvh {
+    /// The build for a scene of this geometry.
+    pub fn for_geometry(self, geometry: &[Geometry]) -> BuildOptions {
+        let quality = self.quality.unwrap_or_else(|| build_quality_for(geometry));
+        BuildOptions { quality, robust: self.robust, ..BuildOptions::default() }
+    }
+}
+
+/// `low BVH, robust`, or `ember render's BVH, robust` when the quality is the scene's.
+impl std::fmt::Display for RenderBvh {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.quality {
+            Some(q) => write!(f, "{}", BuildOptions { quality: q, robust: self.robust, ..BuildOptions::default() }),
+            None => write!(f, "ember render's BVH{}", if self.robust { ", robust" } else { "" }),
+        }
+    }
 }
 
 fn write_table(dir: &Path, name: &str, t: &Table) -> Result<PathBuf, BenchError> {
@@ -154,7 +181,7 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
         let mut ms = Vec::new();
         for file in ["cornell.toml", "teapot.toml"] {
             let m = render::measure_scene(&opts.scenes_dir.join(file), &device, &cfg, opts.render_bvh)?;
-            log(&format!("{file}: rendered, recorded and replayed"));
+            log(&format!("{file}: rendered, recorded and replayed ({})", m.bvh));
             ms.push(m);
         }
         print!("{}", render::summary_table(&ms).to_text());

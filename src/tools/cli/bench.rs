@@ -1,6 +1,6 @@
-use crate::embree::{BuildOptions, BuildQuality};
+use crate::embree::BuildQuality;
 use crate::tools::bench::scenes::{BUILTIN, default_scenes_dir};
-use crate::tools::bench::{Options, Section, run};
+use crate::tools::bench::{Options, RenderBvh, Section, run};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -28,10 +28,10 @@ pub struct BenchArgs {
     /// Folder of the sample scenes and models [./scenes, else the source tree's].
     #[arg(long)]
     pub scenes_dir: Option<PathBuf>,
-    /// With --render: the Embree BVH build quality of the renders and the replay, as in
-    /// `ember render` (low, medium or high).
-    #[arg(long, default_value = "medium", requires = "render")]
-    pub bvh_quality: BuildQuality,
+    /// With --render: the Embree BVH build quality of the renders and the replay (low, medium
+    /// or high) [the one `ember render` builds for each scene].
+    #[arg(long, requires = "render")]
+    pub bvh_quality: Option<BuildQuality>,
     /// With --render: build without RTC_SCENE_FLAG_ROBUST, as in `ember render --no-robust`.
     #[arg(long, requires = "render")]
     pub no_robust: bool,
@@ -59,7 +59,7 @@ pub fn run_bench(args: BenchArgs) -> anyhow::Result<()> {
         sections,
         threads: args.threads.map(|t| t as usize),
         scenes_dir: args.scenes_dir.unwrap_or_else(default_scenes_dir),
-        render_bvh: BuildOptions { quality: args.bvh_quality, robust: !args.no_robust, ..BuildOptions::default() },
+        render_bvh: RenderBvh { quality: args.bvh_quality, robust: !args.no_robust },
     };
     run(&opts)?;
     Ok(())
