@@ -67,7 +67,13 @@ pub fn build_quality_for(geometry: &[Geometry]) -> BuildQuality {
 /// The build options `ember render` (and `ember info`, `ember converge`) use unless told
 /// otherwise: Embree's defaults (robust) at the quality [`build_quality_for`] the geometry.
 pub fn build_options_for(geometry: &[Geometry]) -> BuildOptions {
-    BuildOptions { quality: build_quality_for(geometry), ..BuildOptions::default() }
+    build_options_with(geometry, None, true)
+}
+
+/// The build options of `ember render`'s `--bvh-quality` (`quality`; `None`: the one
+/// [`build_quality_for`] the geometry) and `--no-robust` (`robust` false).
+pub fn build_options_with(geometry: &[Geometry], quality: Option<BuildQuality>, robust: bool) -> BuildOptions {
+    BuildOptions { quality: quality.unwrap_or_else(|| build_quality_for(geometry)), robust, ..BuildOptions::default() }
 }
 
 impl Accel for EmbreeAccel {

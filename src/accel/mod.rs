@@ -8,7 +8,7 @@
 mod embree;
 mod naive;
 
-pub use self::embree::{EmbreeAccel, build_options_for, build_quality_for};
+pub use self::embree::{EmbreeAccel, build_options_for, build_options_with, build_quality_for};
 pub use naive::NaiveAccel;
 
 use crate::embree::EmbreeError;

@@ -6,7 +6,7 @@ use super::matrix::{self, MatrixConfig};
 use super::render::{self, RenderConfig};
 use super::scenes::{BenchScene, DEFAULT_SET, QUICK_SET};
 use super::specialize;
-use crate::accel::{EmbreeAccel, build_quality_for};
+use crate::accel::{EmbreeAccel, build_options_with};
 use crate::atomic_write::write_file;
 use crate::embree::{BuildOptions, BuildQuality, Device};
 use crate::geometry::Geometry;
@@ -40,7 +40,7 @@ pub struct Options {
 }
 
 /// The BVH build of the render section: a quality, or for each scene the one `ember render`
-/// builds ([`build_quality_for`]), so that the section measures the renderer as it runs.
+/// builds ([`build_options_with`]), so that the section measures the renderer as it runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RenderBvh {
     pub quality: Option<BuildQuality>,
@@ -50,8 +50,7 @@ pub struct RenderBvh {
 impl RenderBvh {
     /// The build for a scene of this geometry.
     pub fn for_geometry(self, geometry: &[Geometry]) -> BuildOptions {
-        let quality = self.quality.unwrap_or_else(|| build_quality_for(geometry));
-        BuildOptions { quality, robust: self.robust, ..BuildOptions::default() }
+        build_options_with(geometry, self.quality, self.robust)
     }
 }
 

@@ -11,7 +11,6 @@ pub use interrupt::Interrupted;
 pub(crate) use summary::denoised as denoised_summary;
 
 use super::progress::ProgressBar;
-use crate::embree::BuildOptions;
 use crate::film::shard::ShardHeader;
 use crate::film::{Accumulator, AuxMode, Checkpoint, Film, ImageFormat, Look, RenderImages, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
@@ -96,8 +95,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // Held until this function returns, whichever way; removes OUT.lock then.
     let _lock = OutputLock::acquire(&args.output)?;
     // The build quality the scene calls for unless told: see `build_quality_for`.
-    let quality = args.bvh_quality.unwrap_or_else(|| crate::accel::build_quality_for(&scene.geometry));
-    let bvh = BuildOptions { quality, robust: !args.no_robust, ..BuildOptions::default() };
+    let bvh = crate::accel::build_options_with(&scene.geometry, args.bvh_quality, !args.no_robust);
     let resume = if args.resume {
         // Checked against this render before anything is read: size, scene, settings,
         // accelerator, contents.
