@@ -137,6 +137,13 @@ impl Accumulator {
         Accumulator { aux: Some(vec![AuxSums::default(); n]), ..Accumulator::new(width, height) }
     }
 
+    /// An empty accumulator for a render that takes the auxiliary images if `aux` and keeps an
+    /// adaptive render's plan if `adaptive`.
+    pub fn empty(width: u32, height: u32, aux: bool, adaptive: bool) -> Accumulator {
+        let a = if aux { Accumulator::with_aux(width, height) } else { Accumulator::new(width, height) };
+        if adaptive { a.adaptive() } else { a }
+    }
+
     /// The mean albedo image, if the auxiliary images were taken.
     pub fn albedo(&self) -> Option<Film> {
         self.aux_film(|a, n| a.mean(n).0)

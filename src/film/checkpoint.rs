@@ -258,14 +258,7 @@ impl Checkpoint {
             // Same size, other layout: say what the header claims.
             return Err(header.mismatch(path, key).unwrap_or_else(|| corrupt("damaged header".into())));
         }
-        let mut accum = if key.aux {
-            Accumulator::with_aux(header.width, header.height)
-        } else {
-            Accumulator::new(header.width, header.height)
-        };
-        if key.adaptive {
-            accum = accum.adaptive();
-        }
+        let mut accum = Accumulator::empty(header.width, header.height, key.aux, key.adaptive);
         let plan_at = (PIXEL_BYTES + if key.aux { AUX_BYTES } else { 0 }) as usize;
         let record = key.pixel_bytes() as usize;
         let mut chunk = vec![0u8; 4096 * record];

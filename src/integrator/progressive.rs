@@ -185,10 +185,7 @@ pub(super) fn run(
             );
             (first.accum, first.elapsed, first.nonfinite)
         }
-        (None, None) => {
-            let a = if settings.aux { Accumulator::with_aux(w, h) } else { Accumulator::new(w, h) };
-            (if settings.adaptive { a.adaptive() } else { a }, Duration::ZERO, 0)
-        }
+        (None, None) => (Accumulator::empty(w, h, settings.aux, settings.adaptive), Duration::ZERO, 0),
     };
     let camera = scene.camera(w as f32 / h as f32);
     let lights = scene.light_set();

@@ -91,7 +91,7 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("{}: {e}", first.path.display()))?;
     let nonfinite: u64 = readers.iter().map(|r| r.header.nonfinite).sum();
     let elapsed: std::time::Duration = readers.iter().map(|r| r.header.elapsed).sum();
-    let mut accum = if aux { Accumulator::with_aux(width, height) } else { Accumulator::new(width, height) };
+    let mut accum = Accumulator::empty(width, height, aux, false);
     for r in readers {
         r.read_into(&mut accum).map_err(|e| anyhow::anyhow!("{e}; nothing was written"))?;
     }

@@ -248,10 +248,7 @@ fn read_first_rounds(
     let own = readers.iter().find(|r| r.header.shard == expected.shard).expect("every shard is there");
     let (elapsed, nonfinite) = (own.header.elapsed, own.header.nonfinite);
     let (w, h) = (expected.width, expected.height);
-    let mut accum = if expected.aux { Accumulator::with_aux(w, h) } else { Accumulator::new(w, h) };
-    if expected.plan {
-        accum = accum.adaptive();
-    }
+    let mut accum = Accumulator::empty(w, h, expected.aux, expected.plan);
     for r in readers {
         r.read_into(&mut accum).map_err(|e| anyhow::anyhow!("--plan-from: {e}"))?;
     }
