@@ -199,6 +199,23 @@ impl Image {
     }
 }
 
+/// Where a texture is looked up: the surface's texture coordinates (sets 0 and 1, as glTF's
+/// `TEXCOORD_0` and `TEXCOORD_1`; a surface with one set has it in both) and the width of the
+/// footprint there, in units of set 0 (0: the finest detail).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TexCoords {
+    pub uv: [Vec2; 2],
+    pub width: f32,
+}
+
+impl TexCoords {
+    /// One set of coordinates, a point footprint.
+    #[inline(always)]
+    pub fn new(uv: Vec2) -> TexCoords {
+        TexCoords { uv: [uv, uv], width: 0.0 }
+    }
+}
+
 /// A colour that may vary over a surface.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Texture {
@@ -214,7 +231,8 @@ pub enum Texture {
 
 impl Texture {
     #[inline]
-    pub fn eval(&self, uv: Vec2) -> Vec3 {
+    pub fn eval(&self, at: &TexCoords) -> Vec3 {
+        let uv = at.uv[0];
         match self {
             Texture::Constant(c) => *c,
             Texture::Image(img) => img.bilinear(uv),
@@ -229,13 +247,18 @@ impl Texture {
     /// The value at `uv` when `TEX`; otherwise (the caller knows no texture is in use) the
     /// constant it is, without looking at `uv`.
     #[inline(always)]
-    pub fn at<const TEX: bool>(&self, uv: Vec2) -> Vec3 {
-        if TEX { self.eval(uv) } else { self.average() }
+    pub fn at<const TEX: bool>(&self, at: &TexCoords) -> Vec3 {
+        if TEX { self.eval(at) } else { self.average() }
     }
 
     /// Whether the value is the same everywhere.
     pub fn is_constant(&self) -> bool {
         matches!(self, Texture::Constant(_))
+    }
+
+    /// The texture if its value varies over the surface.
+    pub fn varying(&self) -> Option<&Texture> {
+        (!self.is_constant()).then_some(self)
     }
 
     /// The largest value of each channel anywhere on the surface.

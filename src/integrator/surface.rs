@@ -4,6 +4,7 @@
 use crate::geometry::{Geometry, Hit, Ray};
 use crate::material::Material;
 use crate::scene::Scene;
+use crate::texture::TexCoords;
 use glam::{Vec2, Vec3};
 
 pub struct SurfacePoint<'a> {
@@ -13,7 +14,8 @@ pub struct SurfacePoint<'a> {
     pub ng: Vec3,
     /// Unit shading normal, on the same side as `ng`.
     pub ns: Vec3,
-    pub uv: Vec2,
+    /// Where textures are looked up.
+    pub tex: TexCoords,
     pub material: &'a Material,
 }
 
@@ -72,7 +74,7 @@ pub fn surface_point<'a, const TEX: bool>(
             };
             let uv =
                 if !TEX || m.uvs.is_empty() { Vec2::new(u, v) } else { w * m.uvs[i0] + u * m.uvs[i1] + v * m.uvs[i2] };
-            SurfacePoint { p, ng, ns, uv, material }
+            SurfacePoint { p, ng, ns, tex: TexCoords::new(uv), material }
         }
         Geometry::Spheres(s) => {
             let ng = hit.ng.normalize_or(-ray.d);
@@ -80,13 +82,19 @@ pub fn surface_point<'a, const TEX: bool>(
             // Re-projected onto the sphere along the hit's normal (which the sphere has already
             // turned to face the ray at near-tangent hits, where o + t·d rounds to the far side).
             let n = ng;
-            SurfacePoint { p: s.center + s.radius * n, ng: n, ns: n, uv: Vec2::new(hit.u, hit.v), material }
+            SurfacePoint {
+                p: s.center + s.radius * n,
+                ng: n,
+                ns: n,
+                tex: TexCoords::new(Vec2::new(hit.u, hit.v)),
+                material,
+            }
         }
         Geometry::Cylinders(c) => {
             let ng = hit.ng.normalize_or(-ray.d);
             // o + t·d carries the rounding error of a distant origin: project onto the surface.
             let (p, _) = c[hit.prim as usize].project(ray.at(hit.t), ng);
-            SurfacePoint { p, ng, ns: ng, uv: Vec2::new(hit.u, hit.v), material }
+            SurfacePoint { p, ng, ns: ng, tex: TexCoords::new(Vec2::new(hit.u, hit.v)), material }
         }
     }
 }

@@ -21,7 +21,7 @@ use glam::{Vec2, Vec3};
 pub(super) const MIN_ALPHA: f32 = 1e-3;
 
 /// An isotropic GGX distribution with width `alpha`.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Ggx {
     alpha: f32,
 }

@@ -175,8 +175,9 @@ impl Scene {
         let mut images: Vec<&Arc<Image>> = self
             .materials
             .iter()
-            .filter_map(|m| match m.texture() {
-                Some(Texture::Image(i)) => Some(i),
+            .flat_map(|m| m.textures())
+            .filter_map(|t| match t {
+                Texture::Image(i) => Some(i),
                 _ => None,
             })
             .collect();
