@@ -12,7 +12,7 @@ use ember::material::{GlassMaterial, MaterialKind, MetalMaterial, PlasticMateria
 use ember::memory::LoadBudget;
 use ember::scene::Scene;
 use ember::scene::mesh_file::{self, MeshFile};
-use ember::texture::{Image, Texture};
+use ember::texture::{Encoding, MipImage, Texture};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -143,10 +143,10 @@ fn gltf_materials_camera_and_lights_are_mapped() {
         // metallic 1 (the default), roughness 0.2, base colour texture → metal with the image,
         // which decodes as the PNG Blender saved beside the .gltf does.
         match &f.materials[1].kind {
-            MaterialKind::Metal(MetalMaterial { color: Texture::Image(img), roughness }) => {
+            MaterialKind::Metal(MetalMaterial { color: Texture::Map { map, .. }, roughness }) => {
                 assert!((roughness - 0.2).abs() < 1e-6);
-                let png = Image::load(&data("checker.png"), &LoadBudget::unlimited()).unwrap();
-                assert_eq!(**img, png, "{name}: texture");
+                let png = MipImage::load(&data("checker.png"), &LoadBudget::unlimited(), Encoding::Srgb).unwrap();
+                assert_eq!(*map.image, png, "{name}: texture");
             }
             k => panic!("{name}: cube material {k:?}"),
         }

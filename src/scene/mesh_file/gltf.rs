@@ -19,7 +19,7 @@ use crate::light::PointLight;
 use crate::material::{DiffuseMaterial, GlassMaterial, Material, MaterialKind, MetalMaterial, PlasticMaterial};
 use crate::memory::{self, LoadBudget};
 use crate::scene::{CameraSpec, SceneError, input};
-use crate::texture::{Image, Texture};
+use crate::texture::{Encoding, MipImage, Sampler, Texture, TextureMap, UvTransform, Wrap};
 use base64::Engine;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
@@ -366,7 +366,7 @@ impl<'a> Loader<'a> {
     /// Normal, occlusion, metallic-roughness and transmission textures, alpha, and texture
     /// coordinate sets other than 0 are ignored, with one warning per kind.
     fn materials(&self, buffers: &[Vec<u8>], ignored: &mut Tally) -> Result<Vec<Material>, SceneError> {
-        let mut images: HashMap<usize, Arc<Image>> = HashMap::new();
+        let mut images: HashMap<usize, Arc<MipImage>> = HashMap::new();
         let mut out = Vec::new();
         let file_name = self.path.file_name().map_or(String::new(), |f| f.to_string_lossy().into_owned());
         for m in self.doc.materials() {
@@ -378,7 +378,7 @@ impl<'a> Loader<'a> {
             let roughness = pbr.roughness_factor().clamp(0.0, 1.0);
             let metallic = pbr.metallic_factor();
             let mut image =
-                |info: &gltf::texture::Info, slot: &str, ignored: &mut Tally| -> Result<Arc<Image>, SceneError> {
+                |info: &gltf::texture::Info, slot: &str, ignored: &mut Tally| -> Result<Arc<MipImage>, SceneError> {
                     let at = format!("{at}.{slot}");
                     if info.tex_coord() != 0 {
                         ignored.add("texture coordinate sets other than TEXCOORD_0 (set 0 is used)", &at);
@@ -387,19 +387,14 @@ impl<'a> Loader<'a> {
                     if let Some(done) = images.get(&img.index()) {
                         return Ok(done.clone());
                     }
-                    let loaded = Arc::new(self.image(&at, &img, buffers)?);
+                    let loaded = Arc::new(self.image(&at, &img, buffers, Encoding::Srgb)?);
                     images.insert(img.index(), loaded.clone());
                     Ok(loaded)
                 };
             let color = match pbr.base_color_texture() {
                 Some(info) => {
                     let img = image(&info, "pbrMetallicRoughness.baseColorTexture", ignored)?;
-                    if base == Vec3::ONE {
-                        Texture::Image(img)
-                    } else {
-                        let pixels = img.pixels.iter().map(|p| *p * base).collect();
-                        Texture::Image(Arc::new(Image { width: img.width, height: img.height, pixels }))
-                    }
+                    Texture::Map { map: texture_map(img, &info.texture().sampler()), factor: base }
                 }
                 None => Texture::Constant(base),
             };
@@ -410,7 +405,7 @@ impl<'a> Loader<'a> {
                     format!("{at}.emissiveTexture"),
                 );
                 if emission != Vec3::ZERO {
-                    emission *= image(&info, "emissiveTexture", ignored)?.mean();
+                    emission *= image(&info, "emissiveTexture", ignored)?.mean().truncate();
                 }
             }
             if !emission.is_finite() || emission.min_element() < 0.0 {
@@ -465,13 +460,19 @@ impl<'a> Loader<'a> {
     }
 
     /// Decodes an image (PNG or JPEG) from a buffer view or a URI.
-    fn image(&self, at: &str, img: &gltf::Image, buffers: &[Vec<u8>]) -> Result<Image, SceneError> {
+    fn image(
+        &self,
+        at: &str,
+        img: &gltf::Image,
+        buffers: &[Vec<u8>],
+        encoding: Encoding,
+    ) -> Result<MipImage, SceneError> {
         let at = format!("{at}: images[{}]", img.index());
         let bytes: Cow<[u8]> = match img.source() {
             gltf::image::Source::View { view, .. } => Cow::Borrowed(self.view_bytes(&at, &view, buffers)?),
             gltf::image::Source::Uri { uri, .. } => self.uri(&at, uri)?,
         };
-        Image::from_memory(&bytes, self.budget).map_err(|e| self.err(at, e.to_string()))
+        MipImage::decode(&bytes, self.budget, encoding).map_err(|e| self.err(at, e.to_string()))
     }
 
     /// The bytes of a buffer view.
@@ -811,6 +812,18 @@ impl<'a> Loader<'a> {
             )),
         }
     }
+}
+
+/// A texture map of `image` through a glTF sampler: its wrap modes; the coordinates flipped
+/// back to glTF's (v down from the image's top: meshes keep v up, as OBJ's).
+fn texture_map(image: Arc<MipImage>, sampler: &gltf::texture::Sampler) -> TextureMap {
+    let wrap = |w: gltf::texture::WrappingMode| match w {
+        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+    };
+    let sampler = Sampler { wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())] };
+    TextureMap { transform: Some(UvTransform::FLIP_V), ..TextureMap::new(image, sampler) }
 }
 
 /// `%XX` escapes of a URI decoded (glTF URIs are percent-encoded); bad escapes kept as they are.
