@@ -280,6 +280,15 @@ impl Texture {
         (!self.is_constant()).then_some(self)
     }
 
+    /// The smallest value of each channel anywhere on the surface.
+    pub fn min(&self) -> Vec3 {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Map { map, factor } => *factor * map.image.min().truncate(),
+            Texture::Checker { a, b, .. } => a.min(*b),
+        }
+    }
+
     /// The largest value of each channel anywhere on the surface.
     pub fn max(&self) -> Vec3 {
         match self {

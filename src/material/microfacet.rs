@@ -33,6 +33,16 @@ impl Ggx {
         Ggx { alpha: r * r }
     }
 
+    /// The distribution of width `alpha` (NaN counts as 0; at most 1).
+    pub(super) fn from_alpha(alpha: f32) -> Self {
+        Ggx { alpha: if alpha.is_nan() { 0.0 } else { alpha.clamp(0.0, 1.0) } }
+    }
+
+    /// Its width α.
+    pub(super) fn alpha(&self) -> f32 {
+        self.alpha
+    }
+
     /// True if the distribution is too narrow to be sampled: use a mirror instead.
     pub(super) fn is_smooth(&self) -> bool {
         self.alpha < MIN_ALPHA

@@ -9,10 +9,10 @@
 //! shading point, its albedo, the lobes the scene analysis reports, and its fingerprint:
 //! - `diffuse` ([`DiffuseMaterial`]), `conductor` ([`MetalMaterial`]), `plastic`
 //!   ([`PlasticMaterial`]), `dielectric` ([`GlassMaterial`]), `emissive`
-//!   ([`EmissiveMaterial`]);
+//!   ([`EmissiveMaterial`]), `pbr` (glTF's metallic-roughness material, [`PbrMaterial`]);
 //! - shared by them: `fresnel`, exact dielectric ([`fresnel_dielectric`]) and Schlick Fresnel
 //!   reflectance; `microfacet`, the GGX distribution, Smith masking-shadowing and
-//!   visible-normal sampling.
+//!   visible-normal sampling; `albedo`, GGX's directional albedo tabulated.
 //!
 //! Each kind's description implements [`MaterialModel`] and its BSDF [`BsdfModel`]: the kind
 //! answers the scene analysis itself (lobes, albedo, textures, whether it scatters) and its
@@ -33,12 +33,14 @@
 //!   within [`MIN_COS`] of — the surface plane; the caller flips the frame so that `wo.z > 0`.
 //! - No method returns NaN or infinity for unit-length inputs.
 
+mod albedo;
 mod conductor;
 mod dielectric;
 mod diffuse;
 mod emissive;
 mod fresnel;
 mod microfacet;
+mod pbr;
 mod plastic;
 
 use glam::{Vec2, Vec3};
@@ -51,6 +53,7 @@ pub use dielectric::{Dielectric, GlassMaterial};
 pub use diffuse::{DiffuseMaterial, Lambert};
 pub use emissive::EmissiveMaterial;
 pub use fresnel::fresnel_dielectric;
+pub use pbr::{AlphaMode, NormalMap, PbrBsdf, PbrMaterial};
 pub use plastic::{Plastic, PlasticMaterial};
 
 /// What a material kind answers: see the module documentation.
@@ -252,6 +255,9 @@ material_kinds! {
     Glass(GlassMaterial) => Dielectric,
     /// Emits and reflects nothing.
     Emissive(EmissiveMaterial) => Lambert,
+    /// glTF's metallic-roughness material: a metal and a dielectric over a diffuse base,
+    /// mixed by metalness, every factor textured.
+    Pbr(PbrMaterial) => PbrBsdf,
 }
 
 /// A named material; any material may also emit (`emission`, radiance, both faces).
@@ -348,6 +354,12 @@ impl Bsdf {
     /// Smooth glass ([`Dielectric`]) of index `ior`, transmission tinted by `tint`.
     pub fn dielectric(ior: f32, tint: Vec3) -> Bsdf {
         Bsdf::Glass(Dielectric::new(ior, tint))
+    }
+
+    /// glTF's metallic-roughness BSDF ([`PbrBsdf`]) of base colour `base`, dielectric index
+    /// 1.5, without `KHR_materials_specular`.
+    pub fn pbr(base: Vec3, metallic: f32, roughness: f32) -> Bsdf {
+        Bsdf::Pbr(PbrBsdf::new(base, metallic, roughness, 1.5, 1.0, Vec3::ONE))
     }
 
     /// [`BsdfModel::eval`] where the caller knows every BSDF is Lambertian (kernels without

@@ -121,8 +121,9 @@ pub struct MipImage {
     encoding: Encoding,
     /// The value of each 8-bit number: the sRGB decoding or v / 255.
     table: Box<[f32; 256]>,
-    /// Per channel over level 0 (linear): the mean and the largest value.
+    /// Per channel over level 0 (linear): the mean, the smallest and the largest value.
     mean: Vec4,
+    min: Vec4,
     max: Vec4,
 }
 
@@ -148,14 +149,15 @@ impl MipImage {
             levels.push(downsample(last, &table, encoding));
         }
         let l0 = &levels[0];
-        let (mut sum, mut max) = (glam::DVec4::ZERO, Vec4::ZERO);
+        let (mut sum, mut min, mut max) = (glam::DVec4::ZERO, Vec4::ONE, Vec4::ZERO);
         for t in &l0.texels {
             let v = texel_value(t, &table);
             sum += v.as_dvec4();
+            min = min.min(v);
             max = max.max(v);
         }
         let mean = (sum / l0.texels.len() as f64).as_vec4();
-        MipImage { levels, encoding, table, mean, max }
+        MipImage { levels, encoding, table, mean, min, max }
     }
 
     /// Decodes a PNG or JPEG file's bytes (held in memory: a file's, or an image embedded in
@@ -190,6 +192,11 @@ impl MipImage {
     /// Per channel, linear: the mean over the image.
     pub fn mean(&self) -> Vec4 {
         self.mean
+    }
+
+    /// Per channel, linear: the smallest value anywhere (no lookup is below it).
+    pub fn min(&self) -> Vec4 {
+        self.min
     }
 
     /// Per channel, linear: the largest value anywhere (no lookup exceeds it).
