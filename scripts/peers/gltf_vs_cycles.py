@@ -42,7 +42,8 @@ Command, from the repository root (with the defaults and CAN_GLB, 19 assets: 16 
 about 11 minutes on 2 free cores; 27 minutes measured while other builds kept the load at ~6):
     /work/venvs/bpy/bin/python scripts/peers/gltf_vs_cycles.py [ASSET ...]
 ASSET names are those of the ASSETS table below (default: all of them whose file exists) and of
-EXTRA (references for ember's own tests, e.g. texture_transform_baked, run only when named).
+EXTRA (references for ember's own tests, e.g. texture_transform_baked, run only when named); when
+both files of a reference pair (PAIRS) are run, results.md adds how alike Cycles renders them.
 Environment: OUT (/tmp/peers/gltf-vs-cycles), EMBER (target/release/ember), SPP (128), SIZE
 (256: the image's width and height), CAN_GLB (a second real asset, e.g. the textured drink can
 white-claw-can.glb of scenes/SOURCES.md; skipped when unset), SKIP_RENDER (1: only recompute
@@ -121,6 +122,10 @@ EXTRA = {
                                  (0.0, 0.0, 0.0), 45.0, "draco_torus without Draco"),
 }
 ALL = {**ASSETS, **EXTRA}
+# Pairs Cycles should render alike; compared (Cycles' seed-0 images) when both are run.
+PAIRS = [("texture_transform", "texture_transform_baked"), ("instanced_blender", "instanced_copies_trimesh"),
+         ("draco_torus", "draco_torus_uncompressed"), ("normal_sphere", "normal_sphere_mikk"),
+         ("normal_tilt20", "normal_tilt20_geometric")]
 
 
 # ================================================================= environment
@@ -441,16 +446,39 @@ def analyze(recs):
     return rows
 
 
+def pairs(names):
+    """Cycles against Cycles for each reference pair run: the two files' seed-0 images (where both
+    cover the pixel), and Cycles' own floor (the second file's seed 1 against its seed 0)."""
+    import numpy as np
+    out = []
+    for a, b in PAIRS:
+        if a not in names or b not in names:
+            continue
+        A, B, B1 = (read_exr(os.path.join(OUT, "img", f"{n}_cycles_s{s}.exr")) for n, s in ((a, 0), (b, 0), (b, 1)))
+        mask = (A[..., 3] >= MASK_ALPHA) & (B[..., 3] >= MASK_ALPHA)
+        ratio, block, _, n = compare(A, B, mask)
+        _, floor, _, _ = compare(B1, B, mask)
+        out.append(f"| {a} / {b} | {ratio:.4f} | {block:.2%} | {floor:.2%} | {n} | "
+                   f"{float(np.mean(np.abs(A[..., 3] - B[..., 3]))):.4f} |")
+    if not out:
+        return ""
+    return ("\n## Reference pairs in Cycles\n\nThe first file's Cycles image against the second's (seed 0, where "
+            "both cover the pixel); floor: the second at seed 1 against seed 0.\n\n"
+            "| pair | ratio | block err | floor block | blocks | mean alpha difference |\n"
+            "| --- | ---: | ---: | ---: | ---: | ---: |\n" + "\n".join(out) + "\n")
+
+
 def fmt(v, spec=".3f"):
     return "n/a" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, spec)
 
 
-def report(rows, wall):
+def report(rows, wall, extra=""):
     L = []
     P = L.append
     P("# glTF assets: ember against Blender Cycles (scripts/peers/gltf_vs_cycles.py)\n")
     P(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {SIZE}x{SIZE}, {SPP} spp, path length {PATH_LENGTH}, "
-      f"{THREADS} threads; ember `{EMBER}`; whole run {wall / 60:.1f} min.\n")
+      f"{THREADS} threads; ember `{EMBER}`; " + ("metrics recomputed from the images in OUT.\n" if SKIP_RENDER else
+                                                f"whole run {wall / 60:.1f} min.\n"))
     P("Inside each asset's outline (Cycles' alpha >= 0.999): ratio = mean ember / mean Cycles; block = mean relative "
       "error of 8x8 blocks wholly inside; floor = Cycles seed 1 against seed 0; bg = ember's background against the "
       "environment (1.00 = seen the right way up).\n")
@@ -466,7 +494,7 @@ def report(rows, wall):
     P("\nSide by side (ember | Cycles over the same environment | block error, black 0 to white >= 50%, blue outside "
       "the outline): OUT/png/ASSET.png; both images x png_scale (results.csv) so that Cycles' 99th percentile "
       "inside the outline is at most 1. ember's warnings and the commands: results.csv, logs/.\n")
-    md = "\n".join(L) + "\n"
+    md = "\n".join(L) + "\n" + extra
     with open(os.path.join(OUT, "results.md"), "w") as fh:
         fh.write(md)
     cols = ["asset", "what", "coverage", "ratio", "block", "floor_ratio", "floor_block", "blocks", "bg", "png_scale",
@@ -506,7 +534,7 @@ def main(names):
               f"Cycles {rec['cycles_s']} s{' FAILED: ' + rec['cycles_error'] if 'cycles_error' in rec else ''}",
               flush=True)
         recs.append(rec)
-    report(analyze(recs), time.time() - t0)
+    report(analyze(recs), time.time() - t0, pairs(names))
 
 
 if __name__ == "__main__":
