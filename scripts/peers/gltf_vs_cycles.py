@@ -47,7 +47,7 @@ both files of a reference pair (PAIRS) are run, results.md adds how alike Cycles
 Environment: OUT (/tmp/peers/gltf-vs-cycles), EMBER (target/release/ember), SPP (128), SIZE
 (256: the image's width and height), CAN_GLB (a second real asset, e.g. the textured drink can
 white-claw-can.glb of scenes/SOURCES.md; skipped when unset), SKIP_RENDER (1: only recompute
-the metrics from the images already in OUT).
+the metrics from the images already in OUT; give the SPP and SIZE they were rendered with).
 """
 import csv
 import json
