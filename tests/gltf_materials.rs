@@ -37,7 +37,8 @@ impl Quad {
     /// The unit square in the XZ plane facing +Y, u along +X, glTF's v along +Z (so the
     /// image's top edge is at −Z), transformed by `rotation`.
     fn floor(rotation: Quat) -> Quad {
-        let corners = [[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 0.0, -1.0]].map(|c| rotation * Vec3::from(c));
+        let corners =
+            [[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 0.0, -1.0]].map(|c| rotation * Vec3::from(c));
         Quad {
             corners,
             normal: rotation * Vec3::Y,
@@ -66,7 +67,11 @@ impl Quad {
         let lo = self.corners.iter().copied().fold(Vec3::INFINITY, Vec3::min);
         let hi = self.corners.iter().copied().fold(Vec3::NEG_INFINITY, Vec3::max);
         let mut accessors = vec![
-            format!(r#"{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": {:?}, "max": {:?}}}"#, lo.to_array(), hi.to_array()),
+            format!(
+                r#"{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": {:?}, "max": {:?}}}"#,
+                lo.to_array(),
+                hi.to_array()
+            ),
             r#"{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"}"#.to_string(),
             r#"{"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"}"#.to_string(),
         ];
@@ -75,7 +80,10 @@ impl Quad {
             accessors.push(r#"{"bufferView": 3, "componentType": 5126, "count": 4, "type": "VEC4"}"#.into());
             attributes += r#", "TANGENT": 3"#;
         }
-        accessors.push(format!(r#"{{"bufferView": {}, "componentType": 5123, "count": 6, "type": "SCALAR"}}"#, views.len() - 1));
+        accessors.push(format!(
+            r#"{{"bufferView": {}, "componentType": 5123, "count": 6, "type": "SCALAR"}}"#,
+            views.len() - 1
+        ));
         let views: Vec<String> =
             views.iter().map(|(o, l)| format!(r#"{{"buffer": 0, "byteOffset": {o}, "byteLength": {l}}}"#)).collect();
         let images: Vec<String> = self.images.iter().map(|u| format!(r#"{{"uri": "{u}"}}"#)).collect();
@@ -130,11 +138,13 @@ fn a_normal_map_shades_as_the_geometry_it_describes() {
     // 8-bit encoded as (n + 1) / 2.
     let encode = |x: f32| ((x + 1.0) * 0.5 * 255.0).round() as u8;
     let texel = [encode(tilt.sin()), encode(0.0), encode(tilt.cos()), 255];
-    let normal_mapped = |tangent: Option<[f32; 4]>| Quad {
+    let normal_mapped = |tangent: Option<[f32; 4]>| {
+        Quad {
         tangent,
         material: r#"{"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0, "roughnessFactor": 1}, "normalTexture": {"index": 0}}"#.into(),
         images: vec![png_uri(2, 2, |_, _| texel)],
         ..Quad::floor(Quat::IDENTITY)
+    }
     };
     normal_mapped(Some([1.0, 0.0, 0.0, 1.0])).write(&dir.join("given.gltf"));
     normal_mapped(None).write(&dir.join("mikktspace.gltf"));

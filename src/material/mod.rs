@@ -162,8 +162,10 @@ pub struct Lobes {
 /// the variant's own type. A kind is one line of the list below.
 macro_rules! material_kinds {
     ($($(#[$doc:meta])* $variant:ident($ty:ty) => $bsdf:ty,)*) => {
-        /// What a surface is made of.
+        /// What a surface is made of. (A scene has a few materials, looked up by reference:
+        /// the size of the largest kind costs nothing.)
         #[derive(Clone, Debug, PartialEq)]
+        #[allow(clippy::large_enum_variant)]
         pub enum MaterialKind {
             $($(#[$doc])* $variant($ty),)*
         }

@@ -262,21 +262,15 @@ impl<'a> Loader<'a> {
                 let at = format!("meshes[{}].primitives[{}]", inst.mesh.index(), prim.index());
                 // A normal-mapped material needs tangents, for its normal map's coordinate set.
                 let tangents = prim.material().index().and_then(|i| match &materials[i].kind {
-                    MaterialKind::Pbr(PbrMaterial { normal: Some(NormalMap { texture: Texture::Map { map, .. }, .. }), .. }) => {
-                        Some(map.set)
-                    }
+                    MaterialKind::Pbr(PbrMaterial {
+                        normal: Some(NormalMap { texture: Texture::Map { map, .. }, .. }),
+                        ..
+                    }) => Some(map.set),
                     _ => None,
                 });
-                if let Some(m) = self.primitive(
-                    &at,
-                    &inst.mesh,
-                    &prim,
-                    inst.world,
-                    &buffers,
-                    tangents,
-                    &mut ignored,
-                    &mut warnings,
-                )? {
+                if let Some(m) =
+                    self.primitive(&at, &inst.mesh, &prim, inst.world, &buffers, tangents, &mut ignored, &mut warnings)?
+                {
                     meshes.push(m);
                 }
             }
@@ -431,8 +425,10 @@ impl<'a> Loader<'a> {
             };
             let normal = match m.normal_texture() {
                 Some(n) => {
-                    let slot = TextureSlot { texture: n.texture(), tex_coord: n.tex_coord(), extensions: n.extensions() };
-                    let texture = Texture::Map { map: map(slot, "normalTexture", Encoding::Linear, ignored)?, factor: Vec3::ONE };
+                    let slot =
+                        TextureSlot { texture: n.texture(), tex_coord: n.tex_coord(), extensions: n.extensions() };
+                    let texture =
+                        Texture::Map { map: map(slot, "normalTexture", Encoding::Linear, ignored)?, factor: Vec3::ONE };
                     Some(NormalMap { texture, scale: n.scale() })
                 }
                 None => None,
@@ -477,7 +473,10 @@ impl<'a> Loader<'a> {
                 }
                 None => (1.0, Vec3::ONE),
             };
-            if !(specular.is_finite() && specular >= 0.0 && specular_color.is_finite() && specular_color.min_element() >= 0.0)
+            if !(specular.is_finite()
+                && specular >= 0.0
+                && specular_color.is_finite()
+                && specular_color.min_element() >= 0.0)
             {
                 return Err(self.err(
                     format!("{at}.extensions.KHR_materials_specular"),
