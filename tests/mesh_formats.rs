@@ -167,7 +167,7 @@ fn gltf_materials_camera_and_lights_are_mapped() {
             }
             k => panic!("{name}: icosphere material {k:?}"),
         }
-        assert_eq!(f.materials[2].emission, Vec3::new(2.0, 1.0, 0.5));
+        assert_eq!(f.materials[2].emission, Texture::Constant(Vec3::new(2.0, 1.0, 0.5)));
         // Blender's camera at (9, -11, 7) Z-up = (9, 7, 11) Y-up, aimed at (0, 1, 0), 35°.
         let cam = f.camera.expect("camera");
         assert!((cam.position - Vec3::new(9.0, 7.0, 11.0)).length() < 1e-4, "{cam:?}");

@@ -351,7 +351,11 @@ fn mtl_ke_is_emission() {
     );
     let p = common::write_scene("render", "ke.toml", &format!("{CAMERA_ABOVE_PLANE}[[meshes]]\nfile = \"ke.obj\"\n"));
     let scene = Scene::load(&p).unwrap();
-    assert!(scene.materials.iter().any(|m| m.emission == glam::Vec3::splat(le as f32)), "{:?}", scene.materials);
+    assert!(
+        scene.materials.iter().any(|m| m.emission == ember::texture::Texture::Constant(glam::Vec3::splat(le as f32))),
+        "{:?}",
+        scene.materials
+    );
     check_plane_under_quad_light(&scene, albedo, le);
 }
 

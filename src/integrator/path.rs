@@ -93,7 +93,7 @@ pub(crate) fn radiance<
         };
         let sp = surface_point::<TEX>(ctx.scene, ctx.normals, &ray, &hit);
         let wo = -ray.d;
-        let emission = sp.material.emission;
+        let emission = sp.material.emission.at::<TEX>(&sp.tex);
         // Without non-delta lights nothing emits.
         if HIT_LIGHTS
             && emission != Vec3::ZERO

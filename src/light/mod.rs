@@ -24,6 +24,7 @@ pub use point::PointLight;
 
 use crate::geometry::{Geometry, bounds_of};
 use crate::hash::Fingerprint;
+use crate::texture::Texture;
 use choice::{LOCAL_CHOICE_MAX, LightBounds, LocalChoice};
 use glam::{Vec2, Vec3};
 use sphere::EmissiveSphere;
@@ -172,10 +173,11 @@ pub(crate) fn luminance(c: Vec3) -> f32 {
 }
 
 impl LightSet {
-    /// The lights of a scene: every primitive of `geometry` for which `emission(geom, prim)`
-    /// is not black (triangles and spheres; cylinders are not sampled), then the described
-    /// `lights` in their order, the background last (unless black).
-    pub fn new(geometry: &[Geometry], emission: &dyn Fn(u32, u32) -> Vec3, lights: &[Light]) -> LightSet {
+    /// The lights of a scene: every primitive of `geometry` whose emission
+    /// (`emission(geom, prim)`, possibly a texture) is not black over it (triangles and
+    /// spheres; cylinders are not sampled), then the described `lights` in their order, the
+    /// background last (unless black).
+    pub fn new<'a>(geometry: &[Geometry], emission: &dyn Fn(u32, u32) -> &'a Texture, lights: &[Light]) -> LightSet {
         let mut emitters = Vec::new();
         let mut primitive_lights = Vec::new();
         let mut spans: Vec<(u32, u32)> = Vec::new();
@@ -186,13 +188,17 @@ impl LightSet {
             match g {
                 Geometry::Mesh(m) => {
                     for i in 0..m.triangle_count() {
-                        let e = emission(gi, i as u32);
-                        if e.max_element() <= 0.0 {
+                        let t = match emission(gi, i as u32) {
+                            Texture::Constant(e) if e.max_element() > 0.0 => EmissiveTriangle::new(m.triangle(i), *e),
+                            Texture::Constant(_) => None,
+                            e => EmissiveTriangle::textured(m, i, e),
+                        };
+                        let Some(t) = t.filter(|t| t.emission.max_element() > 0.0) else {
                             per.push(u32::MAX);
                             continue;
-                        }
+                        };
                         per.push(emitters.len() as u32);
-                        emitters.push(Emitter::Triangle(EmissiveTriangle::new(m.triangle(i), e)));
+                        emitters.push(Emitter::Triangle(t));
                     }
                     if emitters.len() as u32 > base {
                         spans.push((base, emitters.len() as u32));
@@ -201,13 +207,13 @@ impl LightSet {
                 Geometry::Spheres(s) => {
                     for (i, sp) in s.iter().enumerate() {
                         let e = emission(gi, i as u32);
-                        if e.max_element() <= 0.0 {
+                        if e.max().max_element() <= 0.0 {
                             per.push(u32::MAX);
                             continue;
                         }
                         per.push(emitters.len() as u32);
                         spans.push((emitters.len() as u32, emitters.len() as u32 + 1));
-                        emitters.push(Emitter::Sphere(EmissiveSphere { sphere: *sp, emission: e }));
+                        emitters.push(Emitter::Sphere(EmissiveSphere::new(*sp, e)));
                     }
                 }
                 Geometry::Cylinders(_) => {}

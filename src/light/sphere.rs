@@ -4,16 +4,28 @@
 use super::choice::LightBounds;
 use super::{LightSample, luminance, uniform_sphere};
 use crate::geometry::{Frame, Sphere};
+use crate::texture::{TexCoords, Texture};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct EmissiveSphere {
     pub sphere: Sphere,
+    /// Its radiance, or for a texture its mean (for power and bounds).
     pub emission: Vec3,
+    /// A radiance that varies over the sphere (by the spheres' texture mapping).
+    texture: Option<Box<Texture>>,
 }
 
 impl EmissiveSphere {
+    /// `sphere` emitting `emission`: its radiance at a point is the texture there.
+    pub(super) fn new(sphere: Sphere, emission: &Texture) -> EmissiveSphere {
+        match emission {
+            Texture::Constant(c) => EmissiveSphere { sphere, emission: *c, texture: None },
+            t => EmissiveSphere { sphere, emission: t.average(), texture: Some(Box::new(t.clone())) },
+        }
+    }
+
     /// Luminance of the power it emits.
     pub(super) fn power(&self) -> f32 {
         let r = self.sphere.radius;
@@ -34,7 +46,13 @@ impl EmissiveSphere {
             wi,
             point: Some(q),
             normal: n,
-            radiance: self.emission,
+            radiance: match &self.texture {
+                None => self.emission,
+                Some(t) => {
+                    let (u, v) = Sphere::uv(n);
+                    t.eval(&TexCoords::new(Vec2::new(u, v)))
+                }
+            },
             pdf,
             delta: false,
             light: 0,

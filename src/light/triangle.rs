@@ -4,7 +4,8 @@
 
 use super::choice::LightBounds;
 use super::{LightSample, luminance};
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, TriMesh};
+use crate::texture::{TexCoords, Texture};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -14,15 +15,66 @@ pub(super) struct EmissiveTriangle {
     /// The unit normal of the winding order, computed once here, not per sample.
     pub normal: Vec3,
     pub area: f32,
+    /// Its radiance, or for a texture its mean over the triangle (for power and bounds).
     pub emission: Vec3,
+    /// A radiance that varies over the triangle.
+    pub texture: Option<Box<TriangleTexture>>,
 }
 
+/// An emission texture on one triangle: the texture and its corners' coordinates (both sets).
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct TriangleTexture {
+    texture: Texture,
+    uv: [[Vec2; 3]; 2],
+}
+
+impl TriangleTexture {
+    /// The texture at barycentric coordinates (b0, b1, 1 − b0 − b1).
+    #[inline]
+    fn at(&self, b0: f32, b1: f32, width: f32) -> Vec3 {
+        let b2 = 1.0 - b0 - b1;
+        let uv = self.uv.map(|c| b0 * c[0] + b1 * c[1] + b2 * c[2]);
+        self.texture.eval(&TexCoords { uv, width })
+    }
+}
+
+/// Points per side of the grid that estimates a textured triangle's mean emission.
+const MEAN_STRATA: usize = 4;
+
 impl EmissiveTriangle {
-    pub(super) fn new(p: [Vec3; 3], emission: Vec3) -> EmissiveTriangle {
+    /// A triangle of constant radiance `emission`; `None` if it has no area.
+    pub(super) fn new(p: [Vec3; 3], emission: Vec3) -> Option<EmissiveTriangle> {
         let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
         let area = if area.is_finite() { area } else { 0.0 };
         let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
-        EmissiveTriangle { p, normal, area, emission }
+        Some(EmissiveTriangle { p, normal, area, emission, texture: None })
+    }
+
+    /// Triangle `i` of `mesh` under an emission texture: sampled, like any emitting triangle,
+    /// uniformly by area, with the texture's radiance at the sampled point; chosen among
+    /// lights by its power, the area times the texture's mean over it (estimated from 4×4
+    /// stratified points, each reading the texture's pyramid at a quarter of the triangle's
+    /// extent in texture space). A triangle whose estimate is black is no light (BSDF
+    /// sampling still finds any light it has: the estimate only guides).
+    pub(super) fn textured(mesh: &TriMesh, i: usize, texture: &Texture) -> Option<EmissiveTriangle> {
+        let idx = mesh.indices[i].map(|k| k as usize);
+        let corners = |a: &[Vec2]| if a.is_empty() { [Vec2::ZERO; 3] } else { idx.map(|k| a[k]) };
+        let uv0 = corners(&mesh.uvs);
+        let uv1 = if mesh.uvs1.is_empty() { uv0 } else { corners(&mesh.uvs1) };
+        let tex = TriangleTexture { texture: texture.clone(), uv: [uv0, uv1] };
+        let uv_area = 0.5 * (uv0[1] - uv0[0]).perp_dot(uv0[2] - uv0[0]).abs();
+        let width = uv_area.sqrt() / MEAN_STRATA as f32;
+        let mut sum = Vec3::ZERO;
+        for a in 0..MEAN_STRATA {
+            for b in 0..MEAN_STRATA {
+                let u = Vec2::new((a as f32 + 0.5) / MEAN_STRATA as f32, (b as f32 + 0.5) / MEAN_STRATA as f32);
+                let (b0, b1) = uniform_barycentrics(u);
+                sum += tex.at(b0, b1, width);
+            }
+        }
+        let mut t = EmissiveTriangle::new(mesh.triangle(i), sum / (MEAN_STRATA * MEAN_STRATA) as f32)?;
+        t.texture = Some(Box::new(tex));
+        Some(t)
     }
 
     /// Luminance of the power it emits (both faces).
@@ -38,8 +90,7 @@ impl EmissiveTriangle {
         if area <= 0.0 {
             return None;
         }
-        let su = u.x.sqrt();
-        let (b0, b1) = (1.0 - su, u.y * su);
+        let (b0, b1) = uniform_barycentrics(u);
         let q = b0 * tri[0] + b1 * tri[1] + (1.0 - b0 - b1) * tri[2];
         let n = self.normal;
         let d = q - p;
@@ -54,7 +105,10 @@ impl EmissiveTriangle {
             wi,
             point: Some(q),
             normal: n,
-            radiance: self.emission,
+            radiance: match &self.texture {
+                None => self.emission,
+                Some(t) => t.at(b0, b1, 0.0),
+            },
             pdf,
             delta: false,
             light: 0,
@@ -69,6 +123,14 @@ impl EmissiveTriangle {
         let cos = n.normalize().dot(d / d2.sqrt()).abs();
         if self.area <= 0.0 || cos <= 0.0 { 0.0 } else { sel * d2 / (cos * self.area) }
     }
+}
+
+/// Barycentric coordinates (of the first two corners) uniform over a triangle's area, for
+/// `u` in [0, 1)².
+#[inline(always)]
+fn uniform_barycentrics(u: Vec2) -> (f32, f32) {
+    let su = u.x.sqrt();
+    (1.0 - su, u.y * su)
 }
 
 /// The bounds of a mesh's emitting triangles, taken as one group: their box, the sum of

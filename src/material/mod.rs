@@ -262,12 +262,13 @@ material_kinds! {
     Pbr(PbrMaterial) => PbrBsdf,
 }
 
-/// A named material; any material may also emit (`emission`, radiance, both faces).
+/// A named material; any material may also emit (`emission`, radiance from both faces,
+/// which may vary over the surface).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
     pub kind: MaterialKind,
-    pub emission: Vec3,
+    pub emission: Texture,
 }
 
 impl Material {
@@ -276,7 +277,7 @@ impl Material {
         Material {
             name: name.into(),
             kind: MaterialKind::Diffuse(DiffuseMaterial { color: Texture::Constant(color) }),
-            emission: Vec3::ZERO,
+            emission: Texture::Constant(Vec3::ZERO),
         }
     }
 
@@ -294,19 +295,25 @@ impl Material {
         self.kind.lambert::<TEX>(at)
     }
 
+    /// Whether it emits anywhere.
     pub fn is_emissive(&self) -> bool {
-        self.emission.max_element() > 0.0
+        self.emission.max().max_element() > 0.0
     }
 
-    /// Its textures that vary over the surface.
+    /// Its textures that vary over the surface, its emission's included.
     pub fn textures(&self) -> Vec<&Texture> {
-        self.kind.textures()
+        let mut t = self.kind.textures();
+        t.extend(self.emission.varying());
+        t
     }
 
     /// Feeds the material to a fingerprint.
     pub fn fingerprint(&self, h: &mut Fingerprint) {
         h.str(&self.name);
-        h.v3(&[self.emission]);
+        match &self.emission {
+            Texture::Constant(c) => h.v3(&[*c]),
+            t => t.fingerprint(h),
+        }
         self.kind.fingerprint(h);
     }
 }

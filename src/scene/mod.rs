@@ -277,7 +277,7 @@ impl Scene {
 
     /// The scene's lights, ready for sampling.
     pub fn light_set(&self) -> LightSet {
-        LightSet::new(&self.geometry, &|g, p| self.material(g, p).emission, &self.lights)
+        LightSet::new(&self.geometry, &|g, p| &self.material(g, p).emission, &self.lights)
     }
 
     /// The id of the material named "default" (a light grey diffuse), added if missing.

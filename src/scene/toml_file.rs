@@ -307,7 +307,7 @@ fn material(
         ),
         MaterialSection::Emissive { emission } => (MaterialKind::Emissive(EmissiveMaterial), emission.0),
     };
-    Ok(Material { name, kind, emission })
+    Ok(Material { name, kind, emission: Texture::Constant(emission) })
 }
 
 fn mesh_transform(ctx: &SceneFileReader, m: &format::MeshSection) -> Result<Affine3A, SceneError> {

@@ -400,7 +400,7 @@ impl<'a> Loader<'a> {
                         loaded
                     }
                 };
-                let transform = texture_transform(slot.extensions).map_err(|e| self.err(&at, e))?;
+                let transform = slot.transform.map_err(|e| self.err(&at, e))?;
                 Ok::<TextureMap, SceneError>(texture_map(image, &slot.texture.sampler(), set, transform))
             };
             let color = match pbr.base_color_texture() {
@@ -425,28 +425,24 @@ impl<'a> Loader<'a> {
             };
             let normal = match m.normal_texture() {
                 Some(n) => {
-                    let slot =
-                        TextureSlot { texture: n.texture(), tex_coord: n.tex_coord(), extensions: n.extensions() };
+                    let slot = TextureSlot::normal(&n);
                     let texture =
                         Texture::Map { map: map(slot, "normalTexture", Encoding::Linear, ignored)?, factor: Vec3::ONE };
                     Some(NormalMap { texture, scale: n.scale() })
                 }
                 None => None,
             };
-            let mut emission = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
-            if let Some(info) = m.emissive_texture() {
-                ignored.add(
-                    "emissiveTexture variation (its mean colour scales the emissive factor)",
-                    format!("{at}.emissiveTexture"),
-                );
-                if emission != Vec3::ZERO {
-                    let slot = TextureSlot::of(&info);
-                    emission *= map(slot, "emissiveTexture", Encoding::Srgb, ignored)?.image.mean().truncate();
-                }
-            }
+            let emission = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
             if !emission.is_finite() || emission.min_element() < 0.0 {
                 return Err(self.err(format!("{at}.emissiveFactor"), "emission must be finite and not negative"));
             }
+            let emission = match m.emissive_texture() {
+                Some(info) if emission != Vec3::ZERO => Texture::Map {
+                    map: map(TextureSlot::of(&info), "emissiveTexture", Encoding::Srgb, ignored)?,
+                    factor: emission,
+                },
+                _ => Texture::Constant(emission),
+            };
             let ior = m.ior().unwrap_or(1.5);
             if !(ior.is_finite() && ior >= 1.0) {
                 return Err(
@@ -915,21 +911,35 @@ impl<'a> Loader<'a> {
     }
 }
 
-/// Where a material takes a texture: the texture, its coordinate set, and the extensions of
-/// its `textureInfo` (for `KHR_texture_transform`).
+/// Where a material takes a texture: the texture, its coordinate set, and its
+/// `KHR_texture_transform` (an error message if malformed).
 struct TextureSlot<'a> {
     texture: gltf::texture::Texture<'a>,
     tex_coord: u32,
-    extensions: Option<&'a serde_json::Map<String, gltf::json::Value>>,
+    transform: Result<Option<UvTransform>, String>,
 }
 
 impl<'a> TextureSlot<'a> {
-    fn of(info: &'a gltf::texture::Info<'a>) -> TextureSlot<'a> {
-        TextureSlot { texture: info.texture(), tex_coord: info.tex_coord(), extensions: info.extensions() }
+    /// A `textureInfo`: the `gltf` crate reads its `KHR_texture_transform`, whose `texCoord`
+    /// overrides the `textureInfo`'s.
+    fn of(info: &gltf::texture::Info<'a>) -> TextureSlot<'a> {
+        let t = info.texture_transform();
+        let transform = t
+            .as_ref()
+            .map(|t| UvTransform::offset_rotation_scale(Vec2::from(t.offset()), t.rotation(), Vec2::from(t.scale())));
+        let tex_coord = t.and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
+        TextureSlot { texture: info.texture(), tex_coord, transform: Ok(transform) }
+    }
+
+    /// A `normalTexture`, whose `KHR_texture_transform` the crate does not model: read from
+    /// its raw extensions.
+    fn normal(n: &gltf::material::NormalTexture<'a>) -> TextureSlot<'a> {
+        TextureSlot { texture: n.texture(), tex_coord: n.tex_coord(), transform: texture_transform(n.extensions()) }
     }
 }
 
-/// A `textureInfo`'s `KHR_texture_transform`, if any, as an error message if malformed.
+/// The `KHR_texture_transform` in a texture reference's raw extensions, if any, or an error
+/// message if malformed.
 fn texture_transform(
     extensions: Option<&serde_json::Map<String, gltf::json::Value>>,
 ) -> Result<Option<UvTransform>, String> {

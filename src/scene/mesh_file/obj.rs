@@ -195,7 +195,7 @@ fn mtl_materials(obj: &Path, mtls: &[tobj::Material]) -> Vec<Material> {
             } else {
                 MaterialKind::Diffuse(DiffuseMaterial { color: Texture::Constant(kd) })
             };
-            Material { name: format!("{file}:{}", m.name), kind, emission }
+            Material { name: format!("{file}:{}", m.name), kind, emission: Texture::Constant(emission) }
         })
         .collect()
 }

@@ -26,7 +26,7 @@ impl CaseSceneBuilder {
     /// Adds a material; returns its id.
     pub fn material(&mut self, kind: MaterialKind, emission: Vec3) -> u32 {
         let id = self.scene.materials.len() as u32;
-        self.scene.materials.push(Material { name: format!("m{id}"), kind, emission });
+        self.scene.materials.push(Material { name: format!("m{id}"), kind, emission: Texture::Constant(emission) });
         id
     }
 

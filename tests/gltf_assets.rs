@@ -1,0 +1,150 @@
+//! The glTF assets Blender's exporter and trimesh wrote (`tests/data/gltf/`, made by
+//! `scripts/assets/make_gltf_assets.py`; the facts quoted here are in its `SOURCES.md`), read
+//! and rendered by ember.
+
+mod common;
+
+use common::{fresh_dir, render_embree};
+use ember::integrator::RenderSettings;
+use ember::material::{MaterialKind, PbrMaterial};
+use ember::memory::LoadBudget;
+use ember::scene::Scene;
+use ember::scene::mesh_file::{self, MeshFile};
+use ember::settings::Estimator;
+use ember::texture::{TexCoords, Texture};
+use glam::{Vec2, Vec3};
+use std::path::{Path, PathBuf};
+
+fn asset(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gltf").join(name)
+}
+
+fn load(name: &str) -> MeshFile {
+    mesh_file::load(&asset(name), &LoadBudget::unlimited()).unwrap()
+}
+
+/// The base colour texture of material `i` of a file.
+fn base_texture(f: &MeshFile, i: usize) -> &Texture {
+    match &f.materials[i].kind {
+        MaterialKind::Pbr(PbrMaterial { base, .. }) => base,
+        k => panic!("material {i}: {k:?}"),
+    }
+}
+
+/// A texture's value at glTF texture coordinates (u, v) (v down from the image's top; ember's
+/// meshes keep v up) of set 0 and, for set 1, `uv1`.
+fn at(t: &Texture, u: f32, v: f32, uv1: Option<(f32, f32)>) -> Vec3 {
+    let up = |(u, v): (f32, f32)| Vec2::new(u, 1.0 - v);
+    let uv0 = up((u, v));
+    t.eval(&TexCoords { uv: [uv0, uv1.map_or(uv0, up)], width: 0.0 })
+}
+
+/// The 8-bit sRGB values of the blocks texture's levels, linear.
+fn level(k: usize) -> f32 {
+    ember::film::srgb_to_linear([32.0f32, 96.0, 159.0, 223.0][k] / 255.0)
+}
+
+#[test]
+fn samplers_repeat_mirror_and_clamp_as_the_file_says() {
+    // samplers.glb: four quads, REPEAT², MIRRORED_REPEAT², CLAMP_TO_EDGE², MIRRORED × CLAMP,
+    // the 4×4-block texture whose block (i, j) is (level i, level j, 51).
+    let f = load("samplers.glb");
+    assert_eq!(f.materials.len(), 4);
+    let mut by_wrap = std::collections::HashMap::new();
+    for i in 0..4 {
+        let t = base_texture(&f, i);
+        let Texture::Map { map, .. } = t else { panic!("{t:?}") };
+        by_wrap.insert(format!("{:?}", map.sampler.wrap), t);
+    }
+    let block = |t: &Texture, u: f32, v: f32| {
+        let c = at(t, u, v, None);
+        let k = |x: f32| (0..4).min_by(|&a, &b| (level(a) - x).abs().total_cmp(&(level(b) - x).abs())).unwrap();
+        assert!((c.x - level(k(c.x))).abs() < 1e-5 && (c.y - level(k(c.y))).abs() < 1e-5, "{c}");
+        (k(c.x), k(c.y))
+    };
+    let repeat = by_wrap["[Repeat, Repeat]"];
+    let mirror = by_wrap["[MirroredRepeat, MirroredRepeat]"];
+    let clamp = by_wrap["[ClampToEdge, ClampToEdge]"];
+    let mixed = by_wrap["[MirroredRepeat, ClampToEdge]"];
+    // Inside the image every sampler reads the same block.
+    for t in [repeat, mirror, clamp, mixed] {
+        assert_eq!(block(t, 0.3, 0.6), (1, 2));
+    }
+    // u = 1.1 (v = 0.1): REPEAT reads u = 0.1 (block 0), MIRRORED_REPEAT 0.9 (block 3),
+    // CLAMP_TO_EDGE the last column (block 3); v likewise at 1.1 and −0.4.
+    assert_eq!(block(repeat, 1.1, 0.1), (0, 0));
+    assert_eq!(block(mirror, 1.1, 0.1), (3, 0));
+    assert_eq!(block(clamp, 1.1, 0.1), (3, 0));
+    assert_eq!(block(repeat, 0.1, -0.4), (0, 2));
+    assert_eq!(block(mirror, 0.1, -0.4), (0, 1));
+    assert_eq!(block(clamp, 0.1, -0.4), (0, 0));
+    // Mirrored u = 2.6 is 0.6 forward again (block 2); clamped v = 2.6 the last row.
+    assert_eq!(block(mixed, 2.6, 2.6), (2, 3));
+}
+
+#[test]
+fn texcoord1_and_texture_transforms_are_applied() {
+    // texcoord1.glb: the base colour texture reads TEXCOORD_1 = (v0, u0).
+    let f = load("texcoord1.glb");
+    let t = base_texture(&f, 0);
+    let (u, v) = (0.3, 0.6);
+    assert_eq!(at(t, u, v, Some((v, u))), at(t, v, u, None));
+    assert_ne!(at(t, u, v, Some((v, u))), at(t, u, v, None));
+    // texture_transform.glb renders as texture_transform_baked.glb, whose UVs hold the
+    // transform applied: the same image to within rounding of the coordinates.
+    let dir = fresh_dir("gltf-assets", "transform");
+    let render = |name: &str| {
+        let scene = scene_with(
+            &dir,
+            name,
+            "[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 22.62\n\n[background]\ntype = \"constant\"\ncolor = [1.0, 1.0, 1.0]\n",
+        );
+        let settings = RenderSettings { width: 32, height: 32, spp: 16, max_depth: 1, ..Default::default() };
+        render_embree(&scene, &settings).0.pixels
+    };
+    let (a, b) = (render("texture_transform.glb"), render("texture_transform_baked.glb"));
+    let differ = a.iter().zip(&b).filter(|(x, y)| (**x - **y).abs().max_element() > 1e-3 * x.max_element()).count();
+    assert!(differ <= a.len() / 100, "{differ} of {} pixels differ", a.len());
+}
+
+/// A scene file beside a copy of the asset `gltf`, with `head` (camera, background) before it.
+fn scene_with(dir: &Path, gltf: &str, head: &str) -> Scene {
+    std::fs::copy(asset(gltf), dir.join(gltf)).unwrap();
+    let p = dir.join(format!("{gltf}.toml"));
+    std::fs::write(&p, format!("{head}\n[[meshes]]\nfile = \"{gltf}\"\n")).unwrap();
+    Scene::load(&p).unwrap()
+}
+
+#[test]
+fn an_emission_texture_is_seen_and_lights_as_its_texels_say() {
+    let dir = fresh_dir("gltf-assets", "emission");
+    // Seen straight on, filling the image: its mean radiance is the texture's over the quad,
+    // (2.0, 1.4432, 1.05) (SOURCES.md), each 16×16-pixel block one block of the texture.
+    let head = "[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 22.619865\n";
+    let scene = scene_with(&dir, "emissive_texture.glb", head);
+    let settings = RenderSettings { width: 64, height: 64, spp: 4, max_depth: 0, ..Default::default() };
+    let (film, _) = render_embree(&scene, &settings);
+    let mean = film.pixels.iter().map(|p| p.as_dvec3()).sum::<glam::DVec3>() / film.pixels.len() as f64;
+    println!("seen: mean radiance {mean}");
+    assert!((mean - glam::DVec3::new(2.0, 1.4432, 1.05)).abs().max_element() < 0.01, "{mean}");
+    // The top-left block is orange, its neighbour black.
+    let px = |x: usize, y: usize| film.pixels[y * 64 + x];
+    assert!((px(8, 8) - Vec3::new(4.0, 0.6908, 0.0)).abs().max_element() < 0.01, "{}", px(8, 8));
+    assert_eq!(px(24, 8), Vec3::ZERO);
+
+    // Lighting a floor: next-event estimation (which picks triangles by their power and reads
+    // the texture at the point it samples) and BSDF sampling (which finds the texture where
+    // its rays land) estimate the same light.
+    let floor = "[camera]\nposition = [0.0, 3.0, 4.0]\nlook_at = [0.0, 0.0, 1.5]\n\n\
+        [materials.floor]\ntype = \"diffuse\"\ncolor = [0.8, 0.8, 0.8]\n\n\
+        [[quads]]\ncorner = [-3.0, -1.0, 4.0]\nedge1 = [6.0, 0.0, 0.0]\nedge2 = [0.0, 0.0, -4.0]\nmaterial = \"floor\"\n";
+    let scene = scene_with(&dir, "emissive_texture.glb", floor);
+    let mean_with = |estimator| {
+        let s = RenderSettings { width: 32, height: 32, spp: 256, max_depth: 1, estimator, ..Default::default() };
+        let (film, _) = render_embree(&scene, &s);
+        film.pixels.iter().map(|p| p.element_sum() as f64).sum::<f64>() / film.pixels.len() as f64
+    };
+    let (nee, bsdf) = (mean_with(Estimator::NeeOnly), mean_with(Estimator::BsdfOnly));
+    println!("floor: next-event estimation {nee:.5}, BSDF sampling {bsdf:.5}");
+    assert!((nee - bsdf).abs() < 0.02 * bsdf, "NEE {nee} vs BSDF {bsdf}");
+}
