@@ -8,6 +8,9 @@
 set -euo pipefail
 
 packages=(libembree-dev libclang-dev)
+# The fuzz targets' libfuzzer-sys compiles LLVM's libFuzzer (C++) when they are built, as CI
+# checks they still compile (.ci/run).
+packages+=(g++)
 # fetch-oidn.sh downloads a wheel with pip (no install) and unpacks it with python3.
 if ! { python3 -m pip --version || pip3 --version; } >/dev/null 2>&1; then
   packages+=(python3-pip)

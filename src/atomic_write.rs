@@ -73,20 +73,63 @@ pub fn live_files() -> Vec<PathBuf> {
     live().clone()
 }
 
+/// The longest file name, in bytes, that the file systems ember writes to take (Linux's
+/// `NAME_MAX`): every name ember makes must fit.
+pub const NAME_MAX: usize = 255;
+
+/// Random characters in a temporary file's name.
+const TEMPORARY_RANDOM_CHARS: usize = 10;
+
+/// The largest index at most `at` that is a character boundary of `s`.
+fn floor_char_boundary(s: &str, at: usize) -> usize {
+    (0..=at.min(s.len())).rev().find(|&i| s.is_char_boundary(i)).unwrap_or(0)
+}
+
+/// Refuses an output whose file name, or the name of a file ember writes beside it
+/// (`companions`: each path, longer than `output`'s, and what it holds, e.g. `its checkpoint`),
+/// has more than [`NAME_MAX`] bytes: the file system would refuse it only when it is written —
+/// a checkpoint at the first interruption, and the render with it.
+pub fn check_name_length(output: &Path, companions: &[(&Path, &str)]) -> Result<(), WriteError> {
+    let len = |p: &Path| p.file_name().map_or(0, |n| n.len());
+    let too_long = |what: String, longest: usize| WriteError {
+        path: output.to_path_buf(),
+        reason: format!(
+            "{what}, more than the {NAME_MAX} a file name may have: choose a shorter name (at most {} bytes)",
+            longest.min(NAME_MAX)
+        ),
+    };
+    let extra = companions.iter().map(|(p, _)| len(p).saturating_sub(len(output))).max().unwrap_or(0);
+    if len(output) > NAME_MAX {
+        return Err(too_long(format!("the file name is {} bytes long", len(output)), NAME_MAX - extra));
+    }
+    match companions.iter().find(|(p, _)| len(p) > NAME_MAX) {
+        Some((p, what)) => Err(too_long(
+            format!("ember also writes {what} beside it, whose name would be {} bytes long", len(p)),
+            NAME_MAX - extra,
+        )),
+        None => Ok(()),
+    }
+}
+
 /// A new, empty temporary file beside `path`, created exclusively with an unpredictable name
 /// `.NAME.XXXXXX.tmp.EXT` (the destination's extension last, for tools that go by it), mode
 /// 0666 less the umask like any new file, and registered with [`register_live`].
 fn temporary_beside(path: &Path, dir: &Path, kind: &str) -> std::io::Result<(tempfile::NamedTempFile, LiveFile)> {
     use std::os::unix::fs::PermissionsExt;
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let suffix = match path.extension() {
+    let mut name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut suffix = match path.extension() {
         Some(ext) => format!(".{kind}.{}", ext.to_string_lossy()),
         None => format!(".{kind}"),
     };
+    // A long destination name is cut short (at a character) so that the temporary name fits in
+    // NAME_MAX: it stays unpredictable, only less telling.
+    suffix.truncate(floor_char_boundary(&suffix, NAME_MAX / 4));
+    let room = NAME_MAX - 2 - TEMPORARY_RANDOM_CHARS - suffix.len();
+    name.truncate(floor_char_boundary(&name, room));
     let file = tempfile::Builder::new()
         .prefix(&format!(".{name}."))
         .suffix(&suffix)
-        .rand_bytes(10)
+        .rand_bytes(TEMPORARY_RANDOM_CHARS)
         .permissions(std::fs::Permissions::from_mode(0o666))
         .tempfile_in(dir)?;
     let guard = register_live(file.path());

@@ -139,12 +139,33 @@ pub struct LoadBudget {
     /// Whether a film is counted, and the image size given on the command line, which wins
     /// over the scene file's.
     film: Option<(Option<u32>, Option<u32>)>,
+    /// Whether a model may name files outside its folder
+    /// ([`crate::scene::input::named_file`]): part of the load's terms, as its memory is.
+    external_files: bool,
 }
 
 impl LoadBudget {
     /// A budget of `limit` with nothing kept yet, counting no film and no accelerator.
     pub fn new(limit: MemoryLimit) -> LoadBudget {
-        LoadBudget { limit, kept: Cell::new(0), accel_per_triangle: 0, accel_per_shape: 0, film: None }
+        LoadBudget {
+            limit,
+            kept: Cell::new(0),
+            accel_per_triangle: 0,
+            accel_per_shape: 0,
+            film: None,
+            external_files: false,
+        }
+    }
+
+    /// The same budget, letting models name files outside their folder if `allow`
+    /// (`--allow-external-files`).
+    pub fn with_external_files(self, allow: bool) -> LoadBudget {
+        LoadBudget { external_files: allow, ..self }
+    }
+
+    /// Whether models may name files outside their folder.
+    pub fn external_files(&self) -> bool {
+        self.external_files
     }
 
     /// No limit.
@@ -174,6 +195,11 @@ impl LoadBudget {
     /// Bytes kept so far.
     pub fn kept(&self) -> u64 {
         self.kept.get()
+    }
+
+    /// Bytes a step may still take beside what is kept (`None`: no limit).
+    pub fn available(&self) -> Option<u64> {
+        self.limit.bytes.map(|l| l.saturating_sub(self.kept.get()))
     }
 
     /// Refuses a step that needs `peak` bytes at its height, for `what`, if they do not fit
@@ -294,6 +320,41 @@ pub const CHECKPOINT_BYTES_PER_PIXEL: u64 = 60;
 /// Memory to render a `width` x `height` image, including writing a checkpoint.
 pub fn film_bytes(width: u32, height: u32) -> u64 {
     width as u64 * height as u64 * (FILM_BYTES_PER_PIXEL + CHECKPOINT_BYTES_PER_PIXEL)
+}
+
+/// Bytes per pixel more when a render keeps the auxiliary images (`--aux`, `--denoise`): their
+/// sums (48) and their copy in a checkpoint (48), the albedo, normal and sample-count images
+/// (28) and the EXR layers' buffers while written — measured 169 bytes per pixel peak in all for
+/// 2000x2000 to EXR with `--aux`, 60 without.
+pub const AUX_BYTES_PER_PIXEL: u64 = 160;
+
+/// Bytes per pixel more in an adaptive render: its plan (first-round rays, target and sums of
+/// squares: 32) and its copy in a checkpoint (32).
+pub const ADAPTIVE_BYTES_PER_PIXEL: u64 = 64;
+
+/// Bytes per pixel more while denoising, besides the denoiser's scratch memory
+/// ([`denoiser_scratch_bytes`]): the colour, albedo and normal images (36), their prefiltered
+/// copies (24) and the output (12).
+pub const DENOISE_BYTES_PER_PIXEL: u64 = 72;
+
+/// The scratch memory Open Image Denoise is told it may use (its `maxMemoryMB`; it tiles the
+/// image to stay near it): what the limit leaves (`available`), at most 3 GB (about what it
+/// takes untold: 2.8 GB for 2000x2000), at least 200 MB. `None`: not even that fits.
+pub fn denoiser_scratch_bytes(available: Option<u64>) -> Option<u64> {
+    const MOST: u64 = 3_000_000_000;
+    const LEAST: u64 = 200_000_000;
+    let scratch = available.map_or(MOST, |a| a.min(MOST));
+    (scratch >= LEAST).then_some(scratch)
+}
+
+/// Memory a `width` x `height` render takes beside its film ([`film_bytes`]): the auxiliary
+/// images if `aux`, an adaptive plan if `adaptive`, the denoiser's images if `denoise` (its
+/// scratch memory apart).
+pub fn render_extra_bytes(width: u32, height: u32, aux: bool, adaptive: bool, denoise: bool) -> u64 {
+    let per_pixel = aux as u64 * AUX_BYTES_PER_PIXEL
+        + adaptive as u64 * ADAPTIVE_BYTES_PER_PIXEL
+        + denoise as u64 * DENOISE_BYTES_PER_PIXEL;
+    width as u64 * height as u64 * per_pixel
 }
 
 /// Bytes per pixel while a texture is decoded: the decoded image (up to 8 bytes per pixel

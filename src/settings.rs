@@ -140,6 +140,17 @@ impl Shard {
         self.owns_tile(x / TILE, y / TILE)
     }
 
+    /// How many pixels of a `width` x `height` image this shard renders (without going over
+    /// them: tile by tile).
+    pub fn pixel_count(&self, width: u32, height: u32) -> u64 {
+        let side = |t: u32, size: u32| (size - t * TILE).min(TILE) as u64;
+        (0..height.div_ceil(TILE))
+            .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx, ty)))
+            .filter(|&(tx, ty)| self.owns_tile(tx, ty))
+            .map(|(tx, ty)| side(tx, width) * side(ty, height))
+            .sum()
+    }
+
     /// The pixels (row-major indices, increasing) this shard renders of a `width` x `height`
     /// image.
     pub fn pixels(&self, width: u32, height: u32) -> impl Iterator<Item = usize> + '_ {
@@ -149,17 +160,40 @@ impl Shard {
     }
 }
 
+/// The most shards an image is split into: the diagonals of tiles of the largest image
+/// (16384 × 16384: 1024 × 1024 tiles, 2047 diagonals). More shards would render nothing (each
+/// takes whole diagonals), and a merge reads every shard's file.
+pub const MAX_SHARDS: u32 = 2 * crate::scene::format::MAX_IMAGE_SIDE.div_ceil(TILE) - 1;
+
 impl FromStr for Shard {
     type Err = String;
-    /// `K/N`, 0 ≤ K < N.
+    /// `K/N`, 0 ≤ K < N ≤ [`MAX_SHARDS`].
     fn from_str(s: &str) -> Result<Self, String> {
         let bad = || format!("expected K/N with 0 <= K < N (e.g. 0/4), found {s:?}");
         let (k, n) = s.split_once('/').ok_or_else(bad)?;
-        let (index, count): (u32, u32) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+        let (index, count): (u64, u64) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
         if count == 0 || index >= count {
             return Err(bad());
         }
-        Ok(Shard { index, count })
+        Shard::new(index, count)
+    }
+}
+
+impl Shard {
+    /// Shard `index` of `count`, or why there is no such shard: `count` is above
+    /// [`MAX_SHARDS`] (or `index` not below `count`).
+    pub fn new(index: u64, count: u64) -> Result<Shard, String> {
+        if count > MAX_SHARDS as u64 {
+            return Err(format!(
+                "{count} shards: at most {MAX_SHARDS} (the tile diagonals of the largest image, \
+                 {side}x{side}; more shards would render nothing)",
+                side = crate::scene::format::MAX_IMAGE_SIDE
+            ));
+        }
+        if index >= count {
+            return Err(format!("shard {index} of {count}: the index must be below the count"));
+        }
+        Ok(Shard { index: index as u32, count: count as u32 })
     }
 }
 
@@ -311,6 +345,25 @@ mod tests {
             let mut all: Vec<usize> = shards.iter().flat_map(|s| s.pixels(w, h)).collect();
             all.sort();
             assert_eq!(all, (0..(w * h) as usize).collect::<Vec<_>>());
+            for s in &shards {
+                assert_eq!(s.pixel_count(w, h), s.pixels(w, h).count() as u64, "{s}");
+            }
         }
+    }
+
+    /// A count no image needs is refused before anything is made for it (a merge used to
+    /// allocate a slot per shard: 64 GB for 0/4000000000).
+    #[test]
+    fn shard_counts_are_bounded() {
+        assert_eq!(MAX_SHARDS, 2047);
+        assert_eq!("2046/2047".parse::<Shard>(), Ok(Shard { index: 2046, count: 2047 }));
+        let e = "0/4000000000".parse::<Shard>().unwrap_err();
+        assert_eq!(
+            e,
+            "4000000000 shards: at most 2047 (the tile diagonals of the largest image, 16384x16384; more shards \
+             would render nothing)"
+        );
+        assert!("0/2048".parse::<Shard>().unwrap_err().starts_with("2048 shards: at most 2047"));
+        assert!("0/99999999999999999999".parse::<Shard>().is_err());
     }
 }

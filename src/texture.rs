@@ -19,30 +19,13 @@ fn pixels_bytes(width: u32, height: u32) -> u64 {
     width as u64 * height as u64 * size_of::<Vec3>() as u64
 }
 
-/// Whether a JPEG file's bytes end with its end-of-image marker (FF D9) within the last
-/// kilobyte (some writers pad after it). A truncated file does not, and the decoder would
-/// fill out the missing part with grey without an error.
-fn ends_jpeg(bytes: &[u8]) -> bool {
-    bytes[bytes.len().saturating_sub(1024)..].windows(2).any(|w| w == [0xFF, 0xD9])
-}
-
-/// Reads an image file's bytes within `budget`: a regular file only.
+/// Reads an image file's bytes within `budget`: a regular file only, no more than its size.
 pub(crate) fn read_image_file(path: &Path, budget: &LoadBudget) -> Result<Vec<u8>, TextureError> {
-    let io = |e: std::io::Error| match e.kind() {
-        std::io::ErrorKind::NotFound => TextureError("no such file".into()),
-        std::io::ErrorKind::PermissionDenied => TextureError("permission denied".into()),
-        _ => TextureError(format!("cannot read: {e}")),
-    };
-    let meta = std::fs::metadata(path).map_err(io)?;
-    if meta.is_dir() {
-        return Err(TextureError("is a directory, expected a file".into()));
-    }
-    if !meta.is_file() {
-        return Err(TextureError("is not a regular file (a FIFO, socket or device?)".into()));
-    }
-    let what = format!("texture file of {}", memory::format_bytes(meta.len()));
-    budget.admit(what, meta.len()).map_err(|e| TextureError(e.to_string()))?;
-    std::fs::read(path).map_err(io)
+    let io = |e: std::io::Error| TextureError(crate::regular_file::describe(&e));
+    let (file, len) = crate::regular_file::open(path).map_err(io)?;
+    let what = format!("texture file of {}", memory::format_bytes(len));
+    budget.admit(what, len).map_err(|e| TextureError(e.to_string()))?;
+    crate::regular_file::read_opened(file, len).map_err(io)
 }
 
 /// An 8-bit image's pixels, decoded from sRGB to linear: through a table of the 256 values
@@ -111,14 +94,21 @@ pub(crate) fn decode_checked(
             if format == Some(image::ImageFormat::OpenExr) { "OpenEXR" } else { "Radiance HDR" }
         )));
     }
-    // The header gives the size; refuse what would not fit before decoding.
-    let (w, h) = open()?.into_dimensions().map_err(|e| TextureError(e.to_string()))?;
+    // The header gives the size; refuse what would not fit before decoding (by ember's
+    // estimate: the decoders' own allowance is lifted to read the header).
+    let mut header = open()?;
+    header.no_limits();
+    let (w, h) = header.into_dimensions().map_err(|e| TextureError(e.to_string()))?;
+    if w == 0 || h == 0 {
+        return Err(TextureError(format!("the image is {w}x{h} pixels: empty")));
+    }
     let per_pixel = if is_hdr { memory::hdr_image_bytes(w, h) } else { ldr_bytes(w, h) };
     let peak = per_pixel.saturating_add(bytes.len() as u64);
     budget.admit(format!("{w}x{h} image"), peak).map_err(|e| TextureError(e.to_string()))?;
     let mut reader = open()?;
-    if reader.format() == Some(image::ImageFormat::Jpeg) && !ends_jpeg(bytes) {
-        return Err(TextureError("truncated or damaged JPEG: no end-of-image marker".into()));
+    // The decoder fills data that ends early with grey, and ignores data left over.
+    if reader.format() == Some(image::ImageFormat::Jpeg) {
+        crate::jpeg_scan::check(bytes).map_err(|e| TextureError(format!("truncated or damaged JPEG: {e}")))?;
     }
     // Our limit replaces the image crate's fixed 512 MiB decoding allowance.
     let mut decode_limits = image::Limits::default();
@@ -155,6 +145,16 @@ impl Image {
     /// and infinite ones are refused).
     pub fn load_environment(path: &Path, budget: &LoadBudget) -> Result<Image, TextureError> {
         Image::decode(&read_image_file(path, budget)?, budget, true)
+    }
+
+    /// Decodes an 8-bit image (PNG, JPEG) held in memory, as [`Image::load`] does.
+    pub fn from_memory(bytes: &[u8], budget: &LoadBudget) -> Result<Image, TextureError> {
+        Image::decode(bytes, budget, false)
+    }
+
+    /// Decodes an environment image held in memory, as [`Image::load_environment`] does.
+    pub fn environment_from_memory(bytes: &[u8], budget: &LoadBudget) -> Result<Image, TextureError> {
+        Image::decode(bytes, budget, true)
     }
 
     /// Decodes an 8-bit image from sRGB to linear, or, if `hdr` allows, an HDR image as it is.

@@ -345,3 +345,34 @@ fn degenerate_triangles_are_skipped_with_a_warning() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("no triangles"), "{}", stderr(&o));
 }
+
+/// An error estimate takes two samples a pixel: at 1 spp the summary says so instead of
+/// "estimated relative error: mean inf, max inf"; `--checkpoint-every 1e-3s` is a millisecond
+/// (its unit was read as "e-3s").
+#[test]
+fn the_summary_and_durations_say_what_they_mean() {
+    let d = common::fresh_dir("cli", "estimate");
+    let out = d.join("out.png");
+    let o = common::ember(&[
+        "render",
+        common::scene_path("spheres.toml").to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "1",
+        "--checkpoint-every",
+        "1e-3s",
+    ]);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert!(!e.contains("inf"), "{e}");
+    assert!(
+        e.contains("estimated relative error: none (it takes at least 2 samples a pixel; every pixel has 1)"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&d).unwrap();
+}

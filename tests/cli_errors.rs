@@ -505,7 +505,10 @@ fn texture_errors() {
     let jpeg = std::fs::read(common::scene_path("earthmap.jpg")).unwrap();
     std::fs::write(d.join("cut.jpg"), &jpeg[..jpeg.len() / 2]).unwrap();
     let scene = write(&d, "cut-jpeg.toml", textured("cut.jpg"));
-    let needle = format!("texture {}: truncated or damaged JPEG: no end-of-image marker", d.join("cut.jpg").display());
+    let needle = format!(
+        "texture {}: truncated or damaged JPEG: the file ends inside the compressed data",
+        d.join("cut.jpg").display()
+    );
     expect_render_error(&scene, &out, &[], &[], &at(&scene, Some(1)), &needle);
     let png_out = d.join("whole.png");
     let o = ember(&[
@@ -698,6 +701,8 @@ fn progressive_render_flags() {
         (&["--target-error", "small"], "found \"small\""),
         (&["--checkpoint-every", "5x"], "unknown unit \"x\" in \"5x\" (use s, m or h)"),
         (&["--checkpoint-every", "0s"], "duration \"0s\" must be positive"),
+        // The unit is the letters at the end: 1e-12s is seconds, too few of them.
+        (&["--checkpoint-every", "1e-12s"], "duration \"1e-12s\" is too short: at least 0.001s"),
         (&["--checkpoint-every", "1.2.3s"], "expected a duration such as 60s or 5m, found \"1.2.3s\""),
     ] {
         expect_render_error(&scene, &out, args, &[], "error: ", needle);

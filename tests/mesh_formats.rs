@@ -399,7 +399,8 @@ fn broken_gltf_files_are_located_errors() {
     // The .gltf without its .bin.
     let p = d.join("scene.gltf");
     std::fs::write(&p, &json).unwrap();
-    expect_error(&d, &p, &[], &at(&p, None), &format!("buffers[0]: {}: no such file", d.join("scene.bin").display()));
+    let missing = format!("buffers[0]: \"scene.bin\" ({}): no such file", d.join("scene.bin").display());
+    expect_error(&d, &p, &[], &at(&p, None), &missing);
     // With it, and the PNG: it loads.
     std::fs::copy(data("scene.bin"), d.join("scene.bin")).unwrap();
     std::fs::copy(data("checker.png"), d.join("checker.png")).unwrap();
@@ -440,4 +441,131 @@ fn broken_gltf_files_are_located_errors() {
     let p = d.join("cut.glb");
     std::fs::write(&p, &glb[..glb.len() / 2]).unwrap();
     expect_error(&d, &p, &[], &at(&p, None), "invalid GLB");
+}
+
+/// A glTF with one triangle whose buffer is the URI `uri`, and with `nodes` (JSON) after the
+/// mesh's node.
+fn gltf_naming(uri: &str, nodes: &str, extra: &str) -> String {
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scenes": [{{"nodes": [0, 1]}}], "nodes": [{{"mesh": 0}}, {nodes}],
+        "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+        "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}],
+        "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+        "buffers": [{{"byteLength": 36, "uri": "{uri}"}}]{extra}}}"#
+    )
+}
+
+/// The 36 bytes of a triangle's positions.
+fn triangle_bytes() -> Vec<u8> {
+    [0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0].iter().flat_map(|c| c.to_le_bytes()).collect()
+}
+
+/// The files a glTF names are read only from its folder (or below), after resolving `..`,
+/// percent escapes and links; absolute names and files of /proc are refused by name, and no
+/// message quotes a byte of a file the user did not name. `--allow-external-files` lifts the
+/// folder rule, not the others.
+#[test]
+fn gltf_files_read_only_the_files_of_their_folder() {
+    let d = common::fresh_dir("mesh-formats", "gltf-uris");
+    let model = d.join("model");
+    std::fs::create_dir_all(model.join("sub")).unwrap();
+    std::fs::write(model.join("sub/tri.bin"), triangle_bytes()).unwrap();
+    // Outside the model's folder: a triangle too, so that only the rule can refuse it.
+    std::fs::write(d.join("outside.bin"), triangle_bytes()).unwrap();
+    std::os::unix::fs::symlink(d.join("outside.bin"), model.join("link.bin")).unwrap();
+    let light = r#"{"translation": [0, 0, 2], "extensions": {"KHR_lights_punctual": {"light": 0}}}"#;
+    let lights = r#", "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 100}]}}"#;
+    let write = |name: &str, uri: &str| {
+        let p = model.join(name);
+        std::fs::write(&p, gltf_naming(uri, light, lights)).unwrap();
+        p
+    };
+    let ok = write("ok.gltf", "sub/tri.bin");
+    assert!(Scene::load(&ok).is_ok());
+    for (name, uri, needle) in [
+        ("up.gltf", "../outside.bin", "\"../outside.bin\" resolves to "),
+        ("escaped.gltf", "%2e%2e/outside.bin", "\"../outside.bin\" resolves to "),
+        ("link.gltf", "link.bin", "\"link.bin\" resolves to "),
+        ("absolute.gltf", "/etc/passwd", "\"/etc/passwd\" is an absolute path"),
+        ("proc.gltf", "../../../../../../../../proc/self/environ", "under /proc: never read"),
+    ] {
+        let p = write(name, uri);
+        expect_error(&model, &p, &[], &at(&p, None), needle);
+        // Nothing of the file is quoted (the old message named an accessor index read from it).
+        let o = ember_env(&["info", p.to_str().unwrap()], &[]);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!e.contains("root:") && !e.contains("PATH="), "{e}");
+        if needle.ends_with("resolves to ") {
+            assert!(e.contains("outside the model's folder: not read (--allow-external-files"), "{e}");
+        }
+    }
+    // Allowed outside the folder: the two that resolve there load; system files never.
+    let out = d.join("out.png");
+    for name in ["up.gltf", "escaped.gltf", "link.gltf"] {
+        let p = model.join(name);
+        let args =
+            ["render", p.to_str().unwrap(), "-o", out.to_str().unwrap(), "--spp", "1", "--width", "8", "--height", "8"];
+        let o = ember_env(&[&args[..], &["--allow-external-files"]].concat(), &[]);
+        assert!(o.status.success(), "{name}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    let p = model.join("proc.gltf");
+    let o = ember_env(&["info", p.to_str().unwrap(), "--allow-external-files"], &[]);
+    assert_eq!(o.status.code(), Some(2));
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A glTF light or camera the node transforms put at NaN, or beyond ±1e15 (a scene file's
+/// limit), is an error naming the node, not a black image or an unusable camera.
+#[test]
+fn gltf_lights_and_cameras_must_be_at_finite_places() {
+    let d = common::fresh_dir("mesh-formats", "gltf-places");
+    std::fs::write(d.join("tri.bin"), triangle_bytes()).unwrap();
+    let lights = r#", "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 100}]}}"#;
+    let camera = r#", "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]"#;
+    let light = |t: &str| format!(r#"{{{t}, "extensions": {{"KHR_lights_punctual": {{"light": 0}}}}}}"#);
+    // An infinite scale on the parent: the child's place is inf × 0, NaN.
+    let nan = format!(r#"{{"scale": [1e39, 1, 1], "children": [2]}}, {}"#, light(r#""translation": [0, 0, 0]"#));
+    for (name, node, extra, needle) in [
+        ("nan-light.gltf", nan, lights, "nodes[2].extensions.KHR_lights_punctual: the light is at [NaN"),
+        (
+            "far-light.gltf",
+            light(r#""translation": [1e39, 0, 0]"#),
+            lights,
+            "nodes[1].extensions.KHR_lights_punctual: the light is at [inf",
+        ),
+        (
+            "far-camera.gltf",
+            r#"{"camera": 0, "translation": [0, 0, 1e30]}"#.to_string(),
+            camera,
+            "nodes[1]: the camera is at [0.0, 0.0, 1e30]",
+        ),
+    ] {
+        let p = d.join(name);
+        std::fs::write(&p, gltf_naming("tri.bin", &node, extra)).unwrap();
+        expect_error(&d, &p, &[], &at(&p, None), needle);
+        let e = String::from_utf8_lossy(&ember_env(&["info", p.to_str().unwrap()], &[]).stderr).into_owned();
+        assert!(e.contains("must be finite and within ±1e15"), "{e}");
+    }
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// An OBJ (and its MTL) that starts with a UTF-8 byte-order mark, as some editors write, reads
+/// as the same file without it.
+#[test]
+fn a_byte_order_mark_does_not_change_an_obj() {
+    let d = common::fresh_dir("mesh-formats", "bom");
+    let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
+    std::fs::write(d.join("m.mtl"), "\u{feff}newmtl red\nKd 1 0 0\n").unwrap();
+    std::fs::write(d.join("plain.obj"), obj).unwrap();
+    std::fs::write(d.join("bom.obj"), format!("\u{feff}{obj}")).unwrap();
+    let plain = mesh_file::load(&d.join("plain.obj"), &LoadBudget::unlimited()).unwrap();
+    let bom = mesh_file::load(&d.join("bom.obj"), &LoadBudget::unlimited()).unwrap();
+    assert_eq!(bom.meshes[0].mesh.indices, plain.meshes[0].mesh.indices);
+    assert_eq!(bom.meshes[0].mesh.positions, plain.meshes[0].mesh.positions);
+    assert_eq!(bom.materials.len(), 1);
+    assert_eq!(bom.materials[0].kind, plain.materials[0].kind);
+    assert!(bom.warnings.is_empty(), "{:?}", bom.warnings);
+    std::fs::remove_dir_all(&d).unwrap();
 }

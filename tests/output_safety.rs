@@ -174,7 +174,7 @@ fn a_second_signal_quits_at_once_and_leaves_no_file() {
     let dir = common::fresh_dir("safety", "hard-exit");
     let out = dir.join("out.exr");
     // Two pixels of many samples: a pixel in flight takes seconds to finish.
-    let mut running = Running::start_rendering(
+    let running = Running::start_rendering(
         Command::new(env!("CARGO_BIN_EXE_ember"))
             .arg("render")
             .arg(common::scene_path("cornell-area.toml"))
@@ -183,11 +183,13 @@ fn a_second_signal_quits_at_once_and_leaves_no_file() {
             .args(["--width", "2", "--height", "1", "--spp", "50000000", "--checkpoint-every", "0.01s"]),
     );
     std::thread::sleep(Duration::from_millis(50));
-    running.signal("INT");
-    running.wait_for_line("interrupt: finishing the pixels in flight");
     assert_eq!(listing(&dir), ["out.exr.lock"], "the lock is held while rendering");
-    running.signal("TERM");
+    // A first signal is honoured within a group of samples: the second follows at once (two
+    // `kill`s of one shell, a shell builtin), before the checkpoint is written.
+    let pid = running.child.id();
     let start = Instant::now();
+    let both = Command::new("sh").arg("-c").arg(format!("kill -INT {pid}; kill -TERM {pid}")).status().unwrap();
+    assert!(both.success());
     let (status, seen) = running.finish();
     assert!(start.elapsed() < Duration::from_secs(5), "the second signal did not end ember at once");
     assert_eq!(status.code(), Some(143), "{seen}");
@@ -239,5 +241,236 @@ fn a_second_render_to_the_same_output_is_refused() {
     let saved = Checkpoint::load(&ckpt, &key).unwrap();
     assert!(saved.accum.samples() > 0);
     assert_eq!(listing(&dir), ["out.exr.checkpoint"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `OUT.lock` is ember's name, but a file there that ember did not make as a lock (someone's
+/// data, empty or not) is never taken for a stale lock: the render is refused and the file is
+/// left as it was. A lock a killed render left is taken over.
+#[test]
+fn a_file_at_the_lock_name_that_is_not_a_lock_is_left_alone() {
+    let dir = common::fresh_dir("safety", "foreign-lock");
+    let out = dir.join("out.png");
+    let lock = dir.join("out.png.lock");
+    let scene = common::scene_path("spheres.toml");
+    let render = || {
+        Command::new(env!("CARGO_BIN_EXE_ember"))
+            .arg("render")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .args(["--width", "8", "--height", "6", "--spp", "1"])
+            .output()
+            .unwrap()
+    };
+    for data in ["data\n", ""] {
+        std::fs::write(&lock, data).unwrap();
+        let o = render();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(
+            e.contains(&format!(
+                "{}: {} is in the way: a file that is not a lock file of ember's",
+                out.display(),
+                lock.display()
+            )),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_to_string(&lock).unwrap(), data, "the file at the lock's name changed");
+        assert_eq!(listing(&dir), ["out.png.lock"]);
+    }
+    // A lock file a render killed outright left: taken over, and removed at the end.
+    std::fs::write(&lock, ember::output_lock::MARKER).unwrap();
+    let o = render();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(listing(&dir), ["out.png"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `ember merge` writes only its output, as a render does: it refuses an output that is one
+/// of its inputs (shard files may have any name), holds the output's lock (a render to the
+/// same output is refused, and the other way round), and a signal ends it at once with the
+/// signal's exit code, leaving no temporary file and no lock.
+#[test]
+fn merge_refuses_its_inputs_as_output_holds_the_lock_and_stops_cleanly() {
+    let dir = common::fresh_dir("safety", "merge");
+    let scene = common::scene_path("spheres.toml");
+    let shard = |k: u32, extra: &[&str]| {
+        let out = dir.join(format!("part-{k}{}.shard", extra.len()));
+        let o = Command::new(env!("CARGO_BIN_EXE_ember"))
+            .arg("render")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .args(["--shard", &format!("{k}/2"), "--spp", "1"])
+            .args(if extra.is_empty() { &["--width", "96", "--height", "64"][..] } else { extra })
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        out
+    };
+    // A shard named like an image, and the merge asked to write over it.
+    let a = dir.join("a.png");
+    std::fs::rename(shard(0, &[]), &a).unwrap();
+    let b = shard(1, &[]);
+    let before = std::fs::read(&a).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_ember")).arg("merge").arg(&a).arg(&b).arg("-o").arg(&a).output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains(&format!(
+            "{}: the merge reads this file ({}); writing the merged image there would destroy it",
+            a.display(),
+            a.display()
+        )),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(&a).unwrap(), before, "an input of the merge was overwritten");
+
+    // A render writing o.png holds its lock: the merge to o.png is refused.
+    let o_png = dir.join("o.png");
+    let render = Running::start_rendering(
+        Command::new(env!("CARGO_BIN_EXE_ember"))
+            .arg("render")
+            .arg(common::scene_path("cornell-area.toml"))
+            .arg("-o")
+            .arg(&o_png)
+            .args(["--width", "16", "--height", "16", "--spp", "100000"]),
+    );
+    let o =
+        Command::new(env!("CARGO_BIN_EXE_ember")).arg("merge").arg(&a).arg(&b).arg("-o").arg(&o_png).output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("another render is writing this output"), "{e}");
+    render.signal("KILL");
+    let _ = render.finish();
+    std::fs::remove_file(dir.join("o.png.lock")).unwrap();
+
+    // Stopped while it works (denoising, here): exit 130, nothing left behind.
+    let parts: Vec<_> = (0..2).map(|k| shard(k, &["--aux", "--width", "320", "--height", "240"])).collect();
+    let mut merge = Command::new(env!("CARGO_BIN_EXE_ember"))
+        .arg("merge")
+        .args(&parts)
+        .arg("-o")
+        .arg(&o_png)
+        .arg("--denoise")
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let lock = dir.join("o.png.lock");
+    let start = Instant::now();
+    while !lock.exists() {
+        assert!(start.elapsed() < Duration::from_secs(20), "the merge never took its lock");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let kill = Command::new("kill").arg("-INT").arg(merge.id().to_string()).status().unwrap();
+    assert!(kill.success());
+    let status = merge.wait().unwrap();
+    let mut e = String::new();
+    std::io::Read::read_to_string(&mut merge.stderr.take().unwrap(), &mut e).unwrap();
+    assert_eq!(status.code(), Some(130), "{e}");
+    assert!(e.contains(&format!("interrupt: quitting; {} was not written", o_png.display())), "{e}");
+    let mut left = listing(&dir);
+    left.retain(|n| !n.ends_with(".shard") && n != "a.png");
+    assert!(left.is_empty(), "left behind: {left:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The `resume with:` line is a command a POSIX shell runs as it was given: an output named
+/// `a'$(touch PWNED)'b.png` is quoted so that pasting the line resumes the render and runs
+/// nothing else.
+#[test]
+fn the_resume_line_is_quoted_for_a_shell() {
+    let dir = common::fresh_dir("safety", "resume-quoting");
+    let name = "a'$(touch PWNED)'b.png";
+    let running = Running::start_rendering(
+        Command::new(env!("CARGO_BIN_EXE_ember"))
+            .current_dir(&dir)
+            .arg("render")
+            .arg(common::scene_path("cornell-area.toml"))
+            .args(["-o", name, "--width", "4", "--height", "4", "--spp", "50000", "--uniform"]),
+    );
+    std::thread::sleep(Duration::from_millis(100));
+    running.signal("INT");
+    let (status, seen) = running.finish();
+    assert_eq!(status.code(), Some(130), "{seen}");
+    let line = seen.lines().find_map(|l| l.strip_prefix("resume with: ")).expect("a resume line");
+    assert!(line.contains(r"'a'\''$(touch PWNED)'\''b.png'"), "{line}");
+    let o = Command::new("sh").arg("-c").arg(line).current_dir(&dir).output().unwrap();
+    assert!(o.status.success(), "{line}: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(!dir.join("PWNED").exists(), "the resume line ran a command substitution");
+    assert_eq!(listing(&dir), [name]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Output names are checked up front against the longest name ember writes beside them: a
+/// name whose checkpoint's name would not fit in a file name (255 bytes) is refused before
+/// rendering, and a name that fits but whose temporary files' names would not gets them
+/// shortened: an interrupted render writes its checkpoint.
+#[test]
+fn long_output_names_are_refused_up_front_or_their_checkpoints_written() {
+    let dir = common::fresh_dir("safety", "long-names");
+    let refused = format!("{}.png", "r".repeat(246)); // 250 bytes: its checkpoint's name 261
+    let o = Command::new(env!("CARGO_BIN_EXE_ember"))
+        .current_dir(&dir)
+        .arg("render")
+        .arg(common::scene_path("spheres.toml"))
+        .args(["-o", &refused, "--width", "8", "--height", "8", "--spp", "1"])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("ember also writes its checkpoint beside it, whose name would be 261 bytes long, more than the 255"),
+        "{e}"
+    );
+    assert!(listing(&dir).is_empty());
+    // 229 bytes: its checkpoint's name (240) fits, its temporary file's name did not.
+    let long = format!("{}.png", "l".repeat(225));
+    let running = Running::start_rendering(
+        Command::new(env!("CARGO_BIN_EXE_ember"))
+            .current_dir(&dir)
+            .arg("render")
+            .arg(common::scene_path("cornell-area.toml"))
+            .args(["-o", &long, "--width", "8", "--height", "8", "--spp", "200000", "--uniform"])
+            .args(["--checkpoint-every", "0.05s"]),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    running.signal("INT");
+    let (status, seen) = running.finish();
+    assert_eq!(status.code(), Some(130), "{seen}");
+    assert!(!seen.contains("could not be written"), "{seen}");
+    assert_eq!(listing(&dir), [format!("{long}.checkpoint")]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A closed stderr (`ember render … 2>&1 | true`, a terminal gone) loses the messages, not the
+/// render: no panic, the image written, exit 0; a closed stdout likewise for `ember info`.
+#[test]
+fn closed_standard_streams_lose_only_the_text() {
+    let dir = common::fresh_dir("safety", "closed-stderr");
+    let out = dir.join("out.png");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ember"))
+        .arg("render")
+        .arg(common::scene_path("spheres.toml"))
+        .arg("-o")
+        .arg(&out)
+        .args(["--width", "8", "--height", "8", "--spp", "1"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stderr.take()); // its reading end closed: every write fails (EPIPE)
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(0));
+    assert!(out.is_file(), "no image");
+    let mut info = Command::new(env!("CARGO_BIN_EXE_ember"))
+        .arg("info")
+        .arg(common::scene_path("spheres.toml"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    drop(info.stdout.take());
+    assert_eq!(info.wait().unwrap().code(), Some(0));
     std::fs::remove_dir_all(&dir).unwrap();
 }

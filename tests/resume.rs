@@ -297,6 +297,32 @@ fn resume_refuses_checkpoints_that_lie() {
         p.sum_lum_sq = f64::INFINITY
     });
     expect_refused(&out, &[], "(pixel (0, 0): the sum of its squared luminances is inf");
+    // Radiance is never negative.
+    with_pixel(7, &|p| {
+        p.count = 1;
+        p.sum = glam::DVec3::new(-1.0, 0.0, 0.0);
+        p.sum_lum_sq = 1.0;
+    });
+    expect_refused(&out, &[], "(pixel (7, 0): the sum of its samples [-1, 0, 0] is negative, which radiance never is)");
+    // A plan's data no render records: a first round that traced 2^32 − 1 rays (the plan would
+    // send the samples elsewhere: a resume 17 times longer), and a finished first round with
+    // every target at the most a pixel may take (16 times the samples of --spp).
+    let mut forged = good.clone();
+    forged.accum.adaptive.as_mut().unwrap()[3].rays = u32::MAX;
+    forged.save(&ckpt).unwrap();
+    expect_refused(&out, &[], "(pixel (3, 0): 4294967295 rays in a first round of 0 samples, more than the 0 they");
+    let first = ember::integrator::adaptive::first_round_spp(10000);
+    let mut forged = good.clone();
+    for (p, a) in forged.accum.pixels.iter_mut().zip(forged.accum.adaptive.as_mut().unwrap()) {
+        for _ in 0..first {
+            p.add(glam::Vec3::splat(0.5));
+        }
+        a.rays = 10 * first;
+        a.sum_sq = glam::DVec3::splat(0.25 * first as f64);
+        a.target = 160_000;
+    }
+    forged.save(&ckpt).unwrap();
+    expect_refused(&out, &[], "more samples than --spp 10000 gives)");
 
     // Another accelerator, or other BVH build options: a different estimator of the image.
     good.save(&ckpt).unwrap();
@@ -387,5 +413,141 @@ fn a_periodic_checkpoint_that_cannot_be_written_is_a_warning() {
     assert!(seen.contains(&format!("(first failure: {}: cannot write: ", ckpt.display())), "{seen}");
     assert_eq!(Film::load_exr(&out).unwrap().width, 32);
     assert!(ckpt.is_dir(), "a folder is not the render's to remove");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Waits up to `limit` for `running` to end (else kills it and fails): a stop that is not
+/// honoured would hang the test.
+fn finish_within(mut running: common::Running, limit: Duration) -> (std::process::ExitStatus, String) {
+    let start = Instant::now();
+    while running.child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            let _ = running.child.kill();
+            let (_, seen) = running.finish();
+            panic!("not stopped within {limit:?}: {seen}");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    running.finish()
+}
+
+/// A stop request is honoured within a group of samples, inside a pixel too: `--spp
+/// 4294967295` on one pixel (a stop was checked only between pixels: Ctrl-C never ended it)
+/// stops within a second; and a render stopped inside its pixels — uniform, with a target
+/// error (its rounds decide on each pixel's error), adaptive (its first round sums squares for
+/// the plan) — and resumed ends in the image of one never stopped, bit for bit.
+#[test]
+fn a_stop_is_honoured_inside_a_pixel_and_resumes_exactly() {
+    let dir = common::fresh_dir("resume", "inside-pixel");
+    let scene = common::scene_path("cornell-area.toml");
+    let render = |out: &Path, args: &[&str]| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_ember"));
+        c.arg("render").arg(&scene).arg("-o").arg(out).args(args);
+        c
+    };
+    let out = dir.join("huge.exr");
+    let running = common::Running::start_rendering(&mut render(
+        &out,
+        &["--width", "1", "--height", "1", "--spp", "4294967295", "--uniform"],
+    ));
+    std::thread::sleep(Duration::from_millis(200));
+    running.signal("INT");
+    let signalled = Instant::now();
+    let (status, seen) = finish_within(running, Duration::from_secs(10));
+    println!("stopped {:?} after the signal", signalled.elapsed());
+    assert_eq!(status.code(), Some(130), "{seen}");
+    assert!(seen.contains("of 4294967295 spp done; checkpoint written to"), "{seen}");
+
+    // One 16x16 tile: one thread renders its pixels in turn, and stops inside one of them.
+    let size = ["--width", "3", "--height", "2", "--seed", "3"];
+    for (name, mode) in [
+        ("uniform", &["--spp", "40000", "--uniform"][..]),
+        ("target", &["--spp", "40000", "--target-error", "0.001"]),
+        ("adaptive", &["--spp", "12000"]),
+    ] {
+        let whole = dir.join(format!("{name}-whole.exr"));
+        let o = render(&whole, &[&size[..], mode].concat()).output().unwrap();
+        assert!(o.status.success(), "{name}: {}", String::from_utf8_lossy(&o.stderr));
+        let out = dir.join(format!("{name}.exr"));
+        let running = common::Running::start_rendering(&mut render(&out, &[&size[..], mode].concat()));
+        std::thread::sleep(Duration::from_millis(150));
+        running.signal("TERM");
+        let (status, seen) = finish_within(running, Duration::from_secs(10));
+        assert_eq!(status.code(), Some(143), "{name}: {seen}");
+        let o = render(&out, &[&size[..], mode, &["--resume"]].concat()).output().unwrap();
+        assert!(o.status.success(), "{name}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            std::fs::read(&out).unwrap() == std::fs::read(&whole).unwrap(),
+            "{name}: resumed image differs ({seen})"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A signal while a finished render is denoised cancels the denoiser and writes a checkpoint
+/// of the finished render (it was answered after the denoise, exit 0, no checkpoint); resuming
+/// it only denoises and writes. A signal while the image is written lets the write complete
+/// and says so, with the signal's exit code (it said "then writing a checkpoint", exit 0).
+#[test]
+fn signals_while_denoising_or_writing_say_what_happened() {
+    let dir = common::fresh_dir("resume", "late-signals");
+    let scene = common::scene_path("spheres.toml");
+    let out = dir.join("denoised.png");
+    let ckpt = dir.join("denoised.png.checkpoint");
+    let args = ["--width", "640", "--height", "480", "--spp", "1", "--denoise"];
+    let mut c = Command::new(env!("CARGO_BIN_EXE_ember"));
+    c.arg("render").arg(&scene).arg("-o").arg(&out).args(args);
+    let mut running = common::Running::start_rendering(&mut c);
+    running.wait_for_line("denoising ");
+    running.signal("TERM");
+    let signalled = Instant::now();
+    let (status, seen) = finish_within(running, Duration::from_secs(30));
+    println!("denoiser stopped {:?} after the signal", signalled.elapsed());
+    assert_eq!(status.code(), Some(143), "{seen}");
+    assert!(
+        seen.contains(&format!(
+            "SIGTERM while denoising: the render was complete; checkpoint written to {}",
+            ckpt.display()
+        )),
+        "{seen}"
+    );
+    assert!(ckpt.exists() && !out.exists(), "{seen}");
+    let o = Command::new(env!("CARGO_BIN_EXE_ember"))
+        .arg("render")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .args(args)
+        .arg("--resume")
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{e}");
+    assert!(e.contains("(1.0 of 1 spp done)") && e.lines().any(|l| l.starts_with("denoised in ")), "{e}");
+    assert_eq!(rays_traced(&o.stderr), 0, "the resumed render rendered again");
+    assert!(out.exists() && !ckpt.exists());
+
+    // While writing: the temporary file appears, the signal comes, the write completes.
+    let out = dir.join("written.png");
+    let mut c = Command::new(env!("CARGO_BIN_EXE_ember"));
+    c.arg("render").arg(&scene).arg("-o").arg(&out).args(["--width", "2000", "--height", "1500", "--spp", "1"]);
+    let running = common::Running::start_rendering(&mut c);
+    let start = Instant::now();
+    let temporary = || {
+        std::fs::read_dir(&dir).unwrap().any(|e| e.unwrap().file_name().to_string_lossy().starts_with(".written.png."))
+    };
+    while !temporary() {
+        assert!(start.elapsed() < Duration::from_secs(60), "no temporary file");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    running.signal("TERM");
+    let (status, seen) = finish_within(running, Duration::from_secs(30));
+    assert_eq!(status.code(), Some(143), "{seen}");
+    assert!(
+        seen.contains("SIGTERM: the render is finished: completing the image being written, then quitting"),
+        "{seen}"
+    );
+    assert!(seen.contains(&format!("SIGTERM while {} was written: it was written in full", out.display())), "{seen}");
+    assert_eq!(image::image_dimensions(&out).unwrap(), (2000, 1500));
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -191,6 +191,10 @@ fn a_shard_needs_a_shard_file_name_and_a_valid_index() {
         (&["--shard", "1/2", "-o", "x.png"][..], "give the output a name ending in .shard"),
         (&["--shard", "2/2", "-o", "x.shard"], "expected K/N with 0 <= K < N"),
         (&["--shard", "auto", "-o", "x.shard"], "SLURM_ARRAY_TASK_COUNT is not set"),
+        // No image has more tile diagonals: a count that could only make empty shards (and a
+        // merge that allocated 64 GB for them) is refused with the limit.
+        (&["--shard", "0/4000000000", "-o", "x.shard"], "4000000000 shards: at most 2047"),
+        (&["--shard", "0/2048", "-o", "x.shard", "--first-round"], "2048 shards: at most 2047"),
     ] {
         let o = Command::new(env!("CARGO_BIN_EXE_ember"))
             .current_dir(&d)
@@ -324,4 +328,39 @@ fn adaptive_shards_render_in_two_stages_and_merge_to_the_whole_render() {
     assert!(e.contains("seed=0 in"), "{e}");
     let e = stage2(&firsts[1], &[&firsts[0], &firsts[1], &firsts[2]], &[]);
     assert!(e.contains("--plan-from reads this file"), "{e}");
+}
+
+/// A shard file's header is checked before anything is sized by it: a shard count forged to
+/// 2^32 − 1 (the merge used to allocate a slot per shard, 64 GB, before the checksum was read)
+/// and settings holding a terminal's escape sequences are refused, naming the file.
+#[test]
+fn forged_shard_headers_are_refused_before_use() {
+    let d = common::fresh_dir("shards", "forged");
+    // One tile: shard 0 of any count holds all of it, so the forged file has the size its
+    // header implies.
+    let part = d.join("part.shard");
+    let scene = common::scene_path("spheres.toml");
+    ok(&ember(&["render", s(&scene), "-o", s(&part), "--shard", "0/1", "--width", "8", "--height", "8", "--spp", "2"]));
+    let bytes = std::fs::read(&part).unwrap();
+    let settings_len = u32::from_le_bytes(bytes[16..20].try_into().unwrap()) as usize;
+    let fields = 20 + settings_len; // shard index, count, width, height, spp, …
+    let mut forged = bytes.clone();
+    forged[fields + 4..fields + 8].copy_from_slice(&u32::MAX.to_le_bytes());
+    let bad = d.join("count.shard");
+    std::fs::write(&bad, &forged).unwrap();
+    refused(&d, &[bad], "not a valid ember shard file (4294967295 shards: at most 2047");
+    // ESC [ 2 J (clear the screen) in place of a setting's bytes: refused, not printed.
+    let mut forged = bytes;
+    forged[20..24].copy_from_slice(b"\x1b[2J");
+    let sum = ember::hash::fnv1a(&forged[..forged.len() - 8]);
+    let n = forged.len();
+    forged[n - 8..].copy_from_slice(&sum.to_le_bytes());
+    let bad = d.join("escape.shard");
+    std::fs::write(&bad, &forged).unwrap();
+    let o = merge(&[part.clone(), bad.clone()], &d.join("out.png"));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains(&format!("{}: not a valid ember shard file (the settings are not text)", s(&bad))), "{e}");
+    assert!(!e.contains('\x1b'), "an escape sequence was printed: {e:?}");
+    std::fs::remove_dir_all(&d).unwrap();
 }

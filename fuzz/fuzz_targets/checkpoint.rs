@@ -1,9 +1,11 @@
 //! The checkpoint loader, fed arbitrary bytes as the checkpoint of a small render. The first
 //! byte chooses the render (bits 1-2), whether it takes the auxiliary images (bit 3: the
-//! checkpoint then holds their sums) and whether the checksum at the end of the rest is
-//! recomputed first (bit 0), as someone forging a checkpoint would: without that almost every
-//! input would stop at the checksum. Loading must return `Ok` or `Err`, never panic, and what
-//! it accepts must fit the render and write back to the same bytes.
+//! checkpoint then holds their sums), whether it is adaptive (bit 4: the checkpoint then holds
+//! each pixel's plan) and whether the checksum at the end of the rest is recomputed first
+//! (bit 0), as someone forging a checkpoint would: without that almost every input would stop
+//! at the checksum. Loading must return `Ok` or `Err`, never panic, and what it accepts must
+//! fit the render and write back to the same bytes; an adaptive plan it accepts goes through
+//! the planner's own check.
 #![no_main]
 
 use ember::film::{Checkpoint, CheckpointKey};
@@ -17,9 +19,14 @@ fn key(choice: u8) -> CheckpointKey {
         _ => (2, 3, 1024),
     };
     let aux = choice & 4 != 0;
-    let settings =
-        format!("width={width} height={height} spp={spp} seed=1{}", if aux { " aux=albedo+normal" } else { "" });
-    CheckpointKey { scene: 42, settings, width, height, spp, aux }
+    let adaptive = choice & 8 != 0;
+    let settings = format!(
+        "width={width} height={height} spp={spp} seed=1{}{}",
+        if adaptive { " adaptive=relmse-5x5" } else { "" },
+        if aux { " aux=albedo+normal" } else { "" }
+    );
+    let max_spp = if adaptive { ember::integrator::adaptive::max_spp(spp) } else { spp };
+    CheckpointKey { scene: 42, settings, width, height, spp: max_spp, aux, adaptive }
 }
 
 fuzz_target!(|data: &[u8]| {
@@ -37,8 +44,14 @@ fuzz_target!(|data: &[u8]| {
         assert_eq!((c.scene, &c.settings), (key.scene, &key.settings));
         for p in &a.pixels {
             assert!(p.count <= key.spp && p.sum.is_finite() && p.sum_lum_sq.is_finite() && p.sum_lum_sq >= 0.0);
+            assert!(p.sum.min_element() >= 0.0);
         }
         assert_eq!(a.aux.as_ref().map(Vec::len), key.aux.then_some(a.pixels.len()));
+        assert_eq!(a.adaptive.as_ref().map(Vec::len), key.adaptive.then_some(a.pixels.len()));
+        if let Some(plan) = &a.adaptive {
+            let spp = if key.spp == 1 { 1 } else { key.spp / ember::integrator::adaptive::MAX_FACTOR };
+            let _ = ember::integrator::adaptive::stored_plan_problem(&a.pixels, plan, key.width, key.height, spp, 40);
+        }
         assert_eq!(c.to_bytes(), bytes);
     }
 });

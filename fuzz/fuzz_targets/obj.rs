@@ -10,5 +10,10 @@ fuzz_target!(|data: &[u8]| {
         Some(i) => (&data[..i], &data[i + 1..]),
         None => (data, &[][..]),
     };
-    let _ = ember::scene::mesh_file::obj::parse_obj(obj, Path::new("fuzz/input.obj"), &|_| Ok(mtl.to_vec()), &ember::memory::LoadBudget::unlimited());
+    let _ = ember::scene::mesh_file::obj::parse_obj(
+        obj,
+        Path::new("fuzz/input.obj"),
+        &|_| Ok(mtl.to_vec()),
+        &ember::memory::LoadBudget::unlimited(),
+    );
 });

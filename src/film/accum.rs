@@ -7,7 +7,7 @@ use super::Film;
 use glam::{DVec3, Vec3};
 
 /// Luminance weights (Rec. 709).
-const LUM: DVec3 = DVec3::new(0.2126, 0.7152, 0.0722);
+pub(super) const LUMINANCE: DVec3 = DVec3::new(0.2126, 0.7152, 0.0722);
 
 /// Below this mean luminance a pixel's error is judged in absolute terms (as if its mean were
 /// this), so near-black pixels do not demand unbounded samples.
@@ -34,7 +34,7 @@ impl PixelState {
     pub fn add(&mut self, v: Vec3) {
         let v = v.as_dvec3();
         self.sum += v;
-        let l = v.dot(LUM);
+        let l = v.dot(LUMINANCE);
         self.sum_lum_sq += l * l;
         self.count += 1;
     }
@@ -51,7 +51,7 @@ impl PixelState {
             return f64::INFINITY;
         }
         let n = self.count as f64;
-        let mean = self.sum.dot(LUM) / n;
+        let mean = self.sum.dot(LUMINANCE) / n;
         let var = ((self.sum_lum_sq / n - mean * mean) * n / (n - 1.0)).max(0.0);
         (var / n).sqrt() / mean.max(RELATIVE_ERROR_FLOOR)
     }

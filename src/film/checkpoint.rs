@@ -18,7 +18,7 @@
 //! `adaptive=relmse-5x5`), the rays of its first round and its planned sample count (u32, 0 before
 //! the plan) and its first round's sums of squares r, g, b (f64) — and the FNV-1a hash of all that (u64).
 
-use super::accum::{Accumulator, AdaptivePixel, AuxSums, PixelState};
+use super::accum::{Accumulator, AdaptivePixel, AuxSums, LUMINANCE, PixelState};
 use crate::hash::Fnv1a;
 use glam::DVec3;
 use std::io::{Read, Write};
@@ -444,8 +444,8 @@ pub(super) fn decode_pixel(b: &[u8]) -> PixelState {
 }
 
 /// Why a stored pixel could not have come from a render of `spp` samples per pixel, if it
-/// could not: more samples, a sum that is not finite, a negative or non-finite sum of
-/// squares, sums without samples.
+/// could not: more samples, a sum that is not finite or negative, a negative or non-finite sum
+/// of squares or one too small for the sum, sums without samples.
 pub(super) fn pixel_problem(p: &PixelState, spp: u32) -> Option<String> {
     if p.count > spp {
         return Some(format!("{} samples, more than the {spp} a pixel of this render takes at most", p.count));
@@ -461,6 +461,20 @@ pub(super) fn pixel_problem(p: &PixelState, spp: u32) -> Option<String> {
     }
     if p.count == 0 && (p.sum != DVec3::ZERO || p.sum_lum_sq != 0.0) {
         return Some("no samples, but sums that are not zero".into());
+    }
+    // Radiance is never negative (colours, emission and lights are not; a sample that is not
+    // finite counts as 0).
+    if p.sum.min_element() < 0.0 {
+        return Some(format!("the sum of its samples {} is negative, which radiance never is", p.sum));
+    }
+    // The sum of n luminances squared is at most n times the sum of their squares (Cauchy–
+    // Schwarz), with room for rounding.
+    let lum = p.sum.dot(LUMINANCE);
+    if lum * lum > p.count as f64 * p.sum_lum_sq * (1.0 + 1e-6) + 1e-300 {
+        return Some(format!(
+            "the sum of its luminances ({lum}) is too large for the sum of their squares ({}) over {} samples",
+            p.sum_lum_sq, p.count
+        ));
     }
     None
 }
@@ -521,7 +535,12 @@ impl Header {
         };
         let scene = u64::from_le_bytes(take(8)?.try_into().unwrap());
         let len = u32::from_le_bytes(take(4)?.try_into().unwrap()) as usize;
-        let settings = std::str::from_utf8(take(len)?).map_err(|_| "settings are not text")?.to_string();
+        let settings = take(len)?;
+        // Printed in messages: a terminal's escape sequences are refused, not printed.
+        if !super::shard::settings_are_text(settings) {
+            return Err("settings are not text");
+        }
+        let settings = std::str::from_utf8(settings).map_err(|_| "settings are not text")?.to_string();
         let nonfinite = u64::from_le_bytes(take(8)?.try_into().unwrap());
         let elapsed = Duration::from_nanos(u64::from_le_bytes(take(8)?.try_into().unwrap()));
         let width = u32::from_le_bytes(take(4)?.try_into().unwrap());

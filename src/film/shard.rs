@@ -83,7 +83,7 @@ pub struct ShardHeader {
 impl ShardHeader {
     /// The number of pixels the shard holds.
     pub fn pixel_count(&self) -> u64 {
-        self.shard.pixels(self.width, self.height).count() as u64
+        self.shard.pixel_count(self.width, self.height)
     }
 
     /// The size in bytes of the shard file.
@@ -162,7 +162,7 @@ fn write(out: impl Write, h: &ShardHeader, accum: &Accumulator) -> std::io::Resu
 pub struct ShardReader {
     pub path: PathBuf,
     pub header: ShardHeader,
-    reader: std::io::BufReader<std::fs::File>,
+    reader: Box<dyn std::io::BufRead>,
     hash: Fnv1a,
 }
 
@@ -172,7 +172,6 @@ impl ShardReader {
     pub fn open(path: &Path) -> Result<ShardReader, ShardError> {
         use std::os::unix::fs::OpenOptionsExt;
         let read_err = |e: std::io::Error| ShardError::Read(path.to_path_buf(), e.to_string());
-        let corrupt = |why: String| ShardError::Corrupt(path.to_path_buf(), why);
         // Non-blocking: opening a FIFO must not wait for a writer (regular files ignore it).
         let file =
             std::fs::OpenOptions::new().read(true).custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY).open(path).map_err(
@@ -185,7 +184,20 @@ impl ShardReader {
         if !meta.is_file() {
             return Err(ShardError::Read(path.to_path_buf(), "is not a regular file".into()));
         }
-        let len = meta.len();
+        // No more than its size says (a /proc file says 0).
+        let reader = std::io::BufReader::with_capacity(1 << 16, file.take(meta.len()));
+        Self::from_reader(Box::new(reader), meta.len(), path)
+    }
+
+    /// [`ShardReader::open`] of a shard file's bytes (`path` names it in messages).
+    pub fn from_bytes(bytes: Vec<u8>, path: &Path) -> Result<ShardReader, ShardError> {
+        let len = bytes.len() as u64;
+        Self::from_reader(Box::new(std::io::Cursor::new(bytes)), len, path)
+    }
+
+    /// Reads the header of the `len` bytes of shard file `path` from `reader`.
+    fn from_reader(reader: Box<dyn std::io::BufRead>, len: u64, path: &Path) -> Result<ShardReader, ShardError> {
+        let corrupt = |why: String| ShardError::Corrupt(path.to_path_buf(), why);
         let mut r = ShardReader {
             path: path.to_path_buf(),
             header: ShardHeader {
@@ -202,7 +214,7 @@ impl ShardReader {
                 first_round: false,
                 plan: false,
             },
-            reader: std::io::BufReader::with_capacity(1 << 16, file),
+            reader,
             hash: Fnv1a::default(),
         };
         if len < PREFIX_BYTES + FIELDS_BYTES + CHECKSUM_BYTES {
@@ -220,15 +232,19 @@ impl ShardReader {
         if settings_len > MAX_SETTINGS || settings_len > len - PREFIX_BYTES - FIELDS_BYTES - CHECKSUM_BYTES {
             return Err(corrupt(format!("settings of {settings_len} bytes in a file of {len}")));
         }
-        let settings = String::from_utf8(r.take(settings_len as usize)?)
-            .map_err(|_| corrupt("the settings are not text".into()))?;
+        let settings = r.take(settings_len as usize)?;
+        // ember's settings are printable ASCII: anything else (a terminal's escape sequences)
+        // is not printed in messages, but refused.
+        if !settings_are_text(&settings) {
+            return Err(corrupt("the settings are not text".into()));
+        }
+        let settings = String::from_utf8(settings).map_err(|_| corrupt("the settings are not text".into()))?;
         let fields = r.take(FIELDS_BYTES as usize)?;
         let u32_at = |i: usize| u32::from_le_bytes(fields[4 * i..4 * i + 4].try_into().unwrap());
         let u64_at = |at: usize| u64::from_le_bytes(fields[at..at + 8].try_into().unwrap());
         let (index, count, width, height, spp) = (u32_at(0), u32_at(1), u32_at(2), u32_at(3), u32_at(4));
-        if count == 0 || index >= count {
-            return Err(corrupt(format!("shard {index} of {count}")));
-        }
+        // A forged count must not size anything: the merge keeps a slot per shard.
+        let shard = Shard::new(index as u64, count as u64).map_err(corrupt)?;
         let max_side = crate::scene::format::MAX_IMAGE_SIDE;
         if !(1..=max_side).contains(&width) || !(1..=max_side).contains(&height) || spp == 0 {
             return Err(corrupt(format!("image {width}x{height} at {spp} spp")));
@@ -236,7 +252,7 @@ impl ShardReader {
         r.header = ShardHeader {
             scene,
             settings,
-            shard: Shard { index, count },
+            shard,
             width,
             height,
             spp,
@@ -341,13 +357,18 @@ pub fn incomplete(readers: &[ShardReader]) -> Option<String> {
         }
         *slot = Some(&r.path);
     }
-    let missing: Vec<String> =
-        by_index.iter().enumerate().filter(|(_, p)| p.is_none()).map(|(i, _)| format!("{i}/{count}")).collect();
+    let missing: Vec<usize> = by_index.iter().enumerate().filter(|(_, p)| p.is_none()).map(|(i, _)| i).collect();
+    // The first few named, not thousands.
+    const NAMED: usize = 8;
+    let mut named: Vec<String> = missing.iter().take(NAMED).map(|i| format!("{i}/{count}")).collect();
+    if missing.len() > NAMED {
+        named.push(format!("and {} more", missing.len() - NAMED));
+    }
     (!missing.is_empty()).then(|| {
         format!(
             "shard{} {} of the image missing (given {} of {count})",
             if missing.len() == 1 { "" } else { "s" },
-            missing.join(", "),
+            named.join(", "),
             readers.len()
         )
     })
@@ -384,10 +405,20 @@ pub fn mismatch(a: &ShardHeader, a_path: &Path, b: &ShardHeader, b_path: &Path) 
         let says = |h: &ShardHeader| if h.first_round { "a first round (--first-round)" } else { "a finished shard" };
         return Some(format!("{bn} is {}, {an} {}", says(b), says(a)));
     }
+    if a.plan != b.plan {
+        let says =
+            |h: &ShardHeader| if h.plan { "with an adaptive plan's data" } else { "without an adaptive plan's data" };
+        return Some(format!("{bn} is a first round {}, {an} {}", says(b), says(a)));
+    }
     if a.shard.count != b.shard.count {
         return Some(format!("{bn} is shard {} but {an} is shard {}: the counts differ", b.shard, a.shard));
     }
     None
+}
+
+/// Whether a settings text read from a file is one ember could have written: printable ASCII.
+pub(super) fn settings_are_text(settings: &[u8]) -> bool {
+    settings.iter().all(|&b| (b' '..=b'~').contains(&b))
 }
 
 #[cfg(test)]

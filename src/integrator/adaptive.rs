@@ -76,6 +76,102 @@ fn relative_variance(p: &PixelState, sum_sq: DVec3) -> f64 {
     if rv.is_finite() { rv } else { 0.0 }
 }
 
+/// The mean of `of` over pixel `i`'s neighbours in a `w`×`h` image (those inside it).
+fn ring_mean(i: usize, of: &[f64], w: usize, h: usize) -> f64 {
+    let (x, y) = (i % w, i / w);
+    let (mut sum, mut n) = (0.0, 0u32);
+    for ny in y.saturating_sub(REACH)..(y + REACH + 1).min(h) {
+        for nx in x.saturating_sub(REACH)..(x + REACH + 1).min(w) {
+            if (nx, ny) != (x, y) {
+                sum += of[ny * w + nx];
+                n += 1;
+            }
+        }
+    }
+    if n == 0 { 0.0 } else { sum / n as f64 }
+}
+
+/// Each pixel's neighbours' mean cost of a sample (its own for a one-pixel image), from the
+/// first round's sample counts and the rays recorded in `plan`: a sample's cost is the rays it
+/// traced after its camera ray, plus [`SAMPLE_COST`].
+fn near_costs(counts: &[u32], plan: &[AdaptivePixel], w: usize, h: usize) -> Vec<f64> {
+    let cost: Vec<f64> =
+        counts.iter().zip(plan).map(|(&n, a)| SAMPLE_COST + (a.rays as f64 / n.max(1) as f64 - 1.0).max(0.0)).collect();
+    (0..w * h).map(|i| if w * h == 1 { cost[i] } else { ring_mean(i, &cost, w, h) }).collect()
+}
+
+/// Why the plan `plan` stored with pixel states `pixels` (a checkpoint's, or the first rounds
+/// `--plan-from` reads) could not have come from a `w`×`h` render of mean `spp` whose samples
+/// trace at most `rays_per_sample` rays each, if it could not: a pixel whose first round
+/// recorded more rays than its samples can trace (which would make the plan send samples
+/// elsewhere: a render many times longer), a target outside the first round to [`max_spp`]
+/// or off the packets [`allocate`] gives, a plan made before every first round was done, or
+/// targets that spend more than the budget [`allocate`] shares out. The error names the pixel
+/// where there is one (and gives its index).
+pub fn stored_plan_problem(
+    pixels: &[PixelState],
+    plan: &[AdaptivePixel],
+    w: u32,
+    h: u32,
+    spp: u32,
+    rays_per_sample: u64,
+) -> Option<(Option<usize>, String)> {
+    let (w, h) = (w as usize, h as usize);
+    let first = first_round_spp(spp);
+    let planned = plan.iter().any(|a| a.target != 0);
+    let at = |i: usize| format!("pixel ({}, {})", i % w, i / w);
+    for (i, (p, a)) in pixels.iter().zip(plan).enumerate() {
+        let most = (p.count.min(first) as u64).saturating_mul(rays_per_sample).min(u32::MAX as u64);
+        if a.rays as u64 > most {
+            return Some((
+                Some(i),
+                format!(
+                    "{}: {} rays in a first round of {} samples, more than the {most} they can trace",
+                    at(i),
+                    a.rays,
+                    p.count.min(first)
+                ),
+            ));
+        }
+        // Whole packets above the first round, or the mean itself (when nothing is shared out).
+        let off_packets = a.target != spp && a.target >= first && !(a.target - first).is_multiple_of(LANES as u32);
+        if planned && (a.target < first || a.target > max_spp(spp) || off_packets || p.count < first) {
+            return Some((
+                Some(i),
+                format!(
+                    "{}: a plan of {} samples (with {} taken) is not one this render makes: every pixel's plan is \
+                     its first round of {first} and whole packets of {LANES} more, up to {}",
+                    at(i),
+                    a.target,
+                    p.count,
+                    max_spp(spp)
+                ),
+            ));
+        }
+        if !planned && p.count > first {
+            let why = format!("{}: {} samples before the plan, more than the first round's {first}", at(i), p.count);
+            return Some((Some(i), why));
+        }
+    }
+    if planned {
+        // What `allocate` spends, in cost, is within its budget (and half a packet a pixel of
+        // rounding).
+        let near_cost = near_costs(&vec![first; w * h], plan, w, h);
+        let spent: f64 = plan.iter().zip(&near_cost).map(|(a, c)| (a.target - first) as f64 * c).sum();
+        let budget: f64 = near_cost.iter().map(|c| c * (spp.saturating_sub(first) as f64 + LANES as f64 / 2.0)).sum();
+        if spent > budget * (1.0 + 1e-9) {
+            return Some((
+                None,
+                format!(
+                    "its plan spends {spent:.0} units of cost where this render's budget is {budget:.0}: more \
+                     samples than --spp {spp} gives"
+                ),
+            ));
+        }
+    }
+    None
+}
+
 /// The samples each pixel of a `w`×`h` image should have at the end of the render, given the
 /// first round's states `first` (every pixel at [`first_round_spp`]) and what the first round
 /// recorded in `plan` (rays and sums of squares), so that the image takes
@@ -88,27 +184,8 @@ pub fn allocate(first: &[PixelState], plan: &[AdaptivePixel], w: u32, h: u32, sp
     assert_eq!(first.len(), w * h);
     assert_eq!(plan.len(), w * h);
     let rv: Vec<f64> = first.iter().zip(plan).map(|(p, a)| relative_variance(p, a.sum_sq)).collect();
-    // A sample's cost: the rays it traced after its camera ray, plus [`SAMPLE_COST`].
-    let cost: Vec<f64> = first
-        .iter()
-        .zip(plan)
-        .map(|(p, a)| SAMPLE_COST + (a.rays as f64 / p.count.max(1) as f64 - 1.0).max(0.0))
-        .collect();
-    // Each pixel's neighbours' mean relative variance and cost (those inside the image).
-    let ring = |i: usize, of: &[f64]| -> f64 {
-        let (x, y) = (i % w, i / w);
-        let (mut sum, mut n) = (0.0, 0u32);
-        for ny in y.saturating_sub(REACH)..(y + REACH + 1).min(h) {
-            for nx in x.saturating_sub(REACH)..(x + REACH + 1).min(w) {
-                if (nx, ny) != (x, y) {
-                    sum += of[ny * w + nx];
-                    n += 1;
-                }
-            }
-        }
-        if n == 0 { 0.0 } else { sum / n as f64 }
-    };
-    let near_cost: Vec<f64> = (0..w * h).map(|i| if w * h == 1 { cost[i] } else { ring(i, &cost) }).collect();
+    let ring = |i: usize, of: &[f64]| ring_mean(i, of, w, h);
+    let near_cost = near_costs(&first.iter().map(|p| p.count).collect::<Vec<_>>(), plan, w, h);
     // Samples ∝ √(variance / cost) minimise Σ variance / samples for a given Σ cost × samples.
     let weight: Vec<f64> = (0..w * h).map(|i| (ring(i, &rv) / near_cost[i]).sqrt()).collect();
     // The budget, in cost: what every pixel taking `spp` would cost, less the first round.

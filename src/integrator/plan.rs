@@ -118,6 +118,14 @@ impl RenderPlan {
             + if self.light_vertices { " light-vertices=pool-by-depth" } else { "" }
     }
 
+    /// The most rays one sample traces: its camera ray, and at each of its at most
+    /// `path_depth + 1` vertices a shadow ray, a connection to a light vertex, the next ray
+    /// and a ray of the auxiliary images' (with room to spare). Bounds what a checkpoint or a
+    /// first round may say a pixel's samples traced.
+    pub fn max_rays_per_sample(&self) -> u64 {
+        4 * (self.path_depth as u64 + 2)
+    }
+
     /// Whether anything in the scene emits light; without light every sample is exactly zero
     /// and the specialised render traces no ray.
     pub fn traces_nothing(&self) -> bool {

@@ -12,8 +12,10 @@
 //! double the sample count (16, 32, 64, … up to `spp`) of the pixels whose estimated error is
 //! still above the target. A pixel's samples are always taken in index order and its decision
 //! depends only on its own samples, so the image is the same whatever the thread count, and
-//! whether or not the render was interrupted and resumed: work stops only at pixel boundaries
-//! (a pixel finishes the samples of its round), and each pixel's state is saved exactly.
+//! whether or not the render was interrupted and resumed: a stop request is honoured between
+//! groups of [`LANES`] samples (inside a pixel too, whose samples may take minutes), where the
+//! pixel's state — its sums, in sample order — is saved exactly, and a pixel stopped inside a
+//! round goes on with it when resumed (see [`round_target`]).
 
 use super::adaptive;
 use super::aux::AuxSample;
@@ -125,8 +127,13 @@ fn round_target(settings: &RenderSettings, round: u32, p: &PixelState, allocated
         return (round == 0 && p.count < settings.spp).then_some(settings.spp);
     };
     let min = MIN_ADAPTIVE_SPP.min(settings.spp);
-    let target = min.saturating_mul(1u32.checked_shl(round).unwrap_or(u32::MAX)).min(settings.spp);
-    let needs = p.count < min || p.relative_error() > e as f64;
+    let target_of = |r: u32| min.saturating_mul(1u32.checked_shl(r).unwrap_or(u32::MAX)).min(settings.spp);
+    let target = target_of(round);
+    // A pixel with more samples than the last round's target was stopped inside this round
+    // (by a signal): it was taking part, decided at the round's start, so it goes on; its
+    // error estimate now would decide on other samples. (Never so in a render not stopped.)
+    let inside = round > 0 && p.count > target_of(round - 1);
+    let needs = p.count < min || inside || p.relative_error() > e as f64;
     (p.count < target && needs).then_some(target)
 }
 
@@ -174,6 +181,13 @@ pub(super) fn run(
     let (mut accum, prior_elapsed, prior_nonfinite) = match (control.resume, control.first_rounds) {
         (Some((path, c)), _) => {
             c.check_matches(path, key())?;
+            if let Some(stored) = &c.accum.adaptive {
+                let rays = plan.max_rays_per_sample();
+                if let Some((_, why)) = adaptive::stored_plan_problem(&c.accum.pixels, stored, w, h, settings.spp, rays)
+                {
+                    return Err(crate::film::CheckpointError::Corrupt(path.to_path_buf(), why).into());
+                }
+            }
             (c.accum, c.elapsed, c.nonfinite)
         }
         (None, Some(first)) => {
@@ -211,8 +225,10 @@ pub(super) fn run(
             if !owned(i) {
                 continue;
             }
-            while round_target(settings, 0, p, None).is_some_and(|t| p.count < t) {
-                p.add(glam::Vec3::ZERO);
+            // As many exact zeros as the round takes: the sums stay 0 (and a huge spp takes no
+            // time).
+            if let Some(t) = round_target(settings, 0, p, None) {
+                p.count = p.count.max(t);
             }
         }
         return Ok(finish(accum, 0, 0, true, Vec::new()));
@@ -310,19 +326,25 @@ pub(super) fn run(
                     }
                     let i = (y * w + x) as usize;
                     // During a round, a pixel belongs to the one task rendering its tile.
-                    let (mut p, mut pa, planned_total) = {
+                    let (mut p, mut pa, planned_total, mut sum_sq) = {
                         let a = shared.lock().unwrap_or_else(|e| e.into_inner());
-                        (a.pixels[i], a.aux.as_ref().map(|aux| aux[i]), allocated(&a, i))
+                        // An adaptive render's first round also sums the squares of the samples:
+                        // on from what a stopped session summed, in sample order.
+                        let sum_sq = a.adaptive.as_ref().map_or(glam::DVec3::ZERO, |plan| plan[i].sum_sq);
+                        (a.pixels[i], a.aux.as_ref().map(|aux| aux[i]), allocated(&a, i), sum_sq)
                     };
                     let Some(target) = round_target(settings, round, &p, planned_total) else { continue };
                     let mut pixel_bad = 0;
-                    // An adaptive render's first round also sums the squares of the samples.
-                    let mut sum_sq = glam::DVec3::ZERO;
-                    let mut s = p.count;
+                    let (first, mut s) = (p.count, p.count);
                     let streams = PixelSampler::new(settings.sampler, settings.seed, y as u64 * w as u64 + x as u64);
-                    taken += (target - s) as u64;
                     let rays_before = rays;
                     while s < target {
+                        // A pixel of many samples can take minutes: a stop is honoured between
+                        // groups, the pixel's state kept as it is.
+                        if stop_requested() {
+                            stopped.store(true, Ordering::Relaxed);
+                            break;
+                        }
                         // Samples go in groups of LANES aligned on sample 0, whatever the
                         // rounds: a sample's packet mates never depend on when it is taken.
                         let end = target.min((s / LANES as u32 + 1) * LANES as u32);
@@ -348,13 +370,14 @@ pub(super) fn run(
                         }
                         s = end;
                     }
+                    taken += (s - first) as u64;
                     let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
                     a.pixels[i] = p;
                     if round == 0
                         && let Some(plan) = &mut a.adaptive
                     {
                         plan[i].rays = plan[i].rays.saturating_add((rays - rays_before).min(u32::MAX as u64) as u32);
-                        plan[i].sum_sq += sum_sq;
+                        plan[i].sum_sq = sum_sq;
                     }
                     if let (Some(aux), Some(pa)) = (&mut a.aux, pa) {
                         aux[i] = pa;

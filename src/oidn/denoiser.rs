@@ -3,6 +3,7 @@ use super::error::DenoiseError;
 use super::{ffi, locate};
 use glam::Vec3;
 use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
 
 /// How to set up a [`Denoiser`]. `Default` is what [`Denoiser::new`] uses.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -43,6 +44,10 @@ pub struct Denoiser {
     device: Device,
     version: (i32, i32, i32),
     threads: i32,
+    /// When set, a running denoise stops ([`Denoiser::cancel_when`]).
+    stop: Option<&'static AtomicBool>,
+    /// OIDN's `maxMemoryMB` for every filter ([`Denoiser::scratch_memory`]).
+    max_memory_mb: Option<i32>,
 }
 
 impl Denoiser {
@@ -64,7 +69,33 @@ impl Denoiser {
             });
         }
         let threads = device.int(c"numThreads")?;
-        Ok(Denoiser { device, version, threads })
+        Ok(Denoiser { device, version, threads, stop: None, max_memory_mb: None })
+    }
+
+    /// The same denoiser, whose [`Denoiser::denoise`] stops early with
+    /// [`DenoiseError::Cancelled`] once `flag` is set (e.g. by a signal), instead of running
+    /// its filters to the end.
+    pub fn cancel_when(self, flag: &'static AtomicBool) -> Denoiser {
+        Denoiser { stop: Some(flag), ..self }
+    }
+
+    /// The same denoiser, telling OIDN to use about `bytes` of scratch memory (its
+    /// `maxMemoryMB`, at least 1 MB: it tiles the image to stay near it, and may go somewhat
+    /// over) instead of what it would choose.
+    pub fn scratch_memory(self, bytes: u64) -> Denoiser {
+        let mb = (bytes / 1_000_000).clamp(1, i32::MAX as u64) as i32;
+        Denoiser { max_memory_mb: Some(mb), ..self }
+    }
+
+    /// Sets what every filter run shares: cancellation and scratch memory.
+    fn prepare(&self, filter: &mut Filter<'_>) -> Result<(), DenoiseError> {
+        if let Some(flag) = self.stop {
+            filter.cancel_when(flag)?;
+        }
+        if let Some(mb) = self.max_memory_mb {
+            filter.set_int(c"maxMemoryMB", mb)?;
+        }
+        Ok(())
     }
 
     /// The running library's version, e.g. `"2.5.1"`.
@@ -162,6 +193,7 @@ impl Denoiser {
             filter.set_bool(c"hdr", true)?;
             filter.set_bool(c"cleanAux", clean_aux)?;
             filter.set_int(c"quality", ffi::QUALITY_HIGH)?;
+            self.prepare(&mut filter)?;
             filter.run("colour")?;
         }
         Ok(output)
@@ -178,6 +210,7 @@ impl Denoiser {
         let mut filter = Filter::new(&self.device, c"RT", width, height)?;
         filter.in_place(name, image)?;
         filter.set_int(c"quality", ffi::QUALITY_HIGH)?;
+        self.prepare(&mut filter)?;
         filter.run(&format!("{} prefilter", name.to_string_lossy()))
     }
 }

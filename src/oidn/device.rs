@@ -3,14 +3,16 @@
 //!
 //! OIDN reports errors per device *and per calling thread* ("the first unqueried error since
 //! the last `oidnGetDeviceError` on the current thread"): every step below queries right after
-//! its calls, on the same thread, so an error is attributed to the step that caused it. No
-//! error or progress callback is registered, so OIDN never calls into Rust.
+//! its calls, on the same thread, so an error is attributed to the step that caused it. The one
+//! callback registered is a filter's progress monitor ([`Filter::cancel_when`]), which only
+//! reads an atomic flag: it cannot panic, so it never unwinds into OIDN.
 
 use super::error::{DenoiseError, ErrorCode};
 use super::ffi::{self, Api, OidnDevice, OidnFilter};
 use glam::Vec3;
 use std::ffi::{CStr, c_char, c_int, c_void};
 use std::marker::PhantomData;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 // OIDN_FORMAT_FLOAT3 images are read as three packed f32 per pixel; glam's Vec3 is exactly that.
 const _: () = assert!(size_of::<Vec3>() == 12 && align_of::<Vec3>() == 4);
@@ -96,6 +98,7 @@ impl Device {
     pub(super) fn check(&self, during: impl FnOnce() -> String) -> Result<(), DenoiseError> {
         match take_error(self.api, self.raw) {
             None => Ok(()),
+            Some((ErrorCode(ffi::ERROR_CANCELLED), _)) => Err(DenoiseError::Cancelled),
             Some((code, message)) => Err(DenoiseError::Api { during: during(), code, message }),
         }
     }
@@ -205,6 +208,28 @@ impl<'img> Filter<'img> {
         // SAFETY: valid filter, NUL-terminated name.
         unsafe { (self.device.api.oidnSetFilterInt)(self.raw, name.as_ptr(), value) };
         self.device.check(|| format!("setting the filter parameter {name:?}"))
+    }
+
+    /// Makes the filter's execution stop early, with [`DenoiseError::Cancelled`], once `flag`
+    /// is set (OIDN asks its progress monitor between steps).
+    pub(super) fn cancel_when(&mut self, flag: &'img AtomicBool) -> Result<(), DenoiseError> {
+        /// Whether OIDN may go on: the flag, given as `user`, is not set.
+        unsafe extern "C" fn go_on(user: *mut c_void, _done: f64) -> bool {
+            // SAFETY: `user` is the `&AtomicBool` given below, borrowed for 'img, which the
+            // filter (and so any execution calling this) does not outlive.
+            let flag = unsafe { &*(user as *const AtomicBool) };
+            !flag.load(Ordering::Relaxed)
+        }
+        // SAFETY: valid filter; the callback only reads the flag `user` points to, which
+        // outlives the filter (see `go_on`), and cannot unwind.
+        unsafe {
+            (self.device.api.oidnSetFilterProgressMonitorFunction)(
+                self.raw,
+                Some(go_on),
+                flag as *const AtomicBool as *mut c_void,
+            )
+        };
+        self.device.check(|| String::from("setting the filter's progress monitor"))
     }
 
     /// Commits the parameters, then runs the filter (synchronously on the CPU device).

@@ -74,6 +74,9 @@ pub enum DenoiseError {
     /// An API call failed; `during` says which step.
     #[error("Open Image Denoise error while {during}: {code}: {message}")]
     Api { during: String, code: ErrorCode, message: String },
+    /// Stopped early: the flag given to [`super::Denoiser::cancel_when`] was set.
+    #[error("denoising was cancelled")]
+    Cancelled,
     /// Input rejected before it reached the library.
     #[error("invalid denoiser input: {0}")]
     InvalidInput(String),

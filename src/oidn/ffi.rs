@@ -34,6 +34,10 @@ pub(super) struct FilterImpl {
 }
 pub(super) type OidnFilter = *mut FilterImpl;
 
+/// `OIDNProgressMonitorFunction`: called by OIDN while a filter runs with the share done;
+/// returning false cancels the execution (`OIDN_ERROR_CANCELLED`).
+pub(super) type ProgressMonitor = unsafe extern "C" fn(user: *mut c_void, n: f64) -> bool;
+
 // OIDNDeviceType
 pub(super) const DEVICE_TYPE_CPU: c_int = 1;
 
@@ -101,6 +105,7 @@ api! {
     oidnSetSharedFilterImage: fn(OidnFilter, *const c_char, *mut c_void, c_int, usize, usize, usize, usize, usize);
     oidnSetFilterBool: fn(OidnFilter, *const c_char, bool);
     oidnSetFilterInt: fn(OidnFilter, *const c_char, c_int);
+    oidnSetFilterProgressMonitorFunction: fn(OidnFilter, Option<ProgressMonitor>, *mut c_void);
     oidnCommitFilter: fn(OidnFilter);
     oidnExecuteFilter: fn(OidnFilter);
 }

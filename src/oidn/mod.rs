@@ -12,7 +12,8 @@
 //! and only denoising fails, with [`DenoiseError::LibraryNotFound`] naming where it looked and
 //! how to install it. Where it looks (`locate.rs`): `$EMBER_OIDN_DIR`, else the folder that
 //! `scripts/fetch-oidn.sh` fills (`~/.cache/ember/oidn-2.5.1/lib`, recorded by `build.rs`),
-//! else the standard library path. OIDN is given no callbacks, so it never calls into Rust.
+//! else the standard library path. OIDN's one callback into Rust is a filter's progress monitor,
+//! which reads a flag and cannot unwind ([`Denoiser::cancel_when`]).
 //! See `docs/denoiser.md`.
 
 mod denoiser;

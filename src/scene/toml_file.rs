@@ -97,6 +97,8 @@ pub(super) fn load(path: &Path, budget: &LoadBudget) -> Result<Scene, SceneError
 }
 
 pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<Scene, SceneError> {
+    // A UTF-8 byte-order mark, as some editors write, is not part of the first line.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let file: SceneFile = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| line_of(text, s.start));
         SceneError::new(path, line, e.message().trim().to_string())

@@ -13,3 +13,23 @@ pub mod check;
 pub mod cli;
 pub mod converge;
 pub mod report;
+
+/// `eprintln!` that never panics: with stderr closed or full (`ember … 2>&1 | true`, a
+/// terminal gone), the text is lost, not the command's work.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
+/// `println!` that never panics: with stdout closed (`ember info … | head -1`), the text is
+/// lost, not the command's work.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+pub(crate) use {out, say};

@@ -18,6 +18,7 @@ use super::{FileMesh, MeshFile};
 use crate::light::PointLight;
 use crate::material::{AlphaMode, GlassMaterial, Material, MaterialKind, NormalMap, PbrMaterial};
 use crate::memory::{self, LoadBudget};
+use crate::scene::format::MAX_COORDINATE;
 use crate::scene::{CameraSpec, SceneError, input};
 use crate::texture::{Encoding, MipImage, Sampler, Texture, TextureMap, UvTransform, Wrap};
 use base64::Engine;
@@ -62,20 +63,61 @@ pub(super) fn load(path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneEr
     budget
         .admit(format!("glTF file of {}", memory::format_bytes(len)), len.saturating_mul(4))
         .map_err(|e| SceneError::new(path, None, e.to_string()))?;
-    let bytes = input::read(path)?;
+    parse(input::read(path)?, path, budget)
+}
+
+/// Reads a glTF or GLB file's `bytes` within `budget`; `path` names it in messages, and the
+/// files it names are looked for beside it.
+pub fn parse(bytes: Vec<u8>, path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
+    // The gltf crate unwraps where its validation leaves gaps: the ones known are checked
+    // first (`check_before_crate`); one still unknown is an error naming the file, not a crash.
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| parse_unguarded(bytes, path, budget))).unwrap_or_else(
+        |panic| {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(SceneError::new(path, None, format!("malformed glTF: the gltf crate failed on it ({what})")))
+        },
+    )
+}
+
+fn parse_unguarded(bytes: Vec<u8>, path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| parse_error(path, e))?;
     drop(bytes);
     let gltf::Gltf { document, blob } = gltf;
     let json = document.into_json();
-    check_position_indices(&json).map_err(|m| SceneError::new(path, None, m))?;
+    check_before_crate(&json).map_err(|m| SceneError::new(path, None, m))?;
     let document = gltf::Document::from_json(json).map_err(|e| parse_error(path, e))?;
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    Loader { path, dir, budget, doc: &document, inputs: Default::default() }.load(blob)
+    Loader { path, budget, doc: &document, inputs: Default::default() }.load(blob)
 }
 
-/// The one reference `gltf-json` 1.4.1's validator follows without checking it (it indexes
-/// the accessors with each primitive's POSITION, and panics on a bad one): checked first.
-fn check_position_indices(json: &gltf::json::Root) -> Result<(), String> {
+/// What `gltf` 1.4.1 and `gltf-json` 1.4.1 unwrap without checking (each a panic otherwise),
+/// checked before either looks: the accessor each primitive's POSITION names (the validator
+/// indexes with it), an image's source (`Image::source` wants a `uri`, or a `bufferView` with
+/// a `mimeType`), a camera's projection (`Camera::projection` wants the object its `type`
+/// names).
+fn check_before_crate(json: &gltf::json::Root) -> Result<(), String> {
+    use gltf::json::camera::Type;
+    use gltf::json::validation::Checked;
+    for (i, image) in json.images.iter().enumerate() {
+        match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => return Err(format!("images[{i}]: has neither a uri nor a bufferView")),
+            (None, Some(_), None) => return Err(format!("images[{i}]: a bufferView image needs a mimeType")),
+            _ => {}
+        }
+    }
+    for (i, camera) in json.cameras.iter().enumerate() {
+        let missing = match camera.type_ {
+            Checked::Valid(Type::Perspective) if camera.perspective.is_none() => Some("perspective"),
+            Checked::Valid(Type::Orthographic) if camera.orthographic.is_none() => Some("orthographic"),
+            _ => None,
+        };
+        if let Some(kind) = missing {
+            return Err(format!("cameras[{i}]: its type is {kind} but it has no {kind} object"));
+        }
+    }
     for (m, mesh) in json.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
             let pos = prim.attributes.get(&gltf::json::validation::Checked::Valid(gltf::Semantic::Positions));
@@ -110,7 +152,6 @@ fn parse_error(path: &Path, e: gltf::Error) -> SceneError {
 
 struct Loader<'a> {
     path: &'a Path,
-    dir: PathBuf,
     budget: &'a LoadBudget,
     doc: &'a gltf::Document,
     /// The external files read (buffers, images).
@@ -195,7 +236,7 @@ impl<'a> Loader<'a> {
             if let Some(cam) = node.camera() {
                 match cam.projection() {
                     gltf::camera::Projection::Perspective(p) if camera.is_none() => {
-                        camera = self.camera(&at, world, p.yfov(), &mut warnings);
+                        camera = self.camera(&at, world, p.yfov(), &mut warnings)?;
                     }
                     gltf::camera::Projection::Perspective(_) => {
                         ignored.add("more than one camera: the first is used", &at)
@@ -216,7 +257,8 @@ impl<'a> Loader<'a> {
                         if light.range().is_some() {
                             ignored.add("light range (ember's point lights reach everywhere)", &at);
                         }
-                        point_lights.push(PointLight { position: world.transform_point3(Vec3::ZERO), intensity });
+                        let position = self.position(&at, world, "light")?;
+                        point_lights.push(PointLight { position, intensity });
                     }
                     gltf::khr_lights_punctual::Kind::Directional => ignored.add("directional lights", &at),
                     gltf::khr_lights_punctual::Kind::Spot { .. } => ignored.add("spot lights", &at),
@@ -290,33 +332,76 @@ impl<'a> Loader<'a> {
         Ok(MeshFile { meshes, materials, camera, point_lights, warnings, inputs })
     }
 
+    /// Where a node at `world` puts a `what` (a light, a camera): its origin, which must be
+    /// finite and within ±[`MAX_COORDINATE`] as in a scene file (a NaN light would make the
+    /// image silently black).
+    fn position(&self, at: &str, world: Mat4, what: &str) -> Result<Vec3, SceneError> {
+        let p = world.transform_point3(Vec3::ZERO);
+        if !(p.is_finite() && p.abs().max_element() <= MAX_COORDINATE) {
+            return Err(self.err(
+                at,
+                format!(
+                    "the {what} is at {:?}: its position (from the node's transforms) must be finite and within \
+                     ±{MAX_COORDINATE:e}",
+                    p.to_array()
+                ),
+            ));
+        }
+        Ok(p)
+    }
+
     /// The camera of a node at `world`: at the node's origin, looking down its −Z, up its +Y.
-    fn camera(&self, at: &str, world: Mat4, yfov: f32, warnings: &mut Vec<String>) -> Option<CameraSpec> {
+    fn camera(
+        &self,
+        at: &str,
+        world: Mat4,
+        yfov: f32,
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<CameraSpec>, SceneError> {
         let fov = yfov.to_degrees();
-        let position = world.transform_point3(Vec3::ZERO);
+        let position = self.position(at, world, "camera")?;
         let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
         let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
-        if !(fov > 0.0 && fov < 180.0 && forward != Vec3::ZERO && position.is_finite() && up.is_finite()) {
+        if !(fov > 0.0 && fov < 180.0 && forward != Vec3::ZERO && up.is_finite()) {
             warnings.push(format!(
                 "{}: {at}: camera ignored (field of view {fov}° or its transform unusable); the scene is framed instead",
                 self.path.display()
             ));
-            return None;
+            return Ok(None);
         }
-        Some(CameraSpec { position, look_at: position + forward, up, fov, aperture: 0.0, focus_distance: None })
+        Ok(Some(CameraSpec { position, look_at: position + forward, up, fov, aperture: 0.0, focus_distance: None }))
     }
 
-    /// The bytes of every buffer, by index.
+    /// The bytes of every buffer, by index: no more than its byteLength (what was counted),
+    /// each file read once however many buffers name it.
     fn buffers(&self, blob: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>, SceneError> {
         let mut blob = blob;
         let mut out = Vec::new();
+        let mut files: HashMap<PathBuf, Vec<u8>> = HashMap::new();
         for b in self.doc.buffers() {
             let at = format!("buffers[{}]", b.index());
             let data = match b.source() {
                 gltf::buffer::Source::Bin => blob
                     .take()
                     .ok_or_else(|| self.err(&at, "refers to the GLB binary chunk, which the file does not have"))?,
-                gltf::buffer::Source::Uri(uri) => self.uri(&at, uri)?.into_owned(),
+                gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => self.uri(&at, uri)?.into_owned(),
+                gltf::buffer::Source::Uri(uri) => {
+                    let file = self.named_file(&at, uri)?;
+                    // The most any buffer naming this file takes from it.
+                    let wanted = self
+                        .doc
+                        .buffers()
+                        .filter(|o| matches!(o.source(), gltf::buffer::Source::Uri(u) if u == uri))
+                        .map(|o| o.length())
+                        .max()
+                        .unwrap_or(0);
+                    if !files.contains_key(&file) {
+                        let bytes = self.read_file(&at, uri, &file, Some(wanted as u64))?;
+                        files.insert(file.clone(), bytes);
+                    }
+                    let data = &files[&file];
+                    data[..b.length().min(data.len())].to_vec()
+                }
             };
             if data.len() < b.length() {
                 return Err(
@@ -340,18 +425,34 @@ impl<'a> Loader<'a> {
                 .map_err(|e| self.err(at, format!("data URI: {e}")))?;
             return Ok(Cow::Owned(bytes));
         }
+        let file = self.named_file(at, uri)?;
+        Ok(Cow::Owned(self.read_file(at, uri, &file, None)?))
+    }
+
+    /// The file a URI names, if the model may read it ([`input::named_file`]).
+    fn named_file(&self, at: &str, uri: &str) -> Result<PathBuf, SceneError> {
         if uri.contains("://") {
             return Err(self.err(at, format!("{uri:?}: only data: URIs and relative file names are read")));
         }
-        let file = self.dir.join(percent_decode(uri));
-        let len =
-            input::regular_file_len(&file).map_err(|e| self.err(at, format!("{}: {}", file.display(), e.message)))?;
+        input::named_file(self.path, &percent_decode(uri), self.budget.external_files()).map_err(|e| self.err(at, e))
+    }
+
+    /// The bytes of `file` (the one `uri` names), at most `most` of them, counted in the
+    /// budget first.
+    fn read_file(&self, at: &str, uri: &str, file: &Path, most: Option<u64>) -> Result<Vec<u8>, SceneError> {
+        let fail = |e: std::io::Error| self.err(at, format!("{uri:?}: {}", crate::regular_file::describe(&e)));
+        let (opened, len) = crate::regular_file::open(file).map_err(fail)?;
+        let len = most.map_or(len, |m| m.min(len));
         self.budget
-            .admit(format!("{} of {}", file.display(), memory::format_bytes(len)), len)
+            .admit(format!("{uri:?} of {}", memory::format_bytes(len)), len)
             .map_err(|e| self.err(at, e.to_string()))?;
-        let bytes = input::read(&file).map_err(|e| self.err(at, format!("{}: {}", file.display(), e.message)))?;
-        self.inputs.borrow_mut().push(file);
-        Ok(Cow::Owned(bytes))
+        let bytes = match most {
+            Some(_) => crate::regular_file::read_prefix(opened, len),
+            None => crate::regular_file::read_opened(opened, len),
+        }
+        .map_err(fail)?;
+        self.inputs.borrow_mut().push(file.to_path_buf());
+        Ok(bytes)
     }
 
     /// ember's materials, one per glTF material, in order: glTF's metallic-roughness material
@@ -380,7 +481,14 @@ impl<'a> Loader<'a> {
             let pbr = m.pbr_metallic_roughness();
             let factor = pbr.base_color_factor();
             let base = Vec3::new(factor[0], factor[1], factor[2]);
-            let roughness = pbr.roughness_factor();
+            // glTF's range; a negative colour would make radiance negative.
+            if !factor.iter().all(|c| (0.0..=1.0).contains(c)) {
+                return Err(self.err(
+                    format!("{at}.pbrMetallicRoughness.baseColorFactor"),
+                    format!("{factor:?}: each component must be between 0 and 1"),
+                ));
+            }
+            let roughness = pbr.roughness_factor().clamp(0.0, 1.0);
             let metallic = pbr.metallic_factor();
             let mut map = |slot: TextureSlot, what: &str, encoding: Encoding, ignored: &mut Tally| {
                 let at = format!("{at}.{what}");
@@ -638,8 +746,12 @@ impl<'a> Loader<'a> {
             Some(a) => {
                 same_count(&a, "COLOR_0")?;
                 let v = self.read(&attr("COLOR_0"), &a, &[Dimensions::Vec3, Dimensions::Vec4], buffers)?;
-                finite(&v, "COLOR_0", 3)?;
                 let w = if a.dimensions() == Dimensions::Vec4 { 4 } else { 3 };
+                finite(&v, "COLOR_0", w)?;
+                // A colour scales reflected light: a negative one would make radiance negative.
+                if let Some(k) = v.iter().position(|&c| c < 0.0) {
+                    return Err(self.err(attr("COLOR_0"), format!("entry {} is negative", k / w)));
+                }
                 (v, w)
             }
             None => (Vec::new(), 3),

@@ -9,9 +9,9 @@
 //! allocations, only regular files are opened, and triangles that cannot be hit are dropped
 //! with a warning.
 
-mod gltf;
+pub mod gltf;
 pub mod obj;
-mod ply;
+pub mod ply;
 mod scene;
 
 pub(in crate::scene) use scene::add_to_scene;

@@ -47,15 +47,17 @@ pub fn load(path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
         .map_err(|e| SceneError::new(path, None, e.to_string()))?;
     let bytes = input::read(path)?;
     let read_mtl = |mtl: &Path| {
-        let meta = std::fs::metadata(mtl)?;
-        if !meta.is_file() {
-            return Err(std::io::Error::other("not a regular file"));
-        }
-        let what = format!("MTL file {} of {}", mtl.display(), memory::format_bytes(meta.len()));
+        // Named inside the OBJ: read only where a model's files may be (`input::named_file`).
+        let folder = path.parent().unwrap_or(Path::new(""));
+        let name = mtl.strip_prefix(folder).unwrap_or(mtl).to_string_lossy();
+        std::fs::metadata(mtl)?; // a missing library: `no such file`
+        let mtl = input::named_file(path, &name, budget.external_files()).map_err(std::io::Error::other)?;
+        let (file, len) = crate::regular_file::open(&mtl)?;
+        let what = format!("MTL file {} of {}", mtl.display(), memory::format_bytes(len));
         budget
-            .admit(what, meta.len().saturating_mul(MTL_BYTES_PER_BYTE))
+            .admit(what, len.saturating_mul(MTL_BYTES_PER_BYTE))
             .map_err(|e| std::io::Error::new(std::io::ErrorKind::OutOfMemory, e.to_string()))?;
-        std::fs::read(mtl)
+        crate::regular_file::read_opened(file, len)
     };
     parse_obj(&bytes, path, &read_mtl, budget)
 }
@@ -71,6 +73,8 @@ pub fn parse_obj(
     read_mtl: &dyn Fn(&Path) -> std::io::Result<Vec<u8>>,
     budget: &LoadBudget,
 ) -> Result<MeshFile, SceneError> {
+    // Some editors start a UTF-8 file with a byte-order mark: not part of the first line.
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let text = String::from_utf8_lossy(bytes);
     // tobj reports no line numbers; check the lines ourselves first so the message can name one.
     let counts = scan(&text).map_err(|(line, problem)| SceneError::new(path, Some(line), problem))?;
@@ -109,7 +113,7 @@ pub fn parse_obj(
             tobj::LoadError::OpenFileFailed
         })?;
         mtl_read.borrow_mut().push(full.clone());
-        let mtl_text = String::from_utf8_lossy(&bytes);
+        let mtl_text = String::from_utf8_lossy(bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes));
         // tobj panics on some malformed lines (`Kd 1 0`) and names none: check them first.
         if let Some((line, problem)) = first_bad_mtl_line(&mtl_text) {
             *mtl_error.borrow_mut() = Some(SceneError::new(&full, Some(line), problem));

@@ -39,13 +39,13 @@ const TRIANGLE_BYTES: u64 = 20;
 
 /// Loads a PLY file: the file is streamed, not read whole.
 pub(super) fn load(path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
-    let len = input::regular_file_len(path)?;
-    let file = std::fs::File::open(path).map_err(|e| SceneError::io(path, &e))?;
-    parse(file, len, path, budget)
+    let (file, len) = input::open(path)?;
+    // No more than its size says (a /proc file says 0).
+    parse(file.take(len), len, path, budget)
 }
 
 /// Parses PLY data of `len` bytes from `source` within `budget`; `path` names it in messages.
-pub(super) fn parse(source: impl Read, len: u64, path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
+pub fn parse(source: impl Read, len: u64, path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
     let err = |line: Option<usize>, msg: String| SceneError::new(path, line, msg);
     let mut reader = Reader::new(BufReader::new(Counting { inner: source, count: 0 }));
     let header = Parser::<Skip>::new().read_header(&mut reader).map_err(|e| {
@@ -108,9 +108,16 @@ pub(super) fn parse(source: impl Read, len: u64, path: &Path, budget: &LoadBudge
 
     let mut line = header_lines; // the last line read (ASCII)
     let mut text = String::new();
-    let vertex_parser = Parser::<Vertex>::new();
-    let face_parser = Parser::<Face>::new();
-    let skip_parser = Parser::<Skip>::new();
+    // What a line (ASCII) or a list (binary) may take: what the budget has left beside the
+    // mesh counted so far, so one face of 60 million indices is refused before it is read.
+    let headroom = |triangles: u64| {
+        budget.available().map_or(usize::MAX, |a| a.saturating_sub(estimate(triangles)).min(usize::MAX as u64) as usize)
+    };
+    let too_long = |what: String, bytes: u64, triangles: u64| {
+        let e = budget.admit(what, estimate(triangles).saturating_add(bytes));
+        e.err().map_or_else(|| "more than the memory limit allows".to_string(), |e| e.to_string())
+    };
+    let big_endian = header.encoding == Encoding::BinaryBigEndian;
     for (name, def) in &header.elements {
         let what = match name.as_str() {
             "vertex" => "vertex",
@@ -128,9 +135,13 @@ pub(super) fn parse(source: impl Read, len: u64, path: &Path, budget: &LoadBudge
                     _ => (None, format!("{what} {k}: ")),
                 }
             };
+            let room = headroom(checked_triangles);
             if header.encoding == Encoding::Ascii {
                 text.clear();
-                let n = reader.get_mut().read_line(&mut text).map_err(|e| SceneError::io(path, &e))?;
+                // A line is read into memory whole: at most a quarter of the room (its text, and
+                // the values it holds).
+                let most = (room / 4).max(4096) as u64;
+                let n = reader.get_mut().take(most).read_line(&mut text).map_err(|e| SceneError::io(path, &e))?;
                 line += 1;
                 if n == 0 {
                     return Err(err(
@@ -138,30 +149,39 @@ pub(super) fn parse(source: impl Read, len: u64, path: &Path, budget: &LoadBudge
                         format!("the file ends after {k} of {} {what} lines (truncated?)", def.count),
                     ));
                 }
+                if n as u64 == most && !text.ends_with('\n') {
+                    let what = format!("a {what} line of more than {most} bytes");
+                    return Err(err(Some(line), too_long(what, (most + 1).saturating_mul(4), checked_triangles)));
+                }
             }
+            // A list's values as they are read, as the face's indices and as triangles.
+            let max_list = room / LIST_ITEM_BYTES as usize;
+            let mut element = |e: &mut dyn FnMut(&mut dyn Read) -> Result<(), Bad>| e(reader.get_mut());
             let parse_error = |e: Bad| {
                 let (l, prefix) = at(line);
                 let reason = match e {
-                    Bad::Parse(e) if e.kind() == ErrorKind::UnexpectedEof => {
-                        format!("the file ends early, in {what} {k} of {} (truncated?)", def.count)
-                    }
-                    Bad::Parse(e) => first_line(&e),
+                    Bad::Eof => format!("the file ends early, in {what} {k} of {} (truncated?)", def.count),
+                    Bad::Io(e) => format!("cannot read: {e}"),
                     Bad::Text(m) => format!("{what}: {m}"),
+                    Bad::Long(n) => {
+                        let bytes = (n as u64).saturating_mul(LIST_ITEM_BYTES);
+                        too_long(format!("a {what} of {n} values"), bytes, checked_triangles)
+                    }
                 };
                 err(l, format!("{prefix}{reason}"))
             };
             match what {
                 "vertex" => {
-                    let v = match header.encoding {
-                        Encoding::Ascii => ascii_element(&text, def),
-                        Encoding::BinaryLittleEndian => {
-                            vertex_parser.read_little_endian_element(reader.get_mut(), def).map_err(Bad::Parse)
-                        }
-                        Encoding::BinaryBigEndian => {
-                            vertex_parser.read_big_endian_element(reader.get_mut(), def).map_err(Bad::Parse)
-                        }
-                    }
+                    let mut v = None;
+                    element(&mut |r| {
+                        v = Some(match header.encoding {
+                            Encoding::Ascii => ascii_element::<Vertex>(&text, def, max_list)?,
+                            _ => binary_element::<Vertex>(r, def, big_endian, max_list)?,
+                        });
+                        Ok(())
+                    })
                     .map_err(parse_error)?;
+                    let v = v.unwrap_or_default();
                     let (l, prefix) = at(line);
                     let finite = |x: &[f32], what: &str| -> Result<(), SceneError> {
                         match x.iter().find(|v| !v.is_finite()) {
@@ -192,16 +212,16 @@ pub(super) fn parse(source: impl Read, len: u64, path: &Path, budget: &LoadBudge
                     }
                 }
                 "face" => {
-                    let f = match header.encoding {
-                        Encoding::Ascii => ascii_element(&text, def),
-                        Encoding::BinaryLittleEndian => {
-                            face_parser.read_little_endian_element(reader.get_mut(), def).map_err(Bad::Parse)
-                        }
-                        Encoding::BinaryBigEndian => {
-                            face_parser.read_big_endian_element(reader.get_mut(), def).map_err(Bad::Parse)
-                        }
-                    }
+                    let mut f = None;
+                    element(&mut |r| {
+                        f = Some(match header.encoding {
+                            Encoding::Ascii => ascii_element::<Face>(&text, def, max_list)?,
+                            _ => binary_element::<Face>(r, def, big_endian, max_list)?,
+                        });
+                        Ok(())
+                    })
                     .map_err(parse_error)?;
+                    let f = f.unwrap_or_default();
                     let (l, prefix) = at(line);
                     if f.indices.len() < 3 {
                         return Err(err(
@@ -229,15 +249,13 @@ pub(super) fn parse(source: impl Read, len: u64, path: &Path, budget: &LoadBudge
                     }
                 }
                 _ => {
-                    match header.encoding {
-                        Encoding::Ascii => ascii_element(&text, def),
-                        Encoding::BinaryLittleEndian => {
-                            skip_parser.read_little_endian_element(reader.get_mut(), def).map_err(Bad::Parse)
-                        }
-                        Encoding::BinaryBigEndian => {
-                            skip_parser.read_big_endian_element(reader.get_mut(), def).map_err(Bad::Parse)
-                        }
-                    }
+                    element(&mut |r| {
+                        match header.encoding {
+                            Encoding::Ascii => ascii_element::<Skip>(&text, def, max_list)?,
+                            _ => binary_element::<Skip>(r, def, big_endian, max_list)?,
+                        };
+                        Ok(())
+                    })
                     .map_err(parse_error)?;
                 }
             }
@@ -259,18 +277,93 @@ pub(super) fn parse(source: impl Read, len: u64, path: &Path, budget: &LoadBudge
     Ok(MeshFile { meshes, materials: Vec::new(), camera: None, point_lights: Vec::new(), warnings, inputs: Vec::new() })
 }
 
+/// Bytes a list value may take while read: as a `Property` (32), as the face's index (8), as
+/// part of a triangle (12), with room to spare.
+const LIST_ITEM_BYTES: u64 = 64;
+
 /// Why an element could not be read.
 enum Bad {
-    /// From the binary reader.
-    Parse(ParseError),
-    /// From [`ascii_element`].
+    /// The file ends inside it.
+    Eof,
+    Io(std::io::Error),
+    /// A value that is not what the header says.
     Text(String),
+    /// A list of this many values, more than memory allows.
+    Long(usize),
+}
+
+/// One element from binary data (`big_endian` or not): the header's properties in order, each
+/// list's values counted against `max_list` before any is read (read here rather than by the
+/// crate, which takes a list's length on trust).
+fn binary_element<E: PropertyAccess>(
+    r: &mut dyn Read,
+    def: &ElementDef,
+    big_endian: bool,
+    max_list: usize,
+) -> Result<E, Bad> {
+    use ply_rs_bw::ply::ScalarType as S;
+    let scalar = |r: &mut dyn Read, t: &S| -> Result<Property, Bad> {
+        let mut b = [0u8; 8];
+        let n = scalar_size(t) as usize;
+        r.read_exact(&mut b[..n])
+            .map_err(|e| if e.kind() == ErrorKind::UnexpectedEof { Bad::Eof } else { Bad::Io(e) })?;
+        macro_rules! num {
+            ($ty:ty, $variant:ident) => {{
+                let bytes: [u8; size_of::<$ty>()] = b[..size_of::<$ty>()].try_into().unwrap();
+                Property::$variant(if big_endian { <$ty>::from_be_bytes(bytes) } else { <$ty>::from_le_bytes(bytes) })
+            }};
+        }
+        Ok(match t {
+            S::Char => num!(i8, Char),
+            S::UChar => num!(u8, UChar),
+            S::Short => num!(i16, Short),
+            S::UShort => num!(u16, UShort),
+            S::Int => num!(i32, Int),
+            S::UInt => num!(u32, UInt),
+            S::Float => num!(f32, Float),
+            S::Double => num!(f64, Double),
+        })
+    };
+    let mut e = E::new();
+    for (name, p) in &def.properties {
+        let value = match &p.data_type {
+            PropertyType::Scalar(t) => scalar(r, t)?,
+            PropertyType::List(count_type, item) => {
+                let count = scalar(r, count_type)?;
+                let n = list_length(&count).ok_or_else(|| Bad::Text(format!("{name}: a negative list length")))?;
+                if n > max_list {
+                    return Err(Bad::Long(n));
+                }
+                let mut items = Vec::with_capacity(n.min(64));
+                for _ in 0..n {
+                    items.push(scalar(r, item)?);
+                }
+                list(items, item)
+            }
+        };
+        e.set_property(name, value);
+    }
+    Ok(e)
+}
+
+/// A list's length, from its count property (`None`: negative, or not an integer).
+fn list_length(count: &Property) -> Option<usize> {
+    match *count {
+        Property::Char(v) => usize::try_from(v).ok(),
+        Property::Short(v) => usize::try_from(v).ok(),
+        Property::Int(v) => usize::try_from(v).ok(),
+        Property::UChar(v) => Some(v as usize),
+        Property::UShort(v) => Some(v as usize),
+        Property::UInt(v) => usize::try_from(v).ok(),
+        _ => None,
+    }
 }
 
 /// One element from its ASCII line: the header's properties in order, whitespace-separated
 /// (read here rather than by the crate, whose grammar takes no `nan` or `inf` — values ember
-/// must see to report or drop — and whose messages name no property).
-fn ascii_element<E: PropertyAccess>(text: &str, def: &ElementDef) -> Result<E, Bad> {
+/// must see to report or drop — and whose messages name no property); a list longer than
+/// `max_list` is refused before its values are read.
+fn ascii_element<E: PropertyAccess>(text: &str, def: &ElementDef, max_list: usize) -> Result<E, Bad> {
     use ply_rs_bw::ply::ScalarType as S;
     let mut e = E::new();
     let mut tokens = text.split_ascii_whitespace();
@@ -301,13 +394,11 @@ fn ascii_element<E: PropertyAccess>(text: &str, def: &ElementDef) -> Result<E, B
             PropertyType::Scalar(t) => scalar(next()?, t)?,
             PropertyType::List(count_type, item) => {
                 let s = next()?;
-                let n: usize = match scalar(s, count_type)? {
-                    Property::Char(v) => usize::try_from(v).ok(),
-                    Property::Short(v) => usize::try_from(v).ok(),
-                    Property::Int(v) => usize::try_from(v).ok(),
-                    other => scalar_value(&other).map(|(v, _)| v as usize),
+                let n: usize = list_length(&scalar(s, count_type)?)
+                    .ok_or_else(|| Bad::Text(format!("{name}: list length {s:?} is negative")))?;
+                if n > max_list {
+                    return Err(Bad::Long(n));
                 }
-                .ok_or_else(|| Bad::Text(format!("{name}: list length {s:?} is negative")))?;
                 let mut items = Vec::with_capacity(n.min(64));
                 for _ in 0..n {
                     items.push(scalar(next()?, item)?);
@@ -615,6 +706,23 @@ mod tests {
         assert_eq!(fm.colors[2], Vec3::Z);
         assert_eq!(m.warnings.len(), 1, "{:?}", m.warnings);
         assert!(m.warnings[0].contains("\"edge\""), "{:?}", m.warnings);
+    }
+
+    /// A line too long for the memory limit is refused at the limit, not read whole; a list
+    /// too long for it before its values are read.
+    #[test]
+    fn long_lines_and_lists_are_refused_within_the_limit() {
+        let budget = LoadBudget::new(crate::memory::MemoryLimit::bytes(1_000_000));
+        let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+                    element face 1\nproperty list uint int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
+        let long = format!("{head}1000000{}\n", " 0".repeat(1_000_000));
+        let e = parse(long.as_bytes(), long.len() as u64, Path::new("t.ply"), &budget).unwrap_err();
+        assert_eq!(e.line, Some(13));
+        assert!(e.message.starts_with("a face line of more than 249"), "{e}");
+        assert!(e.message.contains("more than the 1.0 MB limit"), "{e}");
+        let list = format!("{head}100000{}\n", " 0".repeat(10));
+        let e = parse(list.as_bytes(), list.len() as u64, Path::new("t.ply"), &budget).unwrap_err();
+        assert!(e.message.starts_with("a face of 100000 values needs ~6.4 MB to load"), "{e}");
     }
 
     #[test]

@@ -11,6 +11,7 @@ use crate::atomic_write::write_file;
 use crate::embree::{BuildOptions, BuildQuality, Device};
 use crate::geometry::Geometry;
 use crate::tools::report::Table;
+use crate::tools::{out, say};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -124,28 +125,33 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
         None => None,
     };
     let threads = pool.as_ref().map_or_else(rayon::current_num_threads, |p| p.current_num_threads());
-    println!(
+    out!(
         "ember bench{}: Embree {}, {}, {} cores",
         if opts.quick { " --quick" } else { "" },
         device.version(),
         cpu_model(),
         std::thread::available_parallelism().map_or(1, |n| n.get())
     );
-    println!("load average at start: {}", load_average());
+    out!("load average at start: {}", load_average());
     let start = Instant::now();
-    let mut log = |s: &str| eprintln!("{s}");
+    let mut log = |s: &str| say!("{s}");
 
     if opts.sections.contains(&Section::Matrix) {
         let cfg = matrix_cfg;
-        println!();
-        println!(
+        out!();
+        out!(
             "Intersection matrix, {threads} threads. Rays per scene: {}² camera rays (coherent), {} random rays in the \
              bounds (incoherent), shadow rays from the visible camera hits to a square light (occlusion). Mrays/s: \
              rays / wall time of the best of >= {} passes. The naive loop runs once on an evenly spaced subsample \
              (column \"rays\" of its row) of about {:.1e} primitive tests, {}..{} rays. ×naive = naive CPU time per \
              ray / strategy CPU time per ray (all threads; wall time where CPU time cannot be read), robust to other \
              load on the machine. Mismatches: answers differing from the naive loop's on that subsample.",
-            cfg.image_side, cfg.incoherent, cfg.timing.min_passes, cfg.naive_tests, cfg.naive_min, cfg.naive_max
+            cfg.image_side,
+            cfg.incoherent,
+            cfg.timing.min_passes,
+            cfg.naive_tests,
+            cfg.naive_min,
+            cfg.naive_max
         );
         let mut all = Vec::new();
         for scene in &matrix_scenes {
@@ -155,17 +161,17 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
             };
             all.extend(ms);
         }
-        print!("{}", matrix::summary_table(&all).to_text());
+        out!("{}", matrix::summary_table(&all).to_text().trim_end_matches('\n'));
         let csv = write_table(&opts.out, "bench.csv", &matrix::csv_table(&all))?;
         let png = opts.out.join("scaling.png");
         matrix::scaling_plot(&png, &all)?;
-        println!("wrote {} and {}", csv.display(), png.display());
+        out!("wrote {} and {}", csv.display(), png.display());
     }
 
     if opts.sections.contains(&Section::Render) {
         let cfg = if opts.quick { RenderConfig::quick() } else { RenderConfig::full() };
-        println!();
-        println!(
+        out!();
+        out!(
             "Path tracer vs Embree alone ({} spp, width {}, scene depth and Russian roulette, {}): the path tracer's rays/s \
              (2 threads) over Embree's on the same rays, recorded from the path tracer and replayed through \
              rtcIntersect1/rtcOccluded1 on 2 threads; samples/s with 2 threads over 1. >= {} rounds and >= {:.1} s \
@@ -183,15 +189,15 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
             log(&format!("{file}: rendered, recorded and replayed ({})", m.bvh));
             ms.push(m);
         }
-        print!("{}", render::summary_table(&ms).to_text());
+        out!("{}", render::summary_table(&ms).to_text().trim_end_matches('\n'));
         let csv = write_table(&opts.out, "render.csv", &render::csv_table(&ms))?;
-        println!("wrote {}", csv.display());
+        out!("wrote {}", csv.display());
     }
 
     if opts.sections.contains(&Section::Specialize) {
         let cfg = if opts.quick { RenderConfig::quick() } else { specialize::config() };
-        println!();
-        println!(
+        out!();
+        out!(
             "Specialised vs general kernel (RenderSettings.specialize), all cores, {} spp, width {}: >= {} pairs of \
              renders and >= {:.1} s per scene, the order alternating; µs/sample: the fastest render (wall time); \
              speedup: the median over the pairs of general / specialised CPU time.",
@@ -205,11 +211,11 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
             ms.push(specialize::measure_scene(&file, &device, &cfg)?);
             log(&format!("{}: measured", file.display()));
         }
-        print!("{}", specialize::summary_table(&ms).to_text());
+        out!("{}", specialize::summary_table(&ms).to_text().trim_end_matches('\n'));
         let csv = write_table(&opts.out, "specialize.csv", &specialize::csv_table(&ms))?;
-        println!("wrote {}", csv.display());
+        out!("wrote {}", csv.display());
     }
-    println!();
-    println!("total {:.1} s; load average at end: {}", start.elapsed().as_secs_f64(), load_average());
+    out!();
+    out!("total {:.1} s; load average at end: {}", start.elapsed().as_secs_f64(), load_average());
     Ok(())
 }

@@ -2,6 +2,7 @@
 
 use crate::embree::Device;
 use crate::tools::check::{CaseResult, DEFAULT_SEED, Quality, catalog};
+use crate::tools::out;
 use clap::Args;
 use std::io::Write;
 use std::process::ExitCode;
@@ -35,7 +36,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let width = all.iter().map(|c| c.name.len()).max().unwrap_or(0).max("case".len());
     if args.list {
         for c in &all {
-            println!("{:<width$} {}", c.name, c.promise);
+            out!("{:<width$} {}", c.name, c.promise);
         }
         return Ok(ExitCode::SUCCESS);
     }
@@ -43,7 +44,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let cases: Vec<_> =
         all.into_iter().filter(|c| args.cases.is_empty() || args.cases.iter().any(|n| n == c.name)).collect();
     let device = Device::new()?;
-    println!(
+    out!(
         "ember {} hard cases ({} run, seed {}, {} on {} threads)",
         env!("CARGO_PKG_VERSION"),
         if args.quick { "quick" } else { "full" },
@@ -52,21 +53,26 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         rayon::current_num_threads()
     );
     drop(device);
-    println!(
+    out!(
         "{:<width$} {:<6} {:>10} {:>10}  {:<17} {:>10}  detail",
-        "case", "result", "error", "limit", "measure", "non-finite"
+        "case",
+        "result",
+        "error",
+        "limit",
+        "measure",
+        "non-finite"
     );
     let start = Instant::now();
     let mut failed = Vec::new();
     for case in &cases {
         let r = case.run_seeded(quality, args.seed);
-        println!("{}", table_row(&r, width));
+        out!("{}", table_row(&r, width));
         let _ = std::io::stdout().flush();
         if !r.pass {
             failed.push(r.name);
         }
     }
-    println!(
+    out!(
         "{} cases, {} passed, {} failed{} in {:.1} s",
         cases.len(),
         cases.len() - failed.len(),

@@ -6,6 +6,7 @@ use crate::scene::Scene;
 use crate::scene::format::MAX_IMAGE_SIDE;
 use crate::tools::converge::{ConvergencePoint, Study, parse_variants, spp_ladder};
 use crate::tools::report::converge::{time_to_reach_table, to_csv, write_plots};
+use crate::tools::{out, say};
 use anyhow::Context;
 use clap::Args;
 use std::path::PathBuf;
@@ -93,13 +94,13 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
                     "{e}\n(the denoised variants need it; --variants estimators,no-rr,depth runs without it)"
                 );
             }
-            eprintln!("warning: the denoised variants are left out: {e}");
+            say!("warning: the denoised variants are left out: {e}");
             variants.retain(|v| v.denoise.is_none());
         }
     }
     let scene = Scene::load(&args.scene)?;
     for w in &scene.warnings {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
     let study = Study {
         width: args.width,
@@ -122,7 +123,7 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     };
     std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create folder", args.out.display()))?;
     if !scene.effects().lit {
-        eprintln!("warning: {}: {}", args.scene.display(), super::render::UNLIT);
+        say!("warning: {}: {}", args.scene.display(), super::render::UNLIT);
     }
 
     let accel = args.accel.build(&scene.geometry)?;
@@ -130,7 +131,7 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     let largest = *study.ladder.last().expect("the ladder has at least 1 spp");
     let reference = match given {
         Some(film) => {
-            eprintln!(
+            say!(
                 "reference: {} (given; its own error also lands in every measurement)",
                 args.reference.as_ref().unwrap().display()
             );
@@ -144,7 +145,7 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
             let (film, stats) = rendered?;
             let path = args.out.join("reference.exr");
             film.save(&path)?;
-            eprintln!(
+            say!(
                 "reference: {spp} spp, nee-mis, depth {}, seed {} in {:.1} s -> {} \
                  (its own error adds about {:.1}% to the relMSE at {largest} spp)",
                 study.max_depth,
@@ -166,7 +167,7 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
         let points = measured?;
         let secs: f64 = points.iter().map(|m| m.seconds).sum::<f64>() * study.repeats as f64;
         let (first, last) = (&points[0], &points[points.len() - 1]);
-        eprintln!(
+        say!(
             "{:<28} {:>4}..{} spp in {:>6.1} s: relMSE {:.3e} -> {:.3e}, FLIP {:.4} -> {:.4}",
             v.name(),
             first.spp,
@@ -185,8 +186,8 @@ pub fn run(args: ConvergeArgs) -> anyhow::Result<()> {
     write_file(&csv, to_csv(&all, study.max_depth, study.repeats).as_bytes())?;
     let plots = write_plots(&args.out, &all, study.max_depth, args.target, args.target_flip)?;
 
-    print!("{}", time_to_reach_table(&per_variant, largest, args.target, args.target_flip));
+    out!("{}", time_to_reach_table(&per_variant, largest, args.target, args.target_flip).trim_end_matches('\n'));
     let files: Vec<String> = std::iter::once(&csv).chain(&plots).map(|p| p.display().to_string()).collect();
-    eprintln!("wrote {}", files.join(", "));
+    say!("wrote {}", files.join(", "));
     Ok(())
 }

@@ -4,6 +4,7 @@ use crate::integrator::RenderPlan;
 use crate::memory::{LoadBudget, MemoryLimit};
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
+use crate::tools::{out, say};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -11,13 +12,20 @@ use std::path::PathBuf;
 pub struct InfoArgs {
     /// Scene file (.toml) or mesh (.obj, .ply, .gltf, .glb).
     pub scene: PathBuf,
+    /// Let a model read the files it names (a glTF's buffers and images, an OBJ's MTL
+    /// libraries) from outside its own folder, as `ember render --allow-external-files`.
+    #[arg(long)]
+    pub allow_external_files: bool,
 }
 
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
-    let scene = Scene::load_within(&args.scene, &LoadBudget::for_accel(limit, true))?;
+    let scene = Scene::load_within(
+        &args.scene,
+        &LoadBudget::for_accel(limit, true).with_external_files(args.allow_external_files),
+    )?;
     for w in &scene.warnings {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
     let (tris, spheres, cylinders) = scene.primitive_counts();
     let b = scene.bounds();
@@ -27,21 +35,26 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     // The build `ember render` would make of this scene.
     let options = crate::accel::build_options_for(&scene.geometry);
     let accel = EmbreeAccel::new(&device, &scene.geometry, options)?;
-    println!("scene:      {}", args.scene.display());
-    println!("geometries: {}", scene.geometry.len());
-    println!("triangles:  {tris}");
-    println!("spheres:    {spheres}");
-    println!("cylinders:  {cylinders}");
-    println!(
+    out!("scene:      {}", args.scene.display());
+    out!("geometries: {}", scene.geometry.len());
+    out!("triangles:  {tris}");
+    out!("spheres:    {spheres}");
+    out!("cylinders:  {cylinders}");
+    out!(
         "bounds:     ({:.4}, {:.4}, {:.4}) .. ({:.4}, {:.4}, {:.4})",
-        b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+        b.min.x,
+        b.min.y,
+        b.min.z,
+        b.max.x,
+        b.max.y,
+        b.max.z
     );
-    println!("embree:     {} ({} bindings, {})", device.version(), device.backend(), device.ray_hit_layout());
+    out!("embree:     {} ({} bindings, {})", device.version(), device.backend(), device.ray_hit_layout());
     let plan = RenderPlan::new(&scene, &RenderSettings::from_scene(&scene.render));
-    println!("{}", plan.effects);
-    println!("{plan}");
-    println!("lights:     {}", scene.light_set().describe());
-    println!(
+    out!("{}", plan.effects);
+    out!("{plan}");
+    out!("lights:     {}", scene.light_set().describe());
+    out!(
         "bvh build:  {:.2} ms ({} quality, as ember render builds it)",
         accel.build_time().as_secs_f64() * 1e3,
         options.quality

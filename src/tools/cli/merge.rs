@@ -12,6 +12,8 @@ use super::render::parse_exposure;
 use crate::film::shard::{ShardHeader, ShardReader, incomplete, mismatch};
 use crate::film::{Accumulator, AuxMode, ImageFormat, Look, Tonemap};
 use crate::memory::{self, MemoryLimit};
+use crate::output_lock::{OutputLock, lock_path};
+use crate::tools::say;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -48,7 +50,7 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     let format = ImageFormat::from_path(&args.output)?;
     let look = Look { exposure: args.exposure.unwrap_or(0.0), tonemap: args.tonemap.unwrap_or_default() };
     if format != ImageFormat::Png && !look.is_default() {
-        eprintln!(
+        say!(
             "note: exposure {} and tone curve {} apply to 8-bit output only; {} is linear, unscaled radiance",
             look.exposure,
             look.tonemap,
@@ -56,7 +58,19 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
         );
     }
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
+    let lock = lock_path(&args.output);
+    crate::atomic_write::check_name_length(&args.output, &[(&lock, "its lock file")])?;
     crate::atomic_write::check_writable(&args.output)?;
+    // The shards are the merge's state: a signal ends it at once, having written nothing.
+    super::interrupt::install_handler(&args.output);
+    super::render::refuse_overwriting_inputs(
+        &args.shards,
+        "the merge reads this file",
+        &[(&args.output, "the merged image"), (&lock, "the lock file of the merge")],
+    )?;
+    // Held until this function returns, whichever way: a render or another merge to the same
+    // output is refused meanwhile.
+    let _lock = OutputLock::acquire(&args.output)?;
     // Every header first: refuse a wrong set before reading a pixel.
     let readers = args.shards.iter().map(|p| ShardReader::open(p)).collect::<Result<Vec<_>, _>>()?;
     let first = &readers[0];
@@ -85,10 +99,23 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     }
     // Loaded before the pixels are read: a missing library fails at once.
     let denoiser = if denoise { Some(crate::oidn::Denoiser::new()?) } else { None };
-    let bytes = memory::film_bytes(width, height);
+    let bytes = memory::film_bytes(width, height)
+        .saturating_add(memory::render_extra_bytes(width, height, aux, false, denoise));
     limit
         .check(format!("image {width}x{height}"), "of film memory", bytes)
         .map_err(|e| anyhow::anyhow!("{}: {e}", first.path.display()))?;
+    let denoiser = match denoiser {
+        Some(d) => {
+            let left = limit.bytes.map(|l| l.saturating_sub(bytes));
+            let scratch = memory::denoiser_scratch_bytes(left).ok_or_else(|| {
+                let need = bytes.saturating_add(200_000_000);
+                let e = limit.check(format!("image {width}x{height} denoised"), "of film memory", need).err();
+                anyhow::anyhow!("{}: {}", first.path.display(), e.map_or_else(String::new, |e| e.to_string()))
+            })?;
+            Some(d.scratch_memory(scratch))
+        }
+        None => None,
+    };
     let nonfinite: u64 = readers.iter().map(|r| r.header.nonfinite).sum();
     let elapsed: std::time::Duration = readers.iter().map(|r| r.header.elapsed).sum();
     let mut accum = Accumulator::empty(width, height, aux, false);
@@ -103,17 +130,19 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
-    let denoised =
-        super::render::save_accumulated(&accum, &film, denoiser.as_ref(), args.denoise_aux, &args.output, &look)?;
+    let start = std::time::Instant::now();
+    let denoised = denoiser.as_ref().map(|d| crate::film::denoise(d, &accum, args.denoise_aux)).transpose()?;
+    let took = start.elapsed();
+    super::render::write_images(&accum, &film, denoised.as_ref(), &args.output, &look)?;
     let (min, mean, max) = accum.spp_range();
-    eprintln!(
+    say!(
         "merged {count} shards into {width}x{height} at {} ({:.2} s of rendering in all), {nonfinite} non-finite samples dropped -> {}",
         if min == max { format!("{max} spp") } else { format!("{min}..{max} spp (mean {mean:.1})") },
         elapsed.as_secs_f64(),
         args.output.display()
     );
-    if let (Some(took), Some(d)) = (denoised, &denoiser) {
-        eprintln!("{}", super::render::denoised_summary(took, d, args.denoise_aux, format));
+    if let (Some(_), Some(d)) = (denoised, &denoiser) {
+        say!("{}", super::render::denoised_summary(took, d, args.denoise_aux, format));
     }
     Ok(())
 }

@@ -5,10 +5,12 @@ mod bench;
 mod check;
 mod converge;
 mod info;
+mod interrupt;
 mod merge;
 mod progress;
 mod render;
 
+use crate::tools::say;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -57,12 +59,12 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(code) => code,
-        Err(e) if e.is::<render::Interrupted>() => {
-            eprintln!("{e}");
-            ExitCode::from(e.downcast_ref::<render::Interrupted>().map_or(130, render::Interrupted::exit_code))
+        Err(e) if e.is::<interrupt::Interrupted>() => {
+            say!("{e}");
+            ExitCode::from(e.downcast_ref::<interrupt::Interrupted>().map_or(130, interrupt::Interrupted::exit_code))
         }
         Err(e) => {
-            eprintln!("error: {e:#}");
+            say!("error: {e:#}");
             ExitCode::from(2)
         }
     }

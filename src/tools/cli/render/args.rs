@@ -141,6 +141,12 @@ pub struct RenderArgs {
     /// Vertical field of view in degrees, between 0 and 180 (exclusive).
     #[arg(long, value_name = "DEG", value_parser = parse_fov)]
     pub fov: Option<f32>,
+    /// Let a model read the files it names (a glTF's buffers and images, an OBJ's MTL
+    /// libraries) from outside its own folder. Without it only files in the model's folder
+    /// (or below it) are read, after resolving `..` and links; absolute names and files of
+    /// /proc, /sys and /dev never are.
+    #[arg(long)]
+    pub allow_external_files: bool,
     /// Render only shard K of N (0-based) of the image, to a shard file (-o NAME.shard) that
     /// `ember merge` puts together with the others; "auto" takes K and N from Slurm
     /// (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT), "auto/N" K from Slurm or a Kubernetes
@@ -283,28 +289,35 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
     })
 }
 
-/// A duration on the command line: `90`, `90s`, `1.5m`, `2h`.
+/// The shortest duration taken: a millisecond (a checkpoint after every pixel, or a duration
+/// that rounds to nothing, is not what anyone means).
+const MIN_DURATION_SECS: f64 = 0.001;
+
+/// A duration on the command line: `90`, `90s`, `1.5m`, `2h`, `1e-3s`.
 #[derive(Clone, Copy, Debug)]
 pub struct CliDuration(pub Duration);
 
 impl std::str::FromStr for CliDuration {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        let (num, unit) = match s.find(|c: char| c.is_ascii_alphabetic()) {
-            Some(i) => s.split_at(i),
-            None => (s, "s"),
-        };
+        // The unit is the letters at the end (`1e-3s`: the number is `1e-3`).
+        let s = s.trim();
+        let (num, unit) = s.split_at(s.trim_end_matches(|c: char| c.is_ascii_alphabetic()).len());
         let scale = match unit {
-            "s" => 1.0,
+            "" | "s" => 1.0,
             "m" | "min" => 60.0,
             "h" => 3600.0,
             _ => return Err(format!("unknown unit {unit:?} in {s:?} (use s, m or h)")),
         };
         let v: f64 = num.trim().parse().map_err(|_| format!("expected a duration such as 60s or 5m, found {s:?}"))?;
-        if !(v * scale > 0.0 && v * scale < 1e9) {
-            return Err(format!("duration {s:?} must be positive"));
+        let secs = v * scale;
+        if !(secs > 0.0 && secs < 1e9) {
+            return Err(format!("duration {s:?} must be positive and less than 1e9 s"));
         }
-        Ok(CliDuration(Duration::from_secs_f64(v * scale)))
+        if secs < MIN_DURATION_SECS {
+            return Err(format!("duration {s:?} is too short: at least {MIN_DURATION_SECS}s"));
+        }
+        Ok(CliDuration(Duration::from_secs_f64(secs)))
     }
 }
 

@@ -2,21 +2,21 @@
 //! signals, checkpoints and resumption), write the image and say what was done.
 
 mod args;
-mod interrupt;
 mod summary;
 
 pub use args::RenderArgs;
 pub(crate) use args::parse_exposure;
-pub use interrupt::Interrupted;
 pub(crate) use summary::denoised as denoised_summary;
 
+use super::interrupt::{self, Interrupted, Phase};
 use super::progress::ProgressBar;
 use crate::film::shard::ShardHeader;
-use crate::film::{Accumulator, AuxMode, Checkpoint, Film, ImageFormat, Look, RenderImages, checkpoint_path};
+use crate::film::{Accumulator, Checkpoint, Film, ImageFormat, Look, RenderImages, checkpoint_path};
 use crate::integrator::{RenderControl, RenderPlan, render_controlled};
-use crate::memory::{LoadBudget, MemoryLimit};
+use crate::memory::{self, LoadBudget, MemoryLimit};
 use crate::output_lock::{OutputLock, lock_path};
 use crate::scene::Scene;
+use crate::tools::say;
 use std::os::unix::fs::MetadataExt;
 use std::path::Path;
 
@@ -44,15 +44,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     let limit = MemoryLimit::from_env().map_err(anyhow::Error::msg)?;
+    let checkpoint = checkpoint_path(&args.output);
+    let lock = lock_path(&args.output);
+    crate::atomic_write::check_name_length(&args.output, &[(&checkpoint, "its checkpoint"), (&lock, "its lock file")])?;
     crate::atomic_write::check_writable(&args.output)?;
-    // From here a signal stops the render cleanly (or, before it starts, ends ember without
-    // writing anything).
-    interrupt::install_handler();
+    // From here a signal ends ember without writing anything until the render starts, then
+    // stops it cleanly (see `interrupt`).
+    interrupt::install_handler(&args.output);
     let embree = args.accel == crate::accel::AccelKind::Embree;
-    let budget = LoadBudget::for_render(limit, embree, args.width, args.height);
+    let budget =
+        LoadBudget::for_render(limit, embree, args.width, args.height).with_external_files(args.allow_external_files);
     let mut scene = Scene::load_within(&args.scene, &budget)?;
     for w in &scene.warnings {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
     let settings = args::settings(&args, &scene)?;
     if settings.adaptive && settings.shard.is_some() && !args.first_round && args.plan_from.is_empty() {
@@ -62,23 +66,48 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // A shard is not a whole image: it keeps the albedo and normal sums, and `ember merge`
     // denoises the merged image.
     let denoise = args::denoise(&args, &scene);
-    let denoiser = if denoise && settings.shard.is_none() { Some(crate::oidn::Denoiser::new()?) } else { None };
+    let denoiser = if denoise && settings.shard.is_none() {
+        Some(crate::oidn::Denoiser::new()?.cancel_when(&interrupt::STOP))
+    } else {
+        None
+    };
+    // The film is counted already; what this render keeps beside it is counted here.
+    let (w, h) = (settings.width, settings.height);
+    let extra = memory::render_extra_bytes(w, h, settings.aux, settings.adaptive, denoiser.is_some());
+    let what = format!("image {w}x{h}'s auxiliary images, adaptive plan and denoiser buffers");
+    budget.admit(what, extra).map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
+    budget.keep(extra);
+    let denoiser = match denoiser {
+        Some(d) => {
+            let scratch = memory::denoiser_scratch_bytes(budget.available()).ok_or_else(|| {
+                let e = budget.admit("the denoiser's scratch memory (200 MB at least)", 200_000_000).err();
+                anyhow::anyhow!("{}: {}", args.scene.display(), e.map_or_else(String::new, |e| e.to_string()))
+            })?;
+            budget.keep(scratch);
+            Some(d.scratch_memory(scratch))
+        }
+        None => None,
+    };
     scene
         .override_camera(&args::camera_override(&args), settings.width as f32 / settings.height as f32)
         .map_err(|e| anyhow::anyhow!("{}: {e} (--camera-position, --look-at)", args.scene.display()))?;
     let look = args::look(&args, &scene);
     if format != Some(ImageFormat::Png) && !look.is_default() {
-        eprintln!(
+        say!(
             "note: exposure {} and tone curve {} apply to 8-bit output only; {} is linear, unscaled radiance",
             look.exposure,
             look.tonemap,
             args.output.display()
         );
     }
-    let checkpoint = checkpoint_path(&args.output);
     refuse_overwriting_inputs(
-        &scene,
-        &[(&args.output, "the image"), (&checkpoint, "the checkpoint"), (&lock_path(&args.output), "the lock file")],
+        &scene.inputs,
+        "the scene reads this file",
+        &[
+            (&args.output, "the image of the render"),
+            (&checkpoint, "the checkpoint of the render"),
+            (&lock, "the lock file of the render"),
+        ],
     )?;
     let plan = RenderPlan::new(&scene, &settings);
     if !plan.effects.lit {
@@ -90,7 +119,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 args.output.display()
             );
         }
-        eprintln!("warning: {}: {UNLIT}", args.scene.display());
+        say!("warning: {}: {UNLIT}", args.scene.display());
     }
     // Held until this function returns, whichever way; removes OUT.lock then.
     let _lock = OutputLock::acquire(&args.output)?;
@@ -102,11 +131,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         let key = plan.checkpoint_key(scene.fingerprint(), &args.accel.image_key(bvh));
         let c = Checkpoint::load(&checkpoint, &key)?;
         let (_, mean, _) = c.accum.spp_range();
-        eprintln!("resuming from {} ({mean:.1} of {} spp done)", checkpoint.display(), settings.spp);
+        say!("resuming from {} ({mean:.1} of {} spp done)", checkpoint.display(), settings.spp);
         Some((checkpoint.as_path(), c))
     } else {
         if is_file(&checkpoint) {
-            eprintln!(
+            say!(
                 "warning: {} holds an interrupted render; this render starts over (use --resume to continue it)",
                 checkpoint.display()
             );
@@ -132,19 +161,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let first_rounds = match settings.shard {
         Some(shard) if !args.plan_from.is_empty() => {
             let expected = shard_header(shard, true, 0, std::time::Duration::ZERO);
-            Some(read_first_rounds(&args.plan_from, &expected, &args.output)?)
+            let limits = (settings.spp, plan.max_rays_per_sample());
+            Some(read_first_rounds(&args.plan_from, &expected, &args.output, limits)?)
         }
         _ => None,
     };
     let accel = args.accel.build_with(&scene.geometry, bvh)?;
-    eprintln!("{}", plan.effects);
-    eprintln!("{plan}");
-    if interrupt::STOP.load(std::sync::atomic::Ordering::SeqCst) {
-        return Err(Interrupted {
-            message: "interrupted before rendering started; nothing was written".into(),
-            signal: interrupt::signal(),
-        }
-        .into());
+    say!("{}", plan.effects);
+    say!("{plan}");
+    interrupt::set_phase(Phase::Rendering);
+    if interrupt::stop_requested() {
+        return Err(Interrupted::by_signal("interrupted before rendering started; nothing was written".into()).into());
     }
     let bar = ProgressBar::new("");
     let control = RenderControl {
@@ -159,21 +186,20 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     bar.finish();
     let result = result?;
     for w in &result.warnings {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
     let stats = result.stats;
+    let elapsed = stats.elapsed + stats.earlier_sessions;
+    let resume_with = || format!("resume with: {}", interrupt::resume_command());
     if !result.complete {
         let (_, mean, _) = stats.spp;
-        return Err(Interrupted {
-            message: format!(
-                "interrupted after {:.1} s with {mean:.1} of {} spp done; checkpoint written to {}\nresume with: {}",
-                (stats.elapsed + stats.earlier_sessions).as_secs_f64(),
-                settings.spp,
-                checkpoint.display(),
-                interrupt::resume_command()
-            ),
-            signal: interrupt::signal(),
-        }
+        return Err(Interrupted::by_signal(format!(
+            "interrupted after {:.1} s with {mean:.1} of {} spp done; checkpoint written to {}\n{}",
+            elapsed.as_secs_f64(),
+            settings.spp,
+            checkpoint.display(),
+            resume_with()
+        ))
         .into());
     }
     let film = result.accum.film();
@@ -189,17 +215,46 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             args.output.display()
         );
     }
-    let mut denoised = None;
+    let denoised = match &denoiser {
+        Some(d) => {
+            interrupt::set_phase(Phase::Denoising);
+            // It can take a while: said before, so that the wait is not a mystery.
+            say!("denoising {w}x{h} with Open Image Denoise ({})…", args.denoise_aux.describe());
+            let start = std::time::Instant::now();
+            match crate::film::denoise(d, &result.accum, args.denoise_aux) {
+                Ok(image) => Some((image, start.elapsed())),
+                Err(crate::oidn::DenoiseError::Cancelled) => {
+                    // The render is complete: its checkpoint, resumed, only denoises and writes.
+                    let key = plan.checkpoint_key(scene.fingerprint(), &args.accel.image_key(bvh));
+                    let nonfinite = stats.nonfinite;
+                    let c = Checkpoint {
+                        scene: key.scene,
+                        settings: key.settings,
+                        nonfinite,
+                        elapsed,
+                        accum: result.accum,
+                    };
+                    c.save(&checkpoint)?;
+                    return Err(Interrupted::by_signal(format!(
+                        "{} while denoising: the render was complete; checkpoint written to {} (resuming it only denoises and writes the image)\n{}",
+                        interrupt::name(interrupt::signal()),
+                        checkpoint.display(),
+                        resume_with()
+                    ))
+                    .into());
+                }
+                Err(e) => return Err(e.into()),
+            }
+        }
+        None => None,
+    };
+    interrupt::set_phase(Phase::Writing);
     match settings.shard {
         Some(shard) => {
-            let elapsed = stats.elapsed + stats.earlier_sessions;
             let header = shard_header(shard, args.first_round, stats.nonfinite, elapsed);
             crate::film::shard::save(&args.output, &header, &result.accum)?;
         }
-        None => {
-            denoised =
-                save_accumulated(&result.accum, &film, denoiser.as_ref(), args.denoise_aux, &args.output, &look)?;
-        }
+        None => write_images(&result.accum, &film, denoised.as_ref().map(|(d, _)| d), &args.output, &look)?,
     }
     // Only a regular file: a folder or a link someone put there is not ours to remove.
     if is_file(&checkpoint) {
@@ -210,11 +265,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         crate::accel::AccelKind::Embree => format!("embree accel, {bvh}"),
         crate::accel::AccelKind::Naive => "naive accel".to_string(),
     };
-    eprintln!("{}", summary::rendered(&stats, &accel_text, &args.output));
-    if let (Some(took), Some(d), Some(format)) = (denoised, &denoiser, format) {
-        eprintln!("{}", summary::denoised(took, d, args.denoise_aux, format));
+    say!("{}", summary::rendered(&stats, &accel_text, &args.output));
+    if let (Some((_, took)), Some(d), Some(format)) = (&denoised, &denoiser, format) {
+        say!("{}", summary::denoised(*took, d, args.denoise_aux, format));
     }
-    eprintln!("{}", summary::error_estimate(&stats));
+    say!("{}", summary::error_estimate(&stats));
+    if interrupt::stop_requested() {
+        return Err(Interrupted::by_signal(format!(
+            "{} while {} was written: it was written in full; the render is finished",
+            interrupt::name(interrupt::signal()),
+            args.output.display()
+        ))
+        .into());
+    }
     Ok(())
 }
 
@@ -226,6 +289,7 @@ fn read_first_rounds(
     paths: &[std::path::PathBuf],
     expected: &ShardHeader,
     output: &Path,
+    (spp, rays_per_sample): (u32, u64),
 ) -> anyhow::Result<crate::integrator::FirstRounds> {
     use crate::film::shard::{ShardReader, incomplete, mismatch};
     let this = Path::new("this render");
@@ -249,8 +313,22 @@ fn read_first_rounds(
     let (elapsed, nonfinite) = (own.header.elapsed, own.header.nonfinite);
     let (w, h) = (expected.width, expected.height);
     let mut accum = Accumulator::empty(w, h, expected.aux, expected.plan);
+    let owners: Vec<(crate::settings::Shard, std::path::PathBuf)> =
+        readers.iter().map(|r| (r.header.shard, r.path.clone())).collect();
     for r in readers {
         r.read_into(&mut accum).map_err(|e| anyhow::anyhow!("--plan-from: {e}"))?;
+    }
+    // Each pixel's part of the plan could have come from this render.
+    if let Some(stored) = &accum.adaptive
+        && let Some((pixel, why)) =
+            crate::integrator::adaptive::stored_plan_problem(&accum.pixels, stored, w, h, spp, rays_per_sample)
+    {
+        let (x, y) = pixel.map_or((0, 0), |i| (i as u32 % w, i as u32 / w));
+        let file = owners.iter().find(|(s, _)| pixel.is_some() && s.owns_pixel(x, y)).map(|(_, p)| p.display());
+        match file {
+            Some(file) => anyhow::bail!("--plan-from {file}: not a valid ember shard file ({why})"),
+            None => anyhow::bail!("--plan-from: the first rounds could not have come from this render ({why})"),
+        }
     }
     Ok(crate::integrator::FirstRounds { accum, elapsed, nonfinite })
 }
@@ -266,14 +344,19 @@ fn file_id(p: &Path) -> Option<(u64, u64)> {
     std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()))
 }
 
-/// Refuses to write any of `outputs` (path, what it would hold) that is a file the scene reads
-/// (the same file, whatever the spelling, links followed): rendering would destroy it.
-fn refuse_overwriting_inputs(scene: &Scene, outputs: &[(&Path, &str)]) -> anyhow::Result<()> {
+/// Refuses to write any of `outputs` (path, what it would hold) that is one of `inputs` (the
+/// same file, whatever the spelling, links followed): writing would destroy it. `reads` says
+/// who reads it, e.g. `the scene reads this file`.
+pub(super) fn refuse_overwriting_inputs(
+    inputs: &[std::path::PathBuf],
+    reads: &str,
+    outputs: &[(&Path, &str)],
+) -> anyhow::Result<()> {
     for &(out, what) in outputs {
         let Some(out_id) = file_id(out) else { continue };
-        if let Some(input) = scene.inputs.iter().find(|i| file_id(i) == Some(out_id)) {
+        if let Some(input) = inputs.iter().find(|i| file_id(i) == Some(out_id)) {
             anyhow::bail!(
-                "{}: the scene reads this file ({}); writing {what} of the render there would destroy it: choose another output",
+                "{}: {reads} ({}); writing {what} there would destroy it: choose another output",
                 out.display(),
                 input.display()
             );
@@ -282,29 +365,25 @@ fn refuse_overwriting_inputs(scene: &Scene, outputs: &[(&Path, &str)]) -> anyhow
     Ok(())
 }
 
-/// Writes a finished image: `film` (the accumulator's estimate), denoised first when a
-/// `denoiser` is given, with the albedo, normal and sample-count images when the accumulator
-/// kept them (EXR layers; a PNG holds the main image only). Returns how long denoising took.
-pub(crate) fn save_accumulated(
+/// Writes a finished image: `film` (the accumulator's estimate), or its `denoised` image with
+/// the noisy one as a layer, with the albedo, normal and sample-count images when the
+/// accumulator kept them (EXR layers; a PNG holds the main image only).
+pub(crate) fn write_images(
     accum: &Accumulator,
     film: &Film,
-    denoiser: Option<&crate::oidn::Denoiser>,
-    mode: AuxMode,
+    denoised: Option<&Film>,
     output: &Path,
     look: &Look,
-) -> anyhow::Result<Option<std::time::Duration>> {
-    let start = std::time::Instant::now();
-    let denoised = denoiser.map(|d| crate::film::denoise(d, accum, mode)).transpose()?;
-    let took = denoised.as_ref().map(|_| start.elapsed());
+) -> anyhow::Result<()> {
     let (albedo, normal) = (accum.albedo(), accum.normal());
     let counts = accum.aux.is_some().then(|| accum.sample_counts());
     let images = RenderImages {
         image: film,
-        denoised: denoised.as_ref(),
+        denoised,
         albedo: albedo.as_ref(),
         normal: normal.as_ref(),
         sample_count: counts.as_deref(),
     };
     images.save_with(output, look)?;
-    Ok(took)
+    Ok(())
 }

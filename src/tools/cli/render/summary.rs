@@ -56,6 +56,14 @@ pub(crate) fn denoised(
 pub(super) fn error_estimate(stats: &RenderStats) -> String {
     let settings = &stats.plan.settings;
     let (mean_err, max_err) = stats.error_estimate;
+    if stats.spp.0 < 2 {
+        // One sample says nothing of its error.
+        return format!(
+            "estimated relative error: none (it takes at least 2 samples a pixel; {} has {})",
+            if stats.spp.0 == stats.spp.2 { "every pixel" } else { "some pixel" },
+            stats.spp.0
+        );
+    }
     match settings.target_error {
         Some(e) if settings.aux => format!(
             "estimated relative error of the noisy image: mean {mean_err:.4}, max {max_err:.4} (target {e}; pixels stop at {} spp at most)",
