@@ -1,5 +1,6 @@
-//! Adaptive sample allocation at a fixed budget (`--adaptive`): `spp` becomes the mean number
-//! of samples per pixel, and the render spends them where the image is noisy.
+//! Adaptive sample allocation at a fixed budget (`ember render`'s default above 8 spp): `spp`
+//! becomes the budget, the time of `spp` samples in every pixel, and the render spends it
+//! where the image is noisy.
 //!
 //! The render takes two rounds. In the first every pixel takes [`first_round_spp`] samples
 //! (a quarter of the budget). Then [`allocate`] shares out the rest: pixel `i` gets a number

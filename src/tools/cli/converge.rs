@@ -38,8 +38,8 @@ pub struct ConvergeArgs {
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub reference_spp: Option<u32>,
     /// Comma-separated variants: groups estimators, no-rr, depth, samplers, adaptive (NEE+MIS
-    /// with and without --adaptive), light-vertices (NEE+MIS as the scene decides, with light
-    /// vertices on, and off), denoise (NEE+MIS and its denoised variants: Open Image
+    /// with every pixel at the rung's spp, and adaptive), light-vertices (NEE+MIS as the
+    /// scene decides, with light vertices on, and off), denoise (NEE+MIS and its denoised variants: Open Image
     /// Denoise given colour only, or albedo and normal noisy, prefiltered or clean), all
     /// (estimators, no-rr, depth, denoise), or single variants
     /// ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/adaptive][/light-vertices=on|off][/denoise[=color|noisy|prefilter|clean]]

@@ -23,7 +23,8 @@ pub struct Variant {
     /// Next-event estimation samples an environment image uniformly over the sphere instead
     /// of by luminance (no effect on other backgrounds): what importance sampling gains.
     pub uniform_environment: bool,
-    /// `--adaptive`: the spp of a rung is the mean, spent where the image is noisy.
+    /// Adaptive sampling (`ember render`'s default): the spp of a rung is the mean, spent
+    /// where the image is noisy; off: every pixel takes the rung's spp (`--uniform`).
     pub adaptive: bool,
     /// Where samples get their numbers; `None`: the default sampler.
     pub sampler: Option<SamplerKind>,

@@ -19,8 +19,9 @@ pub struct RenderArgs {
     /// Output image: .png (8-bit sRGB) or .exr (linear float); with --shard, a .shard file.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Samples per pixel: their mean over the image when sampling adaptively (the default
-    /// above 8) [scene's render.spp, else 64].
+    /// Samples per pixel [scene's render.spp, else 64]. Above 8 the render is adaptive: it
+    /// takes about the time of N samples in every pixel, and spends them where the image is
+    /// noisy (see --uniform).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: Option<u32>,
     /// Image width in pixels [scene's render.width, else 640].
@@ -68,14 +69,11 @@ pub struct RenderArgs {
     /// bound of its own (it is usually closer, but biased).
     #[arg(long, value_parser = parse_target_error)]
     pub target_error: Option<f32>,
-    /// Adaptive sampling at a fixed budget, the default: --spp is the mean samples per pixel; a
-    /// quarter is taken everywhere, the rest goes where the first samples of each pixel's
-    /// neighbours are noisy, for about the time --spp would take everywhere (at most 16× --spp
-    /// in one pixel). Unbiased: no pixel decides from its own samples. A shard renders it in
-    /// two stages (--first-round, then --plan-from). Up to 8 spp every pixel takes --spp.
-    #[arg(long, conflicts_with_all = ["target_error", "uniform"])]
-    pub adaptive: bool,
-    /// Every pixel takes --spp samples (no adaptive sampling).
+    /// Every pixel takes --spp samples. Without it (above 8 spp) sampling is adaptive: a
+    /// quarter of --spp in every pixel, the rest where the first samples of each pixel's
+    /// neighbours are noisy, for about the time --spp everywhere would take (at most 16×
+    /// --spp in one pixel); unbiased, as no pixel decides from its own samples. A shard
+    /// renders it in two stages (--first-round, then --plan-from).
     #[arg(long, conflicts_with = "target_error")]
     pub uniform: bool,
     /// Denoise the image with Intel Open Image Denoise, given the albedo and normal of the first
