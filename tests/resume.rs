@@ -160,6 +160,10 @@ fn resume_refuses_other_settings_and_other_scenes() {
     let fov = ember::scene::CameraOverride { fov: Some(30.0), ..Default::default() };
     moved.override_camera(&fov, 16.0 / 12.0).unwrap();
     assert!(matches!(resume_with(&moved, &settings), Err(RenderError::Checkpoint(CheckpointError::OtherScene(_)))));
+    let mut flat = scene.clone();
+    flat.override_camera(&ember::scene::CameraOverride { ortho: Some(600.0), ..Default::default() }, 16.0 / 12.0)
+        .unwrap();
+    assert!(matches!(resume_with(&flat, &settings), Err(RenderError::Checkpoint(CheckpointError::OtherScene(_)))));
     // The right scene and settings resume and give the uninterrupted image.
     let r = resume_with(&scene, &settings).unwrap();
     assert!(r.complete);

@@ -304,7 +304,7 @@ impl<'a> Loader<'a> {
             ));
             return None;
         }
-        Some(CameraSpec { position, look_at: position + forward, up, fov, aperture: 0.0, focus_distance: None })
+        Some(CameraSpec::pinhole(position, position + forward, up, fov))
     }
 
     /// The bytes of every buffer, by index.

@@ -5,7 +5,7 @@ use crate::embree::BuildQuality;
 use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
 use crate::integrator::adaptive;
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
-use crate::scene::{CameraOverride, Scene};
+use crate::scene::{CameraOverride, Orbit, Scene};
 use crate::settings::{Estimator, LightVertices, RenderSettings, RrDepth, SamplerKind, Shard};
 use clap::Args;
 use glam::Vec3;
@@ -139,6 +139,18 @@ pub struct RenderArgs {
     /// Vertical field of view in degrees, between 0 and 180 (exclusive).
     #[arg(long, value_name = "DEG", value_parser = parse_fov)]
     pub fov: Option<f32>,
+    /// Orbit the centre of the scene's bounds, looking at it: azimuth in degrees about +Y
+    /// (0 looks along −Z, 90 along −X), elevation in degrees above the horizontal (90 looks
+    /// straight down), and the distance from the centre [as far as frames the scene, as the
+    /// automatic camera does].
+    #[arg(long, value_name = "AZIMUTH,ELEVATION[,DISTANCE]", allow_hyphen_values = true, value_parser = parse_orbit,
+          conflicts_with_all = ["camera_position", "look_at"])]
+    pub orbit: Option<Orbit>,
+    /// An orthographic camera whose view is WIDTH wide (world units; the height follows the
+    /// image's aspect), from the scene's camera position and direction (or --orbit's, or the
+    /// automatic camera's).
+    #[arg(long, value_name = "WIDTH", value_parser = parse_ortho, conflicts_with = "fov")]
+    pub ortho: Option<f32>,
     /// Render only shard K of N (0-based) of the image, to a shard file (-o NAME.shard) that
     /// `ember merge` puts together with the others; "auto" takes K and N from Slurm
     /// (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT), "auto/N" K from Slurm or a Kubernetes
@@ -193,9 +205,43 @@ fn parse_fov(s: &str) -> Result<f32, String> {
     }
 }
 
+/// `AZIMUTH,ELEVATION[,DISTANCE]`: finite angles in degrees, the elevation within ±90, and a
+/// positive distance.
+fn parse_orbit(s: &str) -> Result<Orbit, String> {
+    let numbers: Option<Vec<f32>> =
+        s.split(',').map(|p| p.trim().parse::<f32>().ok().filter(|v| v.is_finite())).collect();
+    let bad = || format!("expected AZIMUTH,ELEVATION[,DISTANCE] in degrees (e.g. 30,20 or 30,20,5), found {s:?}");
+    let v = numbers.filter(|v| (2..=3).contains(&v.len())).ok_or_else(bad)?;
+    if v[1].abs() > 90.0 {
+        return Err(format!("the elevation must be between -90 and 90 degrees, found {}", v[1]));
+    }
+    let distance = v.get(2).copied();
+    if let Some(d) = distance
+        && !(d > 0.0 && d <= MAX_COORDINATE)
+    {
+        return Err(format!("the distance must be positive and at most {MAX_COORDINATE:e}, found {d}"));
+    }
+    Ok(Orbit { azimuth: v[0], elevation: v[1], distance })
+}
+
+/// An orthographic view's width: a positive length.
+fn parse_ortho(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v <= MAX_COORDINATE => Ok(v),
+        _ => Err(format!("expected the view's width in world units, a positive number, found {s:?}")),
+    }
+}
+
 /// The camera parts given on the command line.
 pub(super) fn camera_override(args: &RenderArgs) -> CameraOverride {
-    CameraOverride { position: args.camera_position, look_at: args.look_at, up: args.up, fov: args.fov }
+    CameraOverride {
+        position: args.camera_position,
+        look_at: args.look_at,
+        up: args.up,
+        fov: args.fov,
+        orbit: args.orbit,
+        ortho: args.ortho,
+    }
 }
 
 /// `--exposure` of `ember render` and `ember merge`: a number of stops in the allowed range.
@@ -312,6 +358,26 @@ mod tests {
 
     fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
         move |name| vars.iter().find(|(n, _)| *n == name).map(|(_, v)| v.to_string())
+    }
+
+    #[test]
+    fn orbits_parse_with_or_without_a_distance() {
+        assert_eq!(parse_orbit("30,-20").unwrap(), Orbit { azimuth: 30.0, elevation: -20.0, distance: None });
+        assert_eq!(
+            parse_orbit(" -45, 90, 2.5").unwrap(),
+            Orbit { azimuth: -45.0, elevation: 90.0, distance: Some(2.5) }
+        );
+        for (bad, why) in [
+            ("30", "expected AZIMUTH,ELEVATION"),
+            ("1,2,3,4", "expected AZIMUTH,ELEVATION"),
+            ("a,b", "expected AZIMUTH,ELEVATION"),
+            ("0,91", "between -90 and 90"),
+            ("0,0,0", "positive"),
+            ("0,0,-1", "positive"),
+        ] {
+            let e = parse_orbit(bad).unwrap_err();
+            assert!(e.contains(why), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -63,9 +63,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // denoises the merged image.
     let denoise = args::denoise(&args, &scene);
     let denoiser = if denoise && settings.shard.is_none() { Some(crate::oidn::Denoiser::new()?) } else { None };
+    let aspect = settings.width as f32 / settings.height as f32;
+    let camera = args::camera_override(&args);
+    let automatic = scene.camera.is_none();
     scene
-        .override_camera(&args::camera_override(&args), settings.width as f32 / settings.height as f32)
+        .override_camera(&camera, aspect)
         .map_err(|e| anyhow::anyhow!("{}: {e} (--camera-position, --look-at)", args.scene.display()))?;
+    // Said when the camera is not the scene file's: a scene file can then take it.
+    let given = (!camera.is_empty()).then_some("the command line");
+    let camera_text = (automatic || given.is_some()).then(|| super::info::camera_lines(&scene, aspect, given));
     let look = args::look(&args, &scene);
     if format != Some(ImageFormat::Png) && !look.is_default() {
         eprintln!(
@@ -139,6 +145,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let accel = args.accel.build_with(&scene.geometry, bvh)?;
     eprintln!("{}", plan.effects);
     eprintln!("{plan}");
+    if let Some(text) = &camera_text {
+        eprint!("{text}");
+    }
     if interrupt::STOP.load(std::sync::atomic::Ordering::SeqCst) {
         return Err(Interrupted {
             message: "interrupted before rendering started; nothing was written".into(),
