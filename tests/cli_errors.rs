@@ -605,6 +605,7 @@ fn bad_flags() {
         (&["--orbit", "30,10", "--camera-position", "1,2,3"], "cannot be used with"),
         (&["--ortho", "0"], "expected the view's width in world units, a positive number, found \"0\""),
         (&["--ortho", "2", "--fov", "30"], "cannot be used with"),
+        (&["--clamp", "0"], "expected a positive radiance (e.g. 10), found \"0\""),
     ] {
         expect_render_error(&scene, &out, args, &[], "error: ", needle);
     }

@@ -633,3 +633,24 @@ fn an_orthographic_camera_sees_a_square_at_its_size_whatever_its_distance() {
     assert_eq!(general, film);
     assert_eq!(common::render_naive(&scene, &s).0, film);
 }
+
+#[test]
+fn a_sample_clamp_scales_bright_samples_down_to_it_keeping_their_hue() {
+    // The squares' radiance (4, 2, 1), clamped at 2: (2, 1, 0.5), exactly; darker samples
+    // are untouched.
+    let scene = Scene::load(&common::write_scene("render", "ortho.toml", ORTHO_SQUARES)).unwrap();
+    let s = RenderSettings { max_depth: 0, ..settings(64, 32, 4) };
+    let (film, stats) = common::render_embree(&scene, &RenderSettings { clamp: Some(2.0), ..s.clone() });
+    let lit = (0..32).flat_map(|y| (0..64).map(move |x| (x, y))).filter(|&(x, y)| in_ortho_squares(x, y)).count();
+    assert_eq!(stats.clamped, lit as u64 * 4, "every sample of a lit pixel is clamped, no other");
+    for y in 0..32 {
+        for x in 0..64 {
+            let expected = if in_ortho_squares(x, y) { Vec3::new(2.0, 1.0, 0.5) } else { Vec3::ZERO };
+            assert_eq!(film.get(x, y), expected, "pixel ({x}, {y})");
+        }
+    }
+    // Above the brightest sample, a clamp changes nothing.
+    let (above, stats) = common::render_embree(&scene, &RenderSettings { clamp: Some(4.0), ..s.clone() });
+    assert_eq!(stats.clamped, 0);
+    assert_eq!(above, embree_render(&scene, &s));
+}

@@ -156,6 +156,13 @@ fn resume_refuses_other_settings_and_other_scenes() {
         }
         other => panic!("expected a settings mismatch, got {:?}", other.map(|r| r.complete)),
     }
+    // A sample clamp changes the image: a render without one does not resume with one.
+    match resume_with(&scene, &RenderSettings { clamp: Some(10.0), ..settings.clone() }) {
+        Err(RenderError::Checkpoint(e @ CheckpointError::OtherSettings(..))) => {
+            assert!(e.to_string().contains("(absent) in the checkpoint, clamp=10 now"), "{e}")
+        }
+        other => panic!("expected a settings mismatch, got {:?}", other.map(|r| r.complete)),
+    }
     let mut moved = scene.clone();
     let fov = ember::scene::CameraOverride { fov: Some(30.0), ..Default::default() };
     moved.override_camera(&fov, 16.0 / 12.0).unwrap();

@@ -35,6 +35,8 @@ pub struct RenderStats {
     pub samples: u64,
     /// Samples whose value was NaN or infinite; dropped from the image.
     pub nonfinite: u64,
+    /// Samples of this call scaled down by the sample clamp ([`RenderSettings::clamp`]).
+    pub clamped: u64,
     /// What ran: the kernel, the path depth and the roulette start, and why.
     pub plan: RenderPlan,
     /// (min, mean, max) samples per pixel.

@@ -25,7 +25,7 @@ use crate::accel::{Accel, LANES};
 use crate::film::{Accumulator, Checkpoint, PixelState};
 use crate::sampler::{PixelSampler, mix64};
 use crate::scene::Scene;
-use crate::settings::TILE;
+use crate::settings::{TILE, clamp_sample};
 use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Mutex;
@@ -191,13 +191,14 @@ pub(super) fn run(
     let lights = scene.light_set();
     // The pixels this render takes: a shard's, or all.
     let owned = |i: usize| settings.shard.is_none_or(|s| s.owns_pixel(i as u32 % w, i as u32 / w));
-    let finish = |accum: Accumulator, rays: u64, nonfinite: u64, complete: bool, warnings: Vec<String>| {
+    let finish = |accum: Accumulator, rays: u64, (nonfinite, clamped): (u64, u64), complete, warnings| {
         let stats = RenderStats {
             elapsed: start.elapsed(),
             earlier_sessions: prior_elapsed,
             rays,
             samples: accum.samples_of(owned),
             nonfinite: prior_nonfinite + nonfinite,
+            clamped,
             plan: plan.clone(),
             spp: accum.spp_range_of(owned),
             error_estimate: accum.error_estimate_of(owned),
@@ -215,7 +216,7 @@ pub(super) fn run(
                 p.add(glam::Vec3::ZERO);
             }
         }
-        return Ok(finish(accum, 0, 0, true, Vec::new()));
+        return Ok(finish(accum, 0, (0, 0), true, Vec::new()));
     }
     let sample = plan.kernel.sample_fn();
     let normals = FaceNormals::of(scene);
@@ -243,6 +244,7 @@ pub(super) fn run(
     let samples_before = accum.samples_of(owned);
     let samples_done = AtomicU64::new(samples_before);
     let nonfinite = AtomicU64::new(0);
+    let clamped = AtomicU64::new(0);
     let stopped = AtomicBool::new(false);
     let shared = Mutex::new(accum);
     let periodic = Mutex::new(Periodic { last: Instant::now(), attempts: 0, failures: 0, first_failure: None });
@@ -316,6 +318,7 @@ pub(super) fn run(
                     };
                     let Some(target) = round_target(settings, round, &p, planned_total) else { continue };
                     let mut pixel_bad = 0;
+                    let mut pixel_clamped = 0;
                     // An adaptive render's first round also sums the squares of the samples.
                     let mut sum_sq = glam::DVec3::ZERO;
                     let mut s = p.count;
@@ -331,6 +334,16 @@ pub(super) fn run(
                             .map_err(RenderError::from)?;
                         for &v in &values[..(end - s) as usize] {
                             if v.is_finite() {
+                                // The sample clamp acts on what the film receives: the path
+                                // and its numbers are those of an unclamped render.
+                                let v = match settings.clamp {
+                                    Some(limit) => {
+                                        let (v, scaled) = clamp_sample(v, limit);
+                                        pixel_clamped += scaled as u64;
+                                        v
+                                    }
+                                    None => v,
+                                };
                                 p.add(v);
                                 let v = v.as_dvec3();
                                 sum_sq += v * v;
@@ -361,6 +374,7 @@ pub(super) fn run(
                     }
                     // Counted under the lock, so a checkpoint's count matches its pixels.
                     let total_bad = nonfinite.fetch_add(pixel_bad, Ordering::Relaxed) + pixel_bad;
+                    clamped.fetch_add(pixel_clamped, Ordering::Relaxed);
                     // A periodic checkpoint that cannot be written (a full disk) does not stop
                     // the render: it is reported at the end, and tried again after `every`.
                     if let Some((_, Some(every))) = control.checkpoint
@@ -403,5 +417,6 @@ pub(super) fn run(
     }
     let periodic = periodic.into_inner().unwrap_or_else(|e| e.into_inner());
     let warnings = periodic.warning().into_iter().collect();
-    Ok(finish(accum, rays_total.load(Ordering::Relaxed), bad, complete, warnings))
+    let counts = (bad, clamped.load(Ordering::Relaxed));
+    Ok(finish(accum, rays_total.load(Ordering::Relaxed), counts, complete, warnings))
 }

@@ -69,6 +69,13 @@ pub struct RenderArgs {
     /// bound of its own (it is usually closer, but biased).
     #[arg(long, value_parser = parse_target_error)]
     pub target_error: Option<f32>,
+    /// Sample clamp, as Cycles': a sample whose largest channel is above X is scaled down to
+    /// X, its hue kept. It removes fireflies (rare, very bright samples) at the price of
+    /// bias: the image is darker where light is concentrated (caustics, small bright lights
+    /// seen through a bounce). The summary says how many samples it scaled. Try 10–100 times
+    /// the image's brightest ordinary pixel [no clamp].
+    #[arg(long, value_name = "X", value_parser = parse_clamp)]
+    pub clamp: Option<f32>,
     /// Every pixel takes --spp samples. Without it (above 8 spp) sampling is adaptive: a
     /// quarter of --spp in every pixel, the rest where the first samples of each pixel's
     /// neighbours are noisy, for about the time --spp everywhere would take (at most 16×
@@ -287,6 +294,13 @@ pub(super) fn shard(arg: &str, env: &dyn Fn(&str) -> Option<String>) -> anyhow::
     format!("{index}/{count}").parse::<Shard>().map_err(|e| anyhow::anyhow!("--shard {arg}: {e}"))
 }
 
+fn parse_clamp(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("expected a positive radiance (e.g. 10), found {s:?}")),
+    }
+}
+
 fn parse_target_error(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(e) if e > 0.0 && e < 1.0 => Ok(e),
@@ -324,6 +338,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         sampler: args.sampler.unwrap_or(s.sampler),
         light_vertices: args.light_vertices.unwrap_or(s.light_vertices),
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
+        clamp: args.clamp,
     })
 }
 

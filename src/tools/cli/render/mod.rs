@@ -220,6 +220,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         crate::accel::AccelKind::Naive => "naive accel".to_string(),
     };
     eprintln!("{}", summary::rendered(&stats, &accel_text, &args.output));
+    if let Some(line) = summary::clamped(&stats) {
+        eprintln!("{line}");
+    }
     if let (Some(took), Some(d), Some(format)) = (denoised, &denoiser, format) {
         eprintln!("{}", summary::denoised(took, d, args.denoise_aux, format));
     }

@@ -32,6 +32,25 @@ pub(super) fn rendered(stats: &RenderStats, accel: &str, output: &Path) -> Strin
     )
 }
 
+/// With a sample clamp, the line that says so and how many samples it scaled down: `clamp 10
+/// (biased): 1234 of 1966080 samples (0.063%) scaled down to it`.
+pub(super) fn clamped(stats: &RenderStats) -> Option<String> {
+    let limit = stats.plan.settings.clamp?;
+    let samples = if stats.earlier_sessions.is_zero() {
+        format!(
+            "{} of {} samples ({:.3}%)",
+            stats.clamped,
+            stats.samples,
+            100.0 * stats.clamped as f64 / stats.samples.max(1) as f64
+        )
+    } else {
+        format!("{} samples of this session", stats.clamped)
+    };
+    Some(format!(
+        "clamp {limit} (biased: darker where light is concentrated): {samples} had a channel above it and were scaled down to it"
+    ))
+}
+
 /// `denoised in T s (Open Image Denoise 2.5.1, albedo + normal, prefiltered; the EXR's main
 /// layer, the noisy image in layer noisy)`
 pub(crate) fn denoised(
