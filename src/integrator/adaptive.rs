@@ -62,6 +62,51 @@ pub fn max_spp(spp: u32) -> u32 {
     spp.saturating_mul(MAX_FACTOR)
 }
 
+/// The cost of a sample of a pixel whose `count` first-round samples traced `rays`, as the
+/// budget counts it: the rays it traced after its camera ray, plus [`SAMPLE_COST`].
+fn budget_cost(count: u32, rays: u32) -> f64 {
+    SAMPLE_COST + (rays as f64 / count.max(1) as f64 - 1.0).max(0.0)
+}
+
+/// The cost of one sample of each pixel after the first round of an adaptive render, in
+/// units of the mean first-round sample of the pixels `owned` (all, or a shard's): the pixel's
+/// first-round rays per sample over their mean (1 where nothing was traced). A sample's time
+/// follows the rays it traces, so this is how a progress report weighs the second round's
+/// samples ([`work`]); a first-round sample counts 1 (the first round is the same everywhere
+/// and taken in a shuffled order of tiles, so its samples take the mean time).
+pub fn sample_costs(plan: &[AdaptivePixel], first_round: u32, owned: impl Fn(usize) -> bool) -> Vec<f64> {
+    let per_sample = |a: &AdaptivePixel| a.rays as f64 / first_round.max(1) as f64;
+    let (sum, n) = plan
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| owned(i))
+        .fold((0.0, 0usize), |(s, n), (_, a)| (s + per_sample(a), n + 1));
+    let mean = sum / n.max(1) as f64;
+    plan.iter().map(|a| if mean > 0.0 { per_sample(a) / mean } else { 1.0 }).collect()
+}
+
+/// The work of a pixel holding `count` samples in an adaptive render whose first round is
+/// `first_round` samples, when a later sample of it costs `cost` ([`sample_costs`]): one per
+/// first-round sample, `cost` per later one.
+pub fn work(count: u32, first_round: u32, cost: f64) -> f64 {
+    count.min(first_round) as f64 + count.saturating_sub(first_round) as f64 * cost
+}
+
+/// The mean cost of the samples the plan added after the first round, over the mean cost of a
+/// sample of the pixels `owned`, as the budget counts costs: above 1 when they went to pixels
+/// whose samples cost more than the mean (more bounces), so that fewer of them fit in the
+/// budget and the mean spp falls below `spp`. `None` when the plan added none.
+pub fn added_sample_cost(plan: &[AdaptivePixel], first_round: u32, owned: impl Fn(usize) -> bool) -> Option<f64> {
+    let (mut pixels, mut mean, mut samples, mut added_cost) = (0usize, 0.0, 0u64, 0.0);
+    for a in plan.iter().enumerate().filter(|&(i, _)| owned(i)).map(|(_, a)| a) {
+        let cost = budget_cost(first_round, a.rays);
+        let added = a.target.saturating_sub(first_round) as u64;
+        (pixels, mean) = (pixels + 1, mean + cost);
+        (samples, added_cost) = (samples + added, added_cost + added as f64 * cost);
+    }
+    (samples > 0 && mean > 0.0).then(|| added_cost / samples as f64 / (mean / pixels as f64))
+}
+
 /// Estimated relative variance of one sample of pixel state `p`, whose samples' squares sum to
 /// `sum_sq`: per channel c, the sample variance s²_c over m_c² + [`REL_MSE_EPSILON`] (m_c the
 /// mean), averaged over the channels: the expected relMSE of one sample. Zero with fewer than
@@ -89,12 +134,7 @@ pub fn allocate(first: &[PixelState], plan: &[AdaptivePixel], w: u32, h: u32, sp
     assert_eq!(first.len(), w * h);
     assert_eq!(plan.len(), w * h);
     let rv: Vec<f64> = first.iter().zip(plan).map(|(p, a)| relative_variance(p, a.sum_sq)).collect();
-    // A sample's cost: the rays it traced after its camera ray, plus [`SAMPLE_COST`].
-    let cost: Vec<f64> = first
-        .iter()
-        .zip(plan)
-        .map(|(p, a)| SAMPLE_COST + (a.rays as f64 / p.count.max(1) as f64 - 1.0).max(0.0))
-        .collect();
+    let cost: Vec<f64> = first.iter().zip(plan).map(|(p, a)| budget_cost(p.count, a.rays)).collect();
     // Each pixel's neighbours' mean relative variance and cost (those inside the image).
     let ring = |i: usize, of: &[f64]| -> f64 {
         let (x, y) = (i % w, i / w);
@@ -278,6 +318,23 @@ mod tests {
         let total: u32 = t.iter().sum();
         assert!(total.abs_diff(64 * 30) <= 4 * 30, "total {total}: {t:?}");
         assert!(t[5] > t[0], "{t:?}");
+    }
+
+    #[test]
+    fn later_samples_weigh_as_their_pixels_rays() {
+        // Pixel 0 traced 3 rays a sample in its first round of 8, pixel 1 one: the mean is 2.
+        let mut plan = vec![AdaptivePixel { rays: 24, ..AdaptivePixel::default() }; 2];
+        plan[1].rays = 8;
+        assert_eq!(sample_costs(&plan, 8, |_| true), vec![1.5, 0.5]);
+        assert_eq!(work(20, 8, 1.5), 8.0 + 12.0 * 1.5);
+        assert_eq!(work(5, 8, 1.5), 5.0);
+        // The plan adds 16 samples to pixel 0 and none to pixel 1. The budget counts the rays
+        // after the camera ray, plus 0.1: 2.1 and 0.1, mean 1.1.
+        (plan[0].target, plan[1].target) = (24, 8);
+        let c = added_sample_cost(&plan, 8, |_| true).unwrap();
+        assert!((c - 2.1 / 1.1).abs() < 1e-12, "{c}");
+        // Of pixel 1 alone (a shard), nothing was added.
+        assert_eq!(added_sample_cost(&plan, 8, |i| i == 1), None);
     }
 
     #[test]

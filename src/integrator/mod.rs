@@ -37,6 +37,10 @@ pub struct RenderStats {
     pub nonfinite: u64,
     /// Samples of this call scaled down by the sample clamp ([`RenderSettings::clamp`]).
     pub clamped: u64,
+    /// In an adaptive render, the mean cost of the samples its plan added
+    /// ([`adaptive::added_sample_cost`]): above 1 when they went to pixels that trace more rays
+    /// per sample than the mean, so that fewer than `spp` per pixel fit in the budget.
+    pub added_sample_cost: Option<f64>,
     /// What ran: the kernel, the path depth and the roulette start, and why.
     pub plan: RenderPlan,
     /// (min, mean, max) samples per pixel.

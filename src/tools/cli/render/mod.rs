@@ -220,7 +220,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         crate::accel::AccelKind::Naive => "naive accel".to_string(),
     };
     eprintln!("{}", summary::rendered(&stats, &accel_text, &args.output));
-    if let Some(line) = summary::clamped(&stats) {
+    for line in summary::adaptive(&stats).into_iter().chain(summary::clamped(&stats)) {
         eprintln!("{line}");
     }
     if let (Some(took), Some(d), Some(format)) = (denoised, &denoiser, format) {
