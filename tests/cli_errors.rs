@@ -606,6 +606,8 @@ fn bad_flags() {
         (&["--ortho", "0"], "expected the view's width in world units, a positive number, found \"0\""),
         (&["--ortho", "2", "--fov", "30"], "cannot be used with"),
         (&["--clamp", "0"], "expected a positive radiance (e.g. 10), found \"0\""),
+        (&["--preview-every", "0s"], "must be positive"),
+        (&["--preview-every", "1s", "--shard", "0/2"], "cannot be used with"),
     ] {
         expect_render_error(&scene, &out, args, &[], "error: ", needle);
     }

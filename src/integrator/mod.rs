@@ -15,7 +15,7 @@ mod surface;
 pub use aux::AuxSample;
 pub use kernel::KernelChoice;
 pub use plan::RenderPlan;
-pub use progressive::{FirstRounds, Progress, RenderControl, RenderResult, tile_order};
+pub use progressive::{FirstRounds, PreviewFn, Progress, RenderControl, RenderResult, tile_order};
 pub use surface::{FaceNormals, SurfacePoint, surface_point};
 
 use crate::accel::{Accel, AccelError};

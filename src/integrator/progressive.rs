@@ -46,6 +46,10 @@ pub struct RenderControl<'a> {
     pub resume: Option<(&'a Path, Checkpoint)>,
     /// Called from the worker threads as tiles finish (see [`Progress`]).
     pub progress: Option<&'a (dyn Fn(Progress) + Sync)>,
+    /// Every `Duration`, hand the image as it stands (each pixel's mean so far; black where no
+    /// sample has landed yet) to this function, from a worker thread with no lock held; an
+    /// `Err` is a preview that could not be shown (reported once at the end, with the count).
+    pub preview: Option<(Duration, &'a PreviewFn<'a>)>,
     /// Stage 1 of a two-stage shard: render only what needs no other shard (an adaptive
     /// render's first round; all of a uniform render).
     pub first_round_only: bool,
@@ -53,6 +57,9 @@ pub struct RenderControl<'a> {
     /// stage 1, put together), planned as a whole render plans it; unless resumed.
     pub first_rounds: Option<FirstRounds>,
 }
+
+/// What [`RenderControl::preview`] calls with the image so far.
+pub type PreviewFn<'a> = dyn Fn(&crate::film::Film) -> Result<(), String> + Sync + 'a;
 
 /// The whole image's first round, for stage 2 of a two-stage shard ([`RenderControl`]).
 pub struct FirstRounds {
@@ -290,6 +297,7 @@ pub(super) fn run(
     let stopped = AtomicBool::new(false);
     let shared = Mutex::new(accum);
     let periodic = Periodic::new("periodic checkpoints");
+    let previews = Periodic::new("previews");
     let stop_requested = || control.stop.is_some_and(|s| s.load(Ordering::Relaxed));
     let save_checkpoint = |accum: &Accumulator, nonfinite: u64| -> Result<(), RenderError> {
         if let Some((path, _)) = control.checkpoint {
@@ -430,6 +438,15 @@ pub(super) fn run(
                     {
                         p.attempt(|| save_checkpoint(&a, total_bad));
                     }
+                    // A preview reads the pixels under the lock and is written without it.
+                    if let Some((every, show)) = control.preview
+                        && let Ok(mut p) = previews.try_lock()
+                        && p.last.elapsed() >= every
+                    {
+                        let film = a.film();
+                        drop(a);
+                        p.attempt(|| show(&film));
+                    }
                 }
             }
             let rays = rays_total.fetch_add(rays, Ordering::Relaxed) + rays;
@@ -461,8 +478,10 @@ pub(super) fn run(
     if !complete {
         save_checkpoint(&accum, bad)?;
     }
-    let warnings =
-        [periodic].into_iter().filter_map(|p| p.into_inner().unwrap_or_else(|e| e.into_inner()).warning()).collect();
+    let warnings = [periodic, previews]
+        .into_iter()
+        .filter_map(|p| p.into_inner().unwrap_or_else(|e| e.into_inner()).warning())
+        .collect();
     let counts = (bad, clamped.load(Ordering::Relaxed));
     Ok(finish(accum, rays_total.load(Ordering::Relaxed), counts, complete, warnings))
 }

@@ -106,6 +106,12 @@ pub struct RenderArgs {
     /// render is interrupted by Ctrl-C or SIGTERM).
     #[arg(long)]
     pub checkpoint_every: Option<CliDuration>,
+    /// Rewrite the output image every DURATION (e.g. 5s) with the render so far (black where
+    /// no sample has landed yet; not denoised), so an image viewer that reloads shows it
+    /// converging. Each preview replaces the file atomically, as the final image does; an
+    /// interrupted render leaves its last preview there. The final image is the same.
+    #[arg(long, value_name = "DURATION", conflicts_with = "shard")]
+    pub preview_every: Option<CliDuration>,
     /// Run the general kernel instead of the one specialised to the scene's effects.
     #[arg(long)]
     pub no_specialize: bool,

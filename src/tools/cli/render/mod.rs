@@ -156,11 +156,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .into());
     }
     let bar = ProgressBar::new("");
+    // Through the final image's own writer: the same format, look and atomic replacement.
+    let preview = |film: &Film| -> Result<(), String> {
+        let images = RenderImages { image: film, denoised: None, albedo: None, normal: None, sample_count: None };
+        images.save_with(&args.output, &look).map_err(|e| e.to_string())
+    };
     let control = RenderControl {
         stop: Some(&interrupt::STOP),
         checkpoint: Some((checkpoint.as_path(), args.checkpoint_every.map(|d| d.0))),
         resume,
         progress: Some(&|p| bar.update(p)),
+        preview: args.preview_every.map(|d| (d.0, &preview as &crate::integrator::PreviewFn)),
         first_round_only: args.first_round,
         first_rounds,
     };
