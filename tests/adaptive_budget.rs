@@ -200,8 +200,8 @@ fn the_cli_renders_adaptive_by_default_and_says_so() {
 /// The progress reports of a real adaptive render follow its work, measured by the rays
 /// traced (a sample's time follows its rays: deterministic, where times on a shared machine are
 /// not): at every report the share of the work done is within 0.1 of the share of the rays
-/// traced, it never goes back, and the first round ends below half of it. (It used to reach
-/// 100% at the end of the first round, a quarter of the rays, then drop.)
+/// traced, it never goes back, and the first round ends below half of it (not at 100%, as a
+/// count of samples planned round by round would have it).
 #[test]
 fn an_adaptive_renders_progress_follows_its_work_through_both_rounds() {
     let scene = teapot();

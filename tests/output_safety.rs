@@ -31,8 +31,8 @@ fn is_file(p: &Path) -> bool {
 const PRECIOUS: &str = "precious: must survive every render";
 
 /// The names an attacker who can write `dir` would plant links at for a render of `out` by
-/// process `pid`: the temporary and probe names ember used to choose (for a few pids around
-/// it), the checkpoint, the lock and the output itself.
+/// process `pid`: predictable temporary and probe names (`.PID.tmp.NAME`, for a few pids
+/// around it), the checkpoint, the lock and the output itself.
 fn planted_names(out: &str, pid: u32) -> Vec<String> {
     let mut names = vec![out.to_string(), format!("{out}.checkpoint"), format!("{out}.lock")];
     for p in pid.saturating_sub(3)..=pid + 3 {

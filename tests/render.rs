@@ -121,7 +121,7 @@ fn white_furnace_sphere_under_a_constant_environment_image_is_that_value_everywh
 fn hdr_environment_images_are_linear_and_unclamped() {
     // A Radiance RGBE file (written by the image crate) and an OpenEXR file of values above 1
     // are seen as they are (times the strength; `scale` is the older name of `strength`); a
-    // PNG environment is sRGB as before; an EXR is refused as a surface's texture.
+    // PNG environment is sRGB; an EXR is refused as a surface's texture.
     let dir = common::fresh_dir("render", "env-hdr");
     let hdr = image::Rgb32FImage::from_pixel(8, 4, image::Rgb([3.0, 1.5, 0.25]));
     image::DynamicImage::ImageRgb32F(hdr).save(dir.join("sky.hdr")).unwrap();

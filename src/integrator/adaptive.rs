@@ -29,17 +29,16 @@ use glam::DVec3;
 
 /// The cost of a sample besides the rays after its camera ray, in units of such a ray: its
 /// camera ray (traced in a packet of [`LANES`], coherent), its random numbers and its film
-/// update. A fit of render time against samples and rays (the peers' teapot at 512² with and
-/// without `--adaptive`) gives 0.015; 0.1 keeps some samples in pixels that trace nothing more.
+/// update. A fit of render time against samples and rays (the peers' teapot at 512², adaptive
+/// and `--uniform`) gives 0.015; 0.1 keeps some samples in pixels that trace nothing more.
 const SAMPLE_COST: f64 = 0.1;
 
 /// How far a pixel's neighbourhood reaches: the (2 · REACH + 1)² pixels around it, less
 /// itself (24). Noise is spread over a few pixels wherever it is (a soft shadow, an indirectly
 /// lit crease), and one pixel's first round is a few samples: more neighbours estimate it
-/// better. Against 3×3, on the peers' scenes at 512² (docs/performance.md, "Adaptive
-/// sampling"): teapot relMSE 7.475e-5 → 6.385e-5, Cornell box 0.007781 → 0.007709; at 256²
-/// −8.7% and −0.8%. At 64×64 it does not pay (teapot 3.04e-5 → 3.31e-5): a 5×5 block is
-/// then a large part of a feature.
+/// better. Against 3×3, on the peers' scenes at 512²: teapot relMSE 7.475e-5 → 6.385e-5,
+/// Cornell box 0.007781 → 0.007709; at 256² −8.7% and −0.8%. At 64×64 it does not pay
+/// (teapot 3.04e-5 → 3.31e-5): a 5×5 block is then a large part of a feature.
 const REACH: usize = 2;
 
 /// The most samples one pixel may take, as a multiple of the mean `spp`.
@@ -312,7 +311,7 @@ mod tests {
     #[test]
     fn a_quiet_image_still_spends_its_budget() {
         // Weights so small that no pixel gets a sample at scales 1 or 2: the search for the
-        // scale must go on (it once stopped there, leaving every pixel at its first round).
+        // scale must go on (stopping there would leave every pixel at its first round).
         let first = image(|x, _| 0.001 * (1 + x) as f32);
         let t = allocate(&first.0, &first.1, 6, 5, 64);
         let total: u32 = t.iter().sum();

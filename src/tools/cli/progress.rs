@@ -174,7 +174,7 @@ mod tests {
 
     /// Replays an adaptive render of `image` at mean `spp` on 2 workers taking tiles in the
     /// renderer's order, round by round, and returns a report per finished tile (work counted
-    /// as `integrator::Progress` says, or, with `by_samples`, as it was before: samples, planned
+    /// as `integrator::Progress` says, or, with `by_samples`, as plain samples, planned
     /// to the end of the current round) and the render's total time.
     fn adaptive_render(image: &Synthetic, spp: u32, by_samples: bool) -> (Reports, f64) {
         let (w, h) = (image.w, image.h);
@@ -314,7 +314,7 @@ mod tests {
         assert!(reports[..reports.len() - 1].iter().all(|p| estimate(p).fraction < 0.999));
         assert!((estimate(reports.last().unwrap()).fraction - 1.0).abs() < 1e-9);
 
-        // Counted in samples, each round planned on its own (as the bar did), it reads 100% at
+        // Counted in samples, each round planned on its own, it would read 100% at
         // the end of the first round, then drops.
         let (reports, total) = adaptive_render(&image, 64, true);
         let end_of_first = reports.iter().filter(|p| p.round == 1).next_back().unwrap();
