@@ -201,18 +201,13 @@ impl Camera {
     /// lane by lane, so the same bits, in loops over the lanes that compile to SIMD.
     #[inline]
     pub fn pinhole_dirs(&self, fx: &[f32; LANES], fy: &[f32; LANES]) -> [[f32; LANES]; 3] {
-        let (f, r, u) = (self.forward, self.right, self.up);
-        let mut d = [[0.0; LANES]; 3];
-        for i in 0..LANES {
-            let sx = (2.0 * fx[i] - 1.0) * self.half_w;
-            let sy = (1.0 - 2.0 * fy[i]) * self.half_h;
-            // As glam evaluates `forward + sx * right + sy * up` and `normalize` (a multiply by
-            // 1 / √(x² + y² + z²)), operation for operation.
-            let x = (f.x + sx * r.x) + sy * u.x;
-            let y = (f.y + sx * r.y) + sy * u.y;
-            let z = (f.z + sx * r.z) + sy * u.z;
-            let inv = 1.0 / ((x * x) + (y * y) + (z * z)).sqrt();
-            (d[0][i], d[1][i], d[2][i]) = (x * inv, y * inv, z * inv);
+        // As glam evaluates `forward + sx * right + sy * up` and `normalize` (a multiply by
+        // 1 / √(x² + y² + z²)), operation for operation.
+        let mut d = self.across_view(self.forward, fx, fy);
+        let [dx, dy, dz] = &mut d;
+        for ((x, y), z) in dx.iter_mut().zip(dy.iter_mut()).zip(dz.iter_mut()) {
+            let inv = 1.0 / ((*x * *x) + (*y * *y) + (*z * *z)).sqrt();
+            (*x, *y, *z) = (*x * inv, *y * inv, *z * inv);
         }
         d
     }
@@ -222,7 +217,14 @@ impl Camera {
     /// sy·up` of the view plane (their direction is [`Camera::forward`]).
     #[inline]
     pub fn ortho_origins(&self, fx: &[f32; LANES], fy: &[f32; LANES]) -> [[f32; LANES]; 3] {
-        let (p, r, u) = (self.position, self.right, self.up);
+        self.across_view(self.position, fx, fy)
+    }
+
+    /// `base + sx·right + sy·up` for [`LANES`] film positions, sx and sy the positions
+    /// across the view's half extents, evaluated as glam evaluates that sum.
+    #[inline]
+    fn across_view(&self, base: Vec3, fx: &[f32; LANES], fy: &[f32; LANES]) -> [[f32; LANES]; 3] {
+        let (p, r, u) = (base, self.right, self.up);
         let mut o = [[0.0; LANES]; 3];
         for i in 0..LANES {
             let sx = (2.0 * fx[i] - 1.0) * self.half_w;

@@ -222,7 +222,7 @@ fn an_adaptive_renders_progress_follows_its_work_through_both_rounds() {
         assert!(fraction >= last - 0.02, "back from {last} to {fraction}");
         last = fraction;
     }
-    let end_of_first = reports.iter().filter(|p| p.round == 1).next_back().unwrap();
+    let end_of_first = reports.iter().rfind(|p| p.round == 1).unwrap();
     let first = end_of_first.work_done / end_of_first.work_planned;
     println!(
         "work vs rays: {worst:.3} at worst (vs time, for information: {worst_time:.3}); the first round ends at \

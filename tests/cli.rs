@@ -191,6 +191,18 @@ fn toml_vec3(text: &str, key: &str) -> String {
     line.split('[').nth(1).unwrap().trim_end_matches(']').replace(' ', "")
 }
 
+/// `ember render scenes/teapot.obj` to `out` at 16×12 and 2 spp with `extra`: the image's
+/// bytes and what it printed.
+fn render_teapot_obj(out: &Path, extra: &[&str]) -> (Vec<u8>, String) {
+    let teapot = common::scene_path("teapot.obj");
+    let mut args = vec!["render", teapot.to_str().unwrap(), "-o", out.to_str().unwrap()];
+    args.extend(["--width", "16", "--height", "12", "--spp", "2"]);
+    args.extend(extra);
+    let o = ember(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    (std::fs::read(out).unwrap(), stderr(&o))
+}
+
 #[test]
 fn the_automatic_camera_is_printed_as_a_scene_files_lines() {
     let teapot = common::scene_path("teapot.obj");
@@ -202,15 +214,7 @@ fn the_automatic_camera_is_printed_as_a_scene_files_lines() {
     // `ember render` says the same, and its numbers are exact: given back as flags, the same
     // image.
     let d = common::fresh_dir("cli", "auto-camera");
-    let run = |name: &str, extra: &[&str]| {
-        let out = d.join(name);
-        let mut args = vec!["render", teapot.to_str().unwrap(), "-o", out.to_str().unwrap()];
-        args.extend(["--width", "16", "--height", "12", "--spp", "2"]);
-        args.extend(extra);
-        let o = ember(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        (std::fs::read(&out).unwrap(), stderr(&o))
-    };
+    let run = |name: &str, extra: &[&str]| render_teapot_obj(&d.join(name), extra);
     let (image, said) = run("auto.exr", &[]);
     assert!(said.contains("camera: automatic, framing the scene for a 1.333:1 image"), "{said}");
     let (position, look_at) = (toml_vec3(&said, "position"), toml_vec3(&said, "look_at"));
@@ -229,16 +233,7 @@ fn the_automatic_camera_is_printed_as_a_scene_files_lines() {
 #[test]
 fn an_orbit_and_an_orthographic_view_on_the_command_line() {
     let d = common::fresh_dir("cli", "orbit");
-    let teapot = common::scene_path("teapot.obj");
-    let run = |name: &str, extra: &[&str]| {
-        let out = d.join(name);
-        let mut args = vec!["render", teapot.to_str().unwrap(), "-o", out.to_str().unwrap()];
-        args.extend(["--width", "16", "--height", "12", "--spp", "2"]);
-        args.extend(extra);
-        let o = ember(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        (std::fs::read(&out).unwrap(), stderr(&o))
-    };
+    let run = |name: &str, extra: &[&str]| render_teapot_obj(&d.join(name), extra);
     // The teapot's bounds are (-3, 0, -2)..(3.434, 3.15, 2): its centre (0.217, 1.575, 0). At
     // azimuth 90, elevation 0, distance 10 the camera is 10 along +X from it.
     let (side, said) = run("side.exr", &["--orbit", "90,0,10"]);

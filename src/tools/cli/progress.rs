@@ -301,7 +301,7 @@ mod tests {
         let image = Synthetic::new();
         let (reports, total) = adaptive_render(&image, 64, false);
         let (fraction, eta) = worst_errors(&reports, total);
-        let end_of_first = reports.iter().filter(|p| p.round == 1).next_back().unwrap();
+        let end_of_first = reports.iter().rfind(|p| p.round == 1).unwrap();
         let t1 = end_of_first.elapsed.as_secs_f64() / total;
         eprintln!(
             "adaptive: fraction off by {fraction:.3} at worst, time left by {eta:.3}; the first round ends at \
@@ -317,7 +317,7 @@ mod tests {
         // Counted in samples, each round planned on its own, it would read 100% at
         // the end of the first round, then drops.
         let (reports, total) = adaptive_render(&image, 64, true);
-        let end_of_first = reports.iter().filter(|p| p.round == 1).next_back().unwrap();
+        let end_of_first = reports.iter().rfind(|p| p.round == 1).unwrap();
         assert_eq!(estimate(end_of_first).fraction, 1.0);
         let (fraction, _) = worst_errors(&reports, total);
         assert!(fraction > 0.5, "by samples: {fraction:.3}");

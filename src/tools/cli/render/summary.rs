@@ -69,12 +69,9 @@ pub(super) fn adaptive(stats: &RenderStats) -> Option<String> {
 pub(super) fn clamped(stats: &RenderStats) -> Option<String> {
     let limit = stats.plan.settings.clamp?;
     let samples = if stats.earlier_sessions.is_zero() {
-        format!(
-            "{} of {} samples ({:.3}%)",
-            stats.clamped,
-            stats.samples,
-            100.0 * stats.clamped as f64 / stats.samples.max(1) as f64
-        )
+        let percent = 100.0 * stats.clamped as f64 / stats.samples.max(1) as f64;
+        let percent = if percent > 0.0 && percent < 0.001 { "< 0.001".to_string() } else { format!("{percent:.3}") };
+        format!("{} of {} samples ({percent}%)", stats.clamped, stats.samples)
     } else {
         format!("{} samples of this session", stats.clamped)
     };
