@@ -91,6 +91,8 @@ fn interrupted_and_resumed_renders_equal_the_uninterrupted_one() {
     let msg = String::from_utf8_lossy(&run.stderr);
     assert_eq!(run.status.code(), Some(143), "{msg}");
     assert!(msg.contains("checkpoint written to") && msg.contains("--resume"), "{msg}");
+    // It says how far the render got as the progress bar does, and in spp.
+    assert!(msg.contains("% of the render done (") && msg.contains(" spp on average so far, --spp 10000)"), "{msg}");
     assert!(ckpt.exists() && !out.exists());
     let partial = Checkpoint::load(&ckpt, &args_key()).unwrap();
     let (min, _, max) = partial.accum.spp_range();

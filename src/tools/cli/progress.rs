@@ -49,37 +49,39 @@ fn short_duration(d: Duration) -> String {
 /// The bar's resolution.
 const STEPS: u64 = 1000;
 
-/// A bar on stderr, or nothing when stderr is not a terminal.
-pub struct ProgressBar(Option<(indicatif::ProgressBar, Mutex<Option<Progress>>)>);
+/// A bar on stderr (none when stderr is not a terminal), and the last report either way.
+pub struct ProgressBar {
+    bar: Option<indicatif::ProgressBar>,
+    last: Mutex<Option<Progress>>,
+}
 
 impl ProgressBar {
-    /// A bar labelled `label` (e.g. `reference`), or none if stderr is not a terminal.
+    /// A bar labelled `label` (e.g. `reference`), drawn if stderr is a terminal.
     pub fn new(label: &str) -> ProgressBar {
-        if !std::io::stderr().is_terminal() {
-            return ProgressBar(None);
-        }
-        let bar = indicatif::ProgressBar::new(1);
-        let template = format!("{label}{{bar:40.cyan/blue}} {{percent:>3}}%  {{msg}}");
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(&template)
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        ProgressBar(Some((bar, Mutex::new(None))))
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let bar = indicatif::ProgressBar::new(STEPS);
+            let template = format!("{label}{{bar:40.cyan/blue}} {{percent:>3}}%  {{msg}}");
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(&template)
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            bar
+        });
+        ProgressBar { bar, last: Mutex::new(None) }
     }
 
     /// Shows a progress report. Reports come from several worker threads and may arrive out of
-    /// order: one older than the last shown (an earlier round, or fewer samples) is dropped,
-    /// so the bar never goes back.
+    /// order: one older than the last shown (an earlier round, or less work) is dropped, so
+    /// the bar never goes back.
     pub fn update(&self, p: Progress) {
-        let Some((bar, last)) = &self.0 else { return };
-        let mut last = last.lock().unwrap_or_else(|e| e.into_inner());
+        let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
         if last.is_some_and(|l| (l.round, l.work_done) > (p.round, p.work_done)) {
             return;
         }
         *last = Some(p);
+        let Some(bar) = &self.bar else { return };
         let e = estimate(&p);
         // Never back: a new plan may find a little more or less work than the budget.
-        bar.set_length(STEPS);
         bar.set_position(((e.fraction * STEPS as f64) as u64).max(bar.position()));
         let eta = e.remaining.map_or("-".into(), short_duration);
         let rate = p.rays as f64 / p.elapsed.as_secs_f64().max(1e-9) / 1e6;
@@ -87,9 +89,14 @@ impl ProgressBar {
         bar.set_message(format!("ETA {eta}{round}  {rate:.1} Mrays/s"));
     }
 
+    /// The share of the work done at the last report, if there was one: what the bar shows.
+    pub fn fraction(&self) -> Option<f64> {
+        self.last.lock().unwrap_or_else(|e| e.into_inner()).as_ref().map(|p| estimate(p).fraction)
+    }
+
     /// Removes the bar.
     pub fn finish(&self) {
-        if let Some((bar, _)) = &self.0 {
+        if let Some(bar) = &self.bar {
             bar.finish_and_clear();
         }
     }

@@ -108,7 +108,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         let key = plan.checkpoint_key(scene.fingerprint(), &args.accel.image_key(bvh));
         let c = Checkpoint::load(&checkpoint, &key)?;
         let (_, mean, _) = c.accum.spp_range();
-        eprintln!("resuming from {} ({mean:.1} of {} spp done)", checkpoint.display(), settings.spp);
+        eprintln!("resuming from {} ({mean:.1} spp on average done, --spp {})", checkpoint.display(), settings.spp);
         Some((checkpoint.as_path(), c))
     } else {
         if is_file(&checkpoint) {
@@ -179,9 +179,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let stats = result.stats;
     if !result.complete {
         let (_, mean, _) = stats.spp;
+        // What the bar showed, in the same words.
+        let share = bar.fraction().map_or(String::new(), |f| format!(", {:.0}% of the render done", 100.0 * f));
         return Err(Interrupted {
             message: format!(
-                "interrupted after {:.1} s with {mean:.1} of {} spp done; checkpoint written to {}\nresume with: {}",
+                "interrupted after {:.1} s{share} ({mean:.1} spp on average so far, --spp {}); checkpoint written to {}\nresume with: {}",
                 (stats.elapsed + stats.earlier_sessions).as_secs_f64(),
                 settings.spp,
                 checkpoint.display(),
