@@ -1,6 +1,11 @@
-//! Textures: constant colours, images (sRGB decoded to linear, or HDR environment images read
-//! as they are; bilinear filtering, wrapping) and a procedural checker. Looked up by surface
-//! coordinates (u, v) in [0, 1]².
+//! Textures: constant colours, texture maps (8-bit images with mip pyramids, samplers and
+//! coordinate transforms: `map.rs`) and a procedural checker, looked up at a surface's
+//! [`TexCoords`]; and [`Image`], linear RGB images read as they are or decoded from sRGB
+//! (environment images).
+
+mod map;
+
+pub use map::{Encoding, MipImage, Sampler, TextureMap, UvTransform, Wrap};
 
 use crate::film::srgb_to_linear;
 use crate::hash::Fingerprint;
@@ -22,7 +27,7 @@ fn ends_jpeg(bytes: &[u8]) -> bool {
 }
 
 /// Reads an image file's bytes within `budget`: a regular file only.
-fn read_image_file(path: &Path, budget: &LoadBudget) -> Result<Vec<u8>, TextureError> {
+pub(crate) fn read_image_file(path: &Path, budget: &LoadBudget) -> Result<Vec<u8>, TextureError> {
     let io = |e: std::io::Error| match e.kind() {
         std::io::ErrorKind::NotFound => TextureError("no such file".into()),
         std::io::ErrorKind::PermissionDenied => TextureError("permission denied".into()),
@@ -75,6 +80,60 @@ fn linear_pixels(decoded: image::DynamicImage) -> Result<Vec<Vec3>, TextureError
         .collect()
 }
 
+/// Decodes an image file's bytes after the checks every image gets: a format ember reads
+/// (PNG or JPEG; also OpenEXR and Radiance HDR if `hdr`), memory for it admitted in `budget`
+/// before decoding (`ldr_bytes` of the size for an 8-bit image, [`memory::hdr_image_bytes`]
+/// for an HDR one, plus the file's bytes), a JPEG that ends with its end-of-image marker.
+/// Returns the decoded image and whether its format is HDR (linear values).
+pub(crate) fn decode_checked(
+    bytes: &[u8],
+    budget: &LoadBudget,
+    hdr: bool,
+    ldr_bytes: fn(u32, u32) -> u64,
+) -> Result<(image::DynamicImage, bool), TextureError> {
+    let open = || {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| TextureError(format!("cannot read: {e}")))
+    };
+    let format = open()?.format();
+    if format.is_none() {
+        return Err(TextureError(format!(
+            "not an image ember reads: {}",
+            if hdr { "expected OpenEXR, Radiance HDR, PNG or JPEG" } else { "expected PNG or JPEG" }
+        )));
+    }
+    let is_hdr = matches!(format, Some(image::ImageFormat::OpenExr | image::ImageFormat::Hdr));
+    if is_hdr && !hdr {
+        return Err(TextureError(format!(
+            "{} is a high-dynamic-range format, for [background] type = \"image\" only: \
+             a surface's colour must be an 8-bit PNG or JPEG",
+            if format == Some(image::ImageFormat::OpenExr) { "OpenEXR" } else { "Radiance HDR" }
+        )));
+    }
+    // The header gives the size; refuse what would not fit before decoding.
+    let (w, h) = open()?.into_dimensions().map_err(|e| TextureError(e.to_string()))?;
+    let per_pixel = if is_hdr { memory::hdr_image_bytes(w, h) } else { ldr_bytes(w, h) };
+    let peak = per_pixel.saturating_add(bytes.len() as u64);
+    budget.admit(format!("{w}x{h} image"), peak).map_err(|e| TextureError(e.to_string()))?;
+    let mut reader = open()?;
+    if reader.format() == Some(image::ImageFormat::Jpeg) && !ends_jpeg(bytes) {
+        return Err(TextureError("truncated or damaged JPEG: no end-of-image marker".into()));
+    }
+    // Our limit replaces the image crate's fixed 512 MiB decoding allowance.
+    let mut decode_limits = image::Limits::default();
+    decode_limits.max_alloc = budget.limit().bytes;
+    reader.limits(decode_limits);
+    let decoded = reader.decode().map_err(|e| match e {
+        // The Radiance decoder reports a short file as a bare I/O error.
+        image::ImageError::IoError(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+            TextureError(format!("truncated or damaged: the file ends early ({e})"))
+        }
+        e => TextureError(e.to_string()),
+    })?;
+    Ok((decoded, is_hdr))
+}
+
 /// A linear-RGB image.
 #[derive(Debug, PartialEq)]
 pub struct Image {
@@ -89,14 +148,7 @@ pub struct Image {
 pub struct TextureError(pub String);
 
 impl Image {
-    /// Loads an 8-bit image (PNG, JPEG), decoding sRGB to linear, within `budget`: an image
-    /// that would not fit is refused before it is decoded. A truncated or damaged file is an
-    /// error, not a partly grey image. HDR files are refused: a surface's colour is 8-bit.
-    pub fn load(path: &Path, budget: &LoadBudget) -> Result<Image, TextureError> {
-        Image::from_memory(&read_image_file(path, budget)?, budget)
-    }
-
-    /// Loads an environment image: an 8-bit PNG or JPEG as [`Image::load`] does, or a
+    /// Loads an environment image: an 8-bit PNG or JPEG (decoded from sRGB to linear), or a
     /// high-dynamic-range OpenEXR (`.exr`) or Radiance RGBE (`.hdr`) file, whose values are
     /// linear radiance already: read as they are, neither decoded from sRGB nor clamped to 1
     /// (negative values, which some tools write for colours out of gamut, are read as 0; NaN
@@ -105,54 +157,9 @@ impl Image {
         Image::decode(&read_image_file(path, budget)?, budget, true)
     }
 
-    /// Decodes an 8-bit image (PNG, JPEG) held in memory — a file's bytes, or an image
-    /// embedded in a mesh file — as [`Image::load`] does.
-    pub fn from_memory(bytes: &[u8], budget: &LoadBudget) -> Result<Image, TextureError> {
-        Image::decode(bytes, budget, false)
-    }
-
     /// Decodes an 8-bit image from sRGB to linear, or, if `hdr` allows, an HDR image as it is.
     fn decode(bytes: &[u8], budget: &LoadBudget, hdr: bool) -> Result<Image, TextureError> {
-        let open = || {
-            image::ImageReader::new(std::io::Cursor::new(bytes))
-                .with_guessed_format()
-                .map_err(|e| TextureError(format!("cannot read: {e}")))
-        };
-        let format = open()?.format();
-        if format.is_none() {
-            return Err(TextureError(format!(
-                "not an image ember reads: {}",
-                if hdr { "expected OpenEXR, Radiance HDR, PNG or JPEG" } else { "expected PNG or JPEG" }
-            )));
-        }
-        let is_hdr = matches!(format, Some(image::ImageFormat::OpenExr | image::ImageFormat::Hdr));
-        if is_hdr && !hdr {
-            return Err(TextureError(format!(
-                "{} is a high-dynamic-range format, for [background] type = \"image\" only: \
-                 a surface's colour must be an 8-bit PNG or JPEG",
-                if format == Some(image::ImageFormat::OpenExr) { "OpenEXR" } else { "Radiance HDR" }
-            )));
-        }
-        // The header gives the size; refuse what would not fit before decoding.
-        let (w, h) = open()?.into_dimensions().map_err(|e| TextureError(e.to_string()))?;
-        let per_pixel = if is_hdr { memory::hdr_image_bytes(w, h) } else { memory::texture_bytes(w, h) };
-        let peak = per_pixel.saturating_add(bytes.len() as u64);
-        budget.admit(format!("{w}x{h} image"), peak).map_err(|e| TextureError(e.to_string()))?;
-        let mut reader = open()?;
-        if reader.format() == Some(image::ImageFormat::Jpeg) && !ends_jpeg(bytes) {
-            return Err(TextureError("truncated or damaged JPEG: no end-of-image marker".into()));
-        }
-        // Our limit replaces the image crate's fixed 512 MiB decoding allowance.
-        let mut decode_limits = image::Limits::default();
-        decode_limits.max_alloc = budget.limit().bytes;
-        reader.limits(decode_limits);
-        let decoded = reader.decode().map_err(|e| match e {
-            // The Radiance decoder reports a short file as a bare I/O error.
-            image::ImageError::IoError(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
-                TextureError(format!("truncated or damaged: the file ends early ({e})"))
-            }
-            e => TextureError(e.to_string()),
-        })?;
+        let (decoded, is_hdr) = decode_checked(bytes, budget, hdr, memory::texture_bytes)?;
         let (width, height) = (decoded.width(), decoded.height());
         let pixels = if is_hdr { linear_pixels(decoded)? } else { srgb_pixels(decoded) };
         budget.keep(pixels_bytes(width, height));
@@ -199,11 +206,40 @@ impl Image {
     }
 }
 
+/// Where a texture is looked up: the surface's texture coordinates (sets 0 and 1, as glTF's
+/// `TEXCOORD_0` and `TEXCOORD_1`; a surface with one set has it in both) and the width of the
+/// footprint there, in units of set 0 (0: the finest detail).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TexCoords {
+    pub uv: [Vec2; 2],
+    pub width: f32,
+}
+
+impl TexCoords {
+    /// One set of coordinates, a point footprint.
+    #[inline(always)]
+    pub fn new(uv: Vec2) -> TexCoords {
+        TexCoords { uv: [uv, uv], width: 0.0 }
+    }
+}
+
+/// An 8-bit image file (PNG or JPEG) as a colour map: sRGB, coordinates whose v runs up
+/// (OBJ's and ember's spheres'), u wrapping around and v clamped, as scene files and MTL
+/// libraries give textures.
+pub fn colour_map(image: Arc<MipImage>) -> Texture {
+    let map = TextureMap { transform: Some(UvTransform::FLIP_V), ..TextureMap::new(image, Sampler::WRAP_U_CLAMP_V) };
+    Texture::Map { map, factor: Vec3::ONE }
+}
+
 /// A colour that may vary over a surface.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Texture {
     Constant(Vec3),
-    Image(Arc<Image>),
+    /// A texture map's colour (RGB) times `factor`.
+    Map {
+        map: TextureMap,
+        factor: Vec3,
+    },
     /// Alternating squares, `scale` squares per unit of u and v.
     Checker {
         a: Vec3,
@@ -214,10 +250,11 @@ pub enum Texture {
 
 impl Texture {
     #[inline]
-    pub fn eval(&self, uv: Vec2) -> Vec3 {
+    pub fn eval(&self, at: &TexCoords) -> Vec3 {
+        let uv = at.uv[0];
         match self {
             Texture::Constant(c) => *c,
-            Texture::Image(img) => img.bilinear(uv),
+            Texture::Map { map, factor } => *factor * map.sample(at).truncate(),
             Texture::Checker { a, b, scale } => {
                 // The parity of the square's integer coordinates (no float remainder, a call).
                 let s = uv * *scale;
@@ -229,8 +266,8 @@ impl Texture {
     /// The value at `uv` when `TEX`; otherwise (the caller knows no texture is in use) the
     /// constant it is, without looking at `uv`.
     #[inline(always)]
-    pub fn at<const TEX: bool>(&self, uv: Vec2) -> Vec3 {
-        if TEX { self.eval(uv) } else { self.average() }
+    pub fn at<const TEX: bool>(&self, at: &TexCoords) -> Vec3 {
+        if TEX { self.eval(at) } else { self.average() }
     }
 
     /// Whether the value is the same everywhere.
@@ -238,11 +275,25 @@ impl Texture {
         matches!(self, Texture::Constant(_))
     }
 
+    /// The texture if its value varies over the surface.
+    pub fn varying(&self) -> Option<&Texture> {
+        (!self.is_constant()).then_some(self)
+    }
+
+    /// The smallest value of each channel anywhere on the surface.
+    pub fn min(&self) -> Vec3 {
+        match self {
+            Texture::Constant(c) => *c,
+            Texture::Map { map, factor } => *factor * map.image.min().truncate(),
+            Texture::Checker { a, b, .. } => a.min(*b),
+        }
+    }
+
     /// The largest value of each channel anywhere on the surface.
     pub fn max(&self) -> Vec3 {
         match self {
             Texture::Constant(c) => *c,
-            Texture::Image(img) => img.max(),
+            Texture::Map { map, factor } => *factor * map.image.max().truncate(),
             Texture::Checker { a, b, .. } => a.max(*b),
         }
     }
@@ -254,9 +305,10 @@ impl Texture {
                 h.u32(0);
                 h.v3(&[*c]);
             }
-            Texture::Image(img) => {
+            Texture::Map { map, factor } => {
                 h.u32(1);
-                img.fingerprint(h);
+                map.fingerprint(h);
+                h.v3(&[*factor]);
             }
             Texture::Checker { a, b, scale } => {
                 h.u32(2);
@@ -270,7 +322,7 @@ impl Texture {
     pub fn average(&self) -> Vec3 {
         match self {
             Texture::Constant(c) => *c,
-            Texture::Image(img) => img.mean(),
+            Texture::Map { map, factor } => *factor * map.image.mean().truncate(),
             Texture::Checker { a, b, .. } => 0.5 * (*a + *b),
         }
     }

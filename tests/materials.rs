@@ -8,7 +8,7 @@
 //! and draw directions themselves (stratified uniform, or an independent cosine + GGX-NDF
 //! mixture for narrow lobes), never through `sample`.
 
-use ember::material::{Bsdf, MIN_COS, fresnel_dielectric};
+use ember::material::{Bsdf, BsdfModel, MIN_COS, fresnel_dielectric};
 use ember::sampler::Rng;
 use glam::{Vec2, Vec3};
 
@@ -179,10 +179,13 @@ fn assert_consistent(what: &str, a: Stats, b: Stats, rel: f64) {
     assert!(se <= 0.25 * rel * mb.abs(), "{what}: test too noisy, σ = {se:.2e}");
 }
 
-fn non_delta_bsdfs(roughness: f32) -> [(String, Bsdf); 2] {
+fn non_delta_bsdfs(roughness: f32) -> [(String, Bsdf); 5] {
     [
-        (format!("conductor r={roughness}"), Bsdf::Conductor { color: Vec3::ONE, roughness }),
-        (format!("plastic r={roughness}"), Bsdf::Plastic { diffuse: Vec3::ONE, roughness }),
+        (format!("conductor r={roughness}"), Bsdf::conductor(Vec3::ONE, roughness)),
+        (format!("plastic r={roughness}"), Bsdf::plastic(Vec3::ONE, roughness)),
+        (format!("pbr dielectric r={roughness}"), Bsdf::pbr(Vec3::new(0.8, 0.5, 0.2), 0.0, roughness)),
+        (format!("pbr metal r={roughness}"), Bsdf::pbr(Vec3::new(0.9, 0.6, 0.3), 1.0, roughness)),
+        (format!("pbr half metal r={roughness}"), Bsdf::pbr(Vec3::ONE, 0.5, roughness)),
     ]
 }
 
@@ -191,7 +194,7 @@ fn non_delta_bsdfs(roughness: f32) -> [(String, Bsdf); 2] {
 
 #[test]
 fn diffuse_white_furnace_is_one() {
-    let bsdf = Bsdf::Diffuse { albedo: Vec3::ONE };
+    let bsdf = Bsdf::diffuse(Vec3::ONE);
     for (k, theta) in ANGLES.into_iter().enumerate() {
         let a = sample_many(&bsdf, dir(theta), 200_000, 10 + k as u64).albedo;
         println!("diffuse θo={theta}: albedo {:.6}", a.mean());
@@ -203,7 +206,7 @@ fn diffuse_white_furnace_is_one() {
 fn mirror_conductor_reflects_everything() {
     // Roughness 0 and 0.02 (alpha 4e-4 < 1e-3) are both perfect mirrors.
     for roughness in [0.0, 0.02] {
-        let bsdf = Bsdf::Conductor { color: Vec3::ONE, roughness };
+        let bsdf = Bsdf::conductor(Vec3::ONE, roughness);
         assert!(bsdf.is_delta());
         for (k, theta) in ANGLES.into_iter().enumerate() {
             let wo = dir(theta);
@@ -218,7 +221,7 @@ fn mirror_conductor_reflects_everything() {
     }
     // Coloured mirror at normal incidence reflects exactly F0 (Schlick at cos = 1).
     let color = Vec3::new(0.9, 0.5, 0.1);
-    let s = Bsdf::Conductor { color, roughness: 0.0 }.sample(Vec3::Z, Vec2::ZERO, 0.0).unwrap();
+    let s = Bsdf::conductor(color, 0.0).sample(Vec3::Z, Vec2::ZERO, 0.0).unwrap();
     assert!((s.f * s.wi.z / s.pdf - color).abs().max_element() < 1e-6);
 }
 
@@ -234,7 +237,7 @@ fn rough_conductor_loses_energy_but_never_gains() {
     // tests below are the real check of these numbers.
     let lower: [[f64; 3]; 3] = [[0.97, 0.965, 0.88], [0.80, 0.77, 0.81], [0.28, 0.35, 0.64]];
     for (r, roughness) in [0.3f32, 0.6, 1.0].into_iter().enumerate() {
-        let bsdf = Bsdf::Conductor { color: Vec3::ONE, roughness };
+        let bsdf = Bsdf::conductor(Vec3::ONE, roughness);
         for (k, theta) in ANGLES.into_iter().enumerate() {
             let a = sample_many(&bsdf, dir(theta), 200_000, 30 + 10 * r as u64 + k as u64);
             let m = a.albedo.mean();
@@ -252,7 +255,7 @@ fn rough_conductor_loses_energy_but_never_gains() {
 #[test]
 fn plastic_white_furnace_is_between_half_and_one() {
     for (r, roughness) in [0.0f32, 0.05, 0.3, 0.6, 1.0].into_iter().enumerate() {
-        let bsdf = Bsdf::Plastic { diffuse: Vec3::ONE, roughness };
+        let bsdf = Bsdf::plastic(Vec3::ONE, roughness);
         for (k, theta) in ANGLES.into_iter().enumerate() {
             let a = sample_many(&bsdf, dir(theta), 200_000, 50 + 10 * r as u64 + k as u64);
             let m = a.albedo.mean();
@@ -264,12 +267,41 @@ fn plastic_white_furnace_is_between_half_and_one() {
 }
 
 #[test]
+fn pbr_white_furnace_keeps_the_energy_at_every_metalness_and_roughness() {
+    // White base: the metal (Schlick F = 1) and the dielectric layer over its base both
+    // reflect all the light, single scattering's loss put back by the multiple-scattering
+    // compensation and the base weighted by what the layer leaves (albedo scaling). What is
+    // left is the tables' interpolation and quadrature error: 2 %.
+    for (r, roughness) in [0.0f32, 0.05, 0.3, 0.6, 1.0].into_iter().enumerate() {
+        for (k, metallic) in [0.0f32, 0.5, 1.0].into_iter().enumerate() {
+            let bsdf = Bsdf::pbr(Vec3::ONE, metallic, roughness);
+            for (j, theta) in ANGLES.into_iter().enumerate() {
+                let seed = 500 + 100 * r as u64 + 10 * k as u64 + j as u64;
+                let a = sample_many(&bsdf, dir(theta), 100_000, seed).albedo;
+                let m = a.mean();
+                println!("pbr r={roughness} m={metallic} θo={theta}: albedo {m:.4} ± {:.1e}", a.se());
+                assert!((m - 1.0).abs() < 0.02, "r={roughness} m={metallic} θo={theta}: {m}");
+            }
+        }
+    }
+    // A black dielectric reflects only its specular layer: exactly F0 = 4 % at normal
+    // incidence when smooth; less when rough, where single scattering sends much of the light
+    // below the horizon and the compensation gives back only F0 times it (at roughness 1
+    // about 1.4 %).
+    let black = |roughness: f32| sample_many(&Bsdf::pbr(Vec3::ZERO, 0.0, roughness), Vec3::Z, 100_000, 590);
+    assert!((black(0.0).albedo.mean() - 0.04).abs() < 1e-4);
+    let (a3, a1) = (black(0.3).albedo.mean(), black(1.0).albedo.mean());
+    println!("black pbr: albedo {a3:.4} at roughness 0.3, {a1:.4} at 1");
+    assert!(a3 <= 0.0405 && a3 > 0.035 && a1 < a3 && a1 > 0.01, "{a3} {a1}");
+}
+
+#[test]
 fn plastic_never_creates_energy_even_at_grazing_angles() {
     // A denser sweep than the furnace test, down to 89.4°: energy conservation of the
     // (1 − F)(1 − F) base weighting is checked numerically, not proven. Tolerance 1 %.
     let mut max = (0.0, 0.0, 0.0);
     for roughness in [0.0f32, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0] {
-        let bsdf = Bsdf::Plastic { diffuse: Vec3::ONE, roughness };
+        let bsdf = Bsdf::plastic(Vec3::ONE, roughness);
         for cos_o in [0.003f32, 0.01, 0.03, 0.1, 0.2, 0.4, 0.7] {
             let wo = Vec3::new((1.0 - cos_o * cos_o).sqrt(), 0.0, cos_o);
             let m = sample_many(&bsdf, wo, 50_000, 70).albedo.mean();
@@ -299,13 +331,13 @@ fn check_albedo_consistency(name: &str, bsdf: &Bsdf, roughness: f32, seed: u64) 
 
 #[test]
 fn diffuse_sampling_matches_eval() {
-    let bsdf = Bsdf::Diffuse { albedo: Vec3::new(0.8, 0.5, 0.2) };
+    let bsdf = Bsdf::diffuse(Vec3::new(0.8, 0.5, 0.2));
     check_albedo_consistency("diffuse", &bsdf, 1.0, 200);
 }
 
 #[test]
 fn smooth_plastic_diffuse_lobe_matches_eval() {
-    let bsdf = Bsdf::Plastic { diffuse: Vec3::ONE, roughness: 0.0 };
+    let bsdf = Bsdf::plastic(Vec3::ONE, 0.0);
     check_albedo_consistency("plastic r=0", &bsdf, 1.0, 300);
 }
 
@@ -344,8 +376,8 @@ fn check_pdf_normalisation(name: &str, bsdf: &Bsdf, roughness: f32, seed: u64) {
 
 #[test]
 fn pdf_integrates_to_non_delta_probability() {
-    check_pdf_normalisation("diffuse", &Bsdf::Diffuse { albedo: Vec3::ONE }, 1.0, 400);
-    let smooth_plastic = Bsdf::Plastic { diffuse: Vec3::new(0.7, 0.2, 0.1), roughness: 0.0 };
+    check_pdf_normalisation("diffuse", &Bsdf::diffuse(Vec3::ONE), 1.0, 400);
+    let smooth_plastic = Bsdf::plastic(Vec3::new(0.7, 0.2, 0.1), 0.0);
     check_pdf_normalisation("plastic r=0", &smooth_plastic, 1.0, 500);
     for (r, roughness) in ROUGHNESSES.into_iter().enumerate() {
         for (m, (name, bsdf)) in non_delta_bsdfs(roughness).iter().enumerate() {
@@ -372,7 +404,7 @@ fn dielectric_conserves_energy_and_picks_lobes_by_fresnel() {
     // 30°, 45° and 80° for IOR 3 (critical angle 19.5°).
     let thetas = [0.0, 45.0, 80.0, 89.9, 180.0, 150.0, 135.0, 100.0, 170.0];
     for ior in [1.5f32, 3.0] {
-        let bsdf = Bsdf::Dielectric { ior, tint: Vec3::ONE };
+        let bsdf = Bsdf::dielectric(ior, Vec3::ONE);
         for (k, theta) in thetas.into_iter().enumerate() {
             let wo = dir(theta);
             let fr = fresnel_dielectric(wo.z, ior) as f64;
@@ -401,7 +433,7 @@ fn dielectric_conserves_energy_and_picks_lobes_by_fresnel() {
 #[test]
 fn dielectric_tint_scales_transmission_only() {
     let tint = Vec3::new(0.5, 0.25, 1.0);
-    let bsdf = Bsdf::Dielectric { ior: 1.5, tint };
+    let bsdf = Bsdf::dielectric(1.5, tint);
     let wo = dir(30.0);
     let reflect = bsdf.sample(wo, Vec2::ZERO, 0.0).unwrap(); // uc = 0 < F: reflection
     let refract = bsdf.sample(wo, Vec2::ZERO, 0.999).unwrap();
@@ -413,7 +445,7 @@ fn dielectric_tint_scales_transmission_only() {
 
 #[test]
 fn dielectric_with_index_one_passes_straight_through() {
-    let bsdf = Bsdf::Dielectric { ior: 1.0, tint: Vec3::ONE };
+    let bsdf = Bsdf::dielectric(1.0, Vec3::ONE);
     let mut rng = Rng::new(700, 0);
     for _ in 0..10_000 {
         let wo = random_unit(&mut rng);
@@ -435,10 +467,10 @@ fn close(a: f32, b: f32, rel: f32) -> bool {
 
 #[test]
 fn sample_returns_eval_and_pdf() {
-    let mut bsdfs = vec![Bsdf::Diffuse { albedo: Vec3::new(0.8, 0.4, 0.1) }];
+    let mut bsdfs = vec![Bsdf::diffuse(Vec3::new(0.8, 0.4, 0.1))];
     for roughness in [0.0f32, 0.05, 0.3, 0.6, 1.0] {
-        bsdfs.push(Bsdf::Conductor { color: Vec3::new(0.9, 0.6, 0.3), roughness });
-        bsdfs.push(Bsdf::Plastic { diffuse: Vec3::new(0.2, 0.5, 0.9), roughness });
+        bsdfs.push(Bsdf::conductor(Vec3::new(0.9, 0.6, 0.3), roughness));
+        bsdfs.push(Bsdf::plastic(Vec3::new(0.2, 0.5, 0.9), roughness));
     }
     let mut rng = Rng::new(800, 0);
     for bsdf in &bsdfs {
@@ -463,10 +495,10 @@ fn sample_returns_eval_and_pdf() {
 #[test]
 fn opaque_bsdfs_are_reciprocal() {
     let bsdfs = [
-        Bsdf::Diffuse { albedo: Vec3::ONE },
-        Bsdf::Conductor { color: Vec3::new(0.9, 0.6, 0.3), roughness: 0.4 },
-        Bsdf::Plastic { diffuse: Vec3::new(0.2, 0.5, 0.9), roughness: 0.4 },
-        Bsdf::Plastic { diffuse: Vec3::new(0.2, 0.5, 0.9), roughness: 0.0 },
+        Bsdf::diffuse(Vec3::ONE),
+        Bsdf::conductor(Vec3::new(0.9, 0.6, 0.3), 0.4),
+        Bsdf::plastic(Vec3::new(0.2, 0.5, 0.9), 0.4),
+        Bsdf::plastic(Vec3::new(0.2, 0.5, 0.9), 0.0),
     ];
     let mut rng = Rng::new(900, 0);
     for bsdf in &bsdfs {
@@ -481,15 +513,15 @@ fn opaque_bsdfs_are_reciprocal() {
 
 #[test]
 fn flags() {
-    let diffuse = Bsdf::Diffuse { albedo: Vec3::ONE };
+    let diffuse = Bsdf::diffuse(Vec3::ONE);
     assert!(!diffuse.is_delta() && !diffuse.is_transmissive());
-    let mirror = Bsdf::Conductor { color: Vec3::ONE, roughness: 0.0 };
+    let mirror = Bsdf::conductor(Vec3::ONE, 0.0);
     assert!(mirror.is_delta() && !mirror.is_transmissive());
-    let metal = Bsdf::Conductor { color: Vec3::ONE, roughness: 0.5 };
+    let metal = Bsdf::conductor(Vec3::ONE, 0.5);
     assert!(!metal.is_delta() && !metal.is_transmissive());
-    let plastic = Bsdf::Plastic { diffuse: Vec3::ONE, roughness: 0.0 };
+    let plastic = Bsdf::plastic(Vec3::ONE, 0.0);
     assert!(!plastic.is_delta() && !plastic.is_transmissive());
-    let glass = Bsdf::Dielectric { ior: 1.5, tint: Vec3::ONE };
+    let glass = Bsdf::dielectric(1.5, Vec3::ONE);
     assert!(glass.is_delta() && glass.is_transmissive());
     assert_eq!(glass.eval(Vec3::Z, -Vec3::Z), Vec3::ZERO);
     assert_eq!(glass.pdf(Vec3::Z, -Vec3::Z), 0.0);
@@ -525,18 +557,18 @@ fn random_u(rng: &mut Rng) -> f32 {
 #[test]
 fn never_nan_or_inf() {
     let mut bsdfs = vec![
-        Bsdf::Diffuse { albedo: Vec3::ONE },
-        Bsdf::Diffuse { albedo: Vec3::ZERO },
-        Bsdf::Dielectric { ior: 1.0, tint: Vec3::ONE },
-        Bsdf::Dielectric { ior: 1.5, tint: Vec3::new(0.9, 0.5, 0.1) },
-        Bsdf::Dielectric { ior: 3.0, tint: Vec3::ONE },
-        Bsdf::Dielectric { ior: 0.7, tint: Vec3::ONE },
+        Bsdf::diffuse(Vec3::ONE),
+        Bsdf::diffuse(Vec3::ZERO),
+        Bsdf::dielectric(1.0, Vec3::ONE),
+        Bsdf::dielectric(1.5, Vec3::new(0.9, 0.5, 0.1)),
+        Bsdf::dielectric(3.0, Vec3::ONE),
+        Bsdf::dielectric(0.7, Vec3::ONE),
     ];
     for roughness in [0.0f32, 1e-4, 0.0316, 0.05, 0.3, 1.0] {
-        bsdfs.push(Bsdf::Conductor { color: Vec3::ONE, roughness });
-        bsdfs.push(Bsdf::Conductor { color: Vec3::new(0.9, 0.0, 0.3), roughness });
-        bsdfs.push(Bsdf::Plastic { diffuse: Vec3::ONE, roughness });
-        bsdfs.push(Bsdf::Plastic { diffuse: Vec3::ZERO, roughness });
+        bsdfs.push(Bsdf::conductor(Vec3::ONE, roughness));
+        bsdfs.push(Bsdf::conductor(Vec3::new(0.9, 0.0, 0.3), roughness));
+        bsdfs.push(Bsdf::plastic(Vec3::ONE, roughness));
+        bsdfs.push(Bsdf::plastic(Vec3::ZERO, roughness));
     }
     let mut rng = Rng::new(1000, 0);
     for bsdf in &bsdfs {

@@ -8,11 +8,11 @@ mod common;
 use ember::film::Film;
 use ember::geometry::{Aabb, Geometry, TriMesh};
 use ember::integrator::RenderSettings;
-use ember::material::{GlassMaterial, MaterialKind, MetalMaterial, PlasticMaterial};
+use ember::material::{GlassMaterial, MaterialKind, PbrMaterial};
 use ember::memory::LoadBudget;
 use ember::scene::Scene;
 use ember::scene::mesh_file::{self, MeshFile};
-use ember::texture::{Image, Texture};
+use ember::texture::{Encoding, MipImage, Texture};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -132,21 +132,30 @@ fn gltf_materials_camera_and_lights_are_mapped() {
         );
         let material_of: Vec<Option<usize>> = f.meshes.iter().map(|m| m.material).collect();
         assert_eq!(material_of, [Some(0), Some(1), Some(2)]);
-        // metallic 0, roughness 0.3 → plastic.
+        // glTF's material: metallic 0, roughness 0.3.
         match &f.materials[0].kind {
-            MaterialKind::Plastic(PlasticMaterial { color: Texture::Constant(c), roughness }) => {
+            MaterialKind::Pbr(PbrMaterial {
+                base: Texture::Constant(c),
+                metal_rough: Texture::Constant(mr),
+                normal: None,
+                ..
+            }) => {
                 assert!((*c - Vec3::new(0.62, 0.08, 0.05)).abs().max_element() < 1e-6);
-                assert!((roughness - 0.3).abs() < 1e-6);
+                assert!((*mr - Vec3::new(1.0, 0.3, 0.0)).abs().max_element() < 1e-6, "{mr}");
             }
             k => panic!("{name}: teapot material {k:?}"),
         }
-        // metallic 1 (the default), roughness 0.2, base colour texture → metal with the image,
-        // which decodes as the PNG Blender saved beside the .gltf does.
+        // metallic 1 (the default), roughness 0.2, base colour texture: the image decodes as the
+        // PNG Blender saved beside the .gltf does.
         match &f.materials[1].kind {
-            MaterialKind::Metal(MetalMaterial { color: Texture::Image(img), roughness }) => {
-                assert!((roughness - 0.2).abs() < 1e-6);
-                let png = Image::load(&data("checker.png"), &LoadBudget::unlimited()).unwrap();
-                assert_eq!(**img, png, "{name}: texture");
+            MaterialKind::Pbr(PbrMaterial {
+                base: Texture::Map { map, .. },
+                metal_rough: Texture::Constant(mr),
+                ..
+            }) => {
+                assert!((*mr - Vec3::new(1.0, 0.2, 1.0)).abs().max_element() < 1e-6, "{mr}");
+                let png = MipImage::load(&data("checker.png"), &LoadBudget::unlimited(), Encoding::Srgb).unwrap();
+                assert_eq!(*map.image, png, "{name}: texture");
             }
             k => panic!("{name}: cube material {k:?}"),
         }

@@ -1,8 +1,8 @@
 use super::Aabb;
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 
 /// A triangle mesh with optional per-vertex normals and texture coordinates (sharing the
-/// position indices).
+/// position indices), and optional tangents per triangle corner.
 #[derive(Clone, Debug, Default)]
 pub struct TriMesh {
     pub name: String,
@@ -10,8 +10,15 @@ pub struct TriMesh {
     pub indices: Vec<[u32; 3]>,
     /// Per-vertex shading normals, empty when the source had none.
     pub normals: Vec<Vec3>,
-    /// Per-vertex texture coordinates, empty when the source had none.
+    /// Per-vertex texture coordinates, empty when the source had none. v runs up the image
+    /// (OBJ's convention; glTF's are flipped when read).
     pub uvs: Vec<Vec2>,
+    /// A second set of per-vertex texture coordinates (glTF's `TEXCOORD_1`), empty if none.
+    pub uvs1: Vec<Vec2>,
+    /// Per triangle, the tangent frame at each corner for normal maps: xyz the tangent (along
+    /// increasing u), w = ±1 such that w (n × tangent) is the bitangent (along increasing v,
+    /// up the image). Empty when no normal map needs them.
+    pub tangents: Vec<[Vec4; 3]>,
 }
 
 /// Why a mesh could not be built.
@@ -49,7 +56,7 @@ impl TriMesh {
         if !uvs.is_empty() && uvs.len() != count {
             return Err(MeshError::AttributeLength { what: "texture coordinates", got: uvs.len(), count });
         }
-        Ok(TriMesh { name: name.into(), positions, indices, normals, uvs })
+        Ok(TriMesh { name: name.into(), positions, indices, normals, uvs, ..TriMesh::default() })
     }
 
     pub fn triangle_count(&self) -> usize {
@@ -61,7 +68,8 @@ impl TriMesh {
         (self.positions.capacity() * size_of::<Vec3>()
             + self.indices.capacity() * size_of::<[u32; 3]>()
             + self.normals.capacity() * size_of::<Vec3>()
-            + self.uvs.capacity() * size_of::<Vec2>()) as u64
+            + (self.uvs.capacity() + self.uvs1.capacity()) * size_of::<Vec2>()
+            + self.tangents.capacity() * size_of::<[Vec4; 3]>()) as u64
     }
 
     /// The three corners of triangle `i`.
@@ -87,12 +95,19 @@ impl TriMesh {
     pub fn remove_degenerate(&mut self) -> Vec<usize> {
         let bad: Vec<usize> = (0..self.triangle_count()).filter(|&i| self.is_degenerate(i)).collect();
         if !bad.is_empty() {
+            let keep = |k: usize| bad.binary_search(&k).is_err();
             let mut k = 0;
             self.indices.retain(|_| {
-                let keep = bad.binary_search(&k).is_err();
                 k += 1;
-                keep
+                keep(k - 1)
             });
+            if !self.tangents.is_empty() {
+                let mut k = 0;
+                self.tangents.retain(|_| {
+                    k += 1;
+                    keep(k - 1)
+                });
+            }
         }
         bad
     }
@@ -116,6 +131,10 @@ impl TriMesh {
         for n in &mut self.normals {
             *n = (nm * *n).normalize_or_zero();
         }
+        let (linear, handedness) = (glam::Mat3::from(m.matrix3), m.matrix3.determinant().signum());
+        for t in self.tangents.iter_mut().flatten() {
+            *t = (linear * t.truncate()).normalize_or_zero().extend(t.w * handedness);
+        }
     }
 }
 
@@ -138,5 +157,67 @@ impl TriMesh {
             }
         }
         self.normals = acc.into_iter().map(|n| n.normalize_or_zero()).collect();
+    }
+}
+
+/// The mesh as MikkTSpace sees it: triangles, corner by corner, with the texture coordinates
+/// of one set; the tangents it generates are written per corner.
+struct Mikk<'a> {
+    mesh: &'a TriMesh,
+    uvs: &'a [Vec2],
+    /// The unit normal of each triangle, for meshes without vertex normals.
+    faces: Vec<Vec3>,
+    out: Vec<[Vec4; 3]>,
+}
+
+impl bevy_mikktspace::Geometry for Mikk<'_> {
+    fn num_faces(&self) -> usize {
+        self.mesh.indices.len()
+    }
+    fn num_vertices_of_face(&self, _face: usize) -> usize {
+        3
+    }
+    fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+        self.mesh.positions[self.mesh.indices[face][vert] as usize].to_array()
+    }
+    fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+        match self.mesh.normals.get(self.mesh.indices[face][vert] as usize) {
+            Some(n) => n.to_array(),
+            None => self.faces[face].to_array(),
+        }
+    }
+    fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+        self.uvs[self.mesh.indices[face][vert] as usize].to_array()
+    }
+    fn set_tangent_encoded(&mut self, tangent: [f32; 4], face: usize, vert: usize) {
+        self.out[face][vert] = Vec4::from(tangent);
+    }
+}
+
+impl TriMesh {
+    /// Computes [`TriMesh::tangents`] with MikkTSpace (what glTF asks for when a file gives
+    /// none, and what Blender computes) from texture coordinate set `set` (0 or 1). Returns
+    /// false, leaving the mesh without tangents, if it has no such coordinates.
+    pub fn generate_tangents(&mut self, set: usize) -> bool {
+        let uvs = if set == 1 { &self.uvs1 } else { &self.uvs };
+        if uvs.is_empty() {
+            return false;
+        }
+        let faces = if self.normals.is_empty() {
+            (0..self.triangle_count())
+                .map(|i| {
+                    let [a, b, c] = self.triangle(i);
+                    (b - a).cross(c - a).normalize_or(Vec3::Z)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let mut g = Mikk { mesh: self, uvs, faces, out: vec![[Vec4::ZERO; 3]; self.indices.len()] };
+        // Faces MikkTSpace cannot give a frame (no area in uv) keep zero tangents, which the
+        // shading reads as "no normal map here".
+        bevy_mikktspace::generate_tangents(&mut g);
+        self.tangents = g.out;
+        true
     }
 }

@@ -13,6 +13,7 @@ use super::path::PathContext;
 use super::surface::surface_point;
 use crate::accel::Accel;
 use crate::geometry::{Frame, Hit, Ray, offset_ray_origin, offset_toward};
+use crate::material::{Bsdf, BsdfModel};
 use crate::sampler::PixelStreams;
 use glam::Vec3;
 
@@ -52,8 +53,11 @@ pub(crate) fn aux_sample<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool,
     for depth in 0.. {
         let Some(hit) = next_hit else { return AuxSample::default() };
         let sp = surface_point::<TEX>(ctx.scene, ctx.normals, &ray, &hit);
-        let bsdf =
-            if GLOSSY || GLASS { sp.material.bsdf_at::<TEX>(sp.uv) } else { sp.material.lambert_at::<TEX>(sp.uv) };
+        let bsdf = if GLOSSY || GLASS {
+            sp.material.bsdf_at::<TEX>(&sp.tex)
+        } else {
+            Bsdf::Diffuse(sp.material.lambert_at::<TEX>(&sp.tex))
+        };
         let wo = -ray.d;
         let facing = wo.dot(sp.ng) >= 0.0;
         let normal = if facing { sp.ns } else { -sp.ns };

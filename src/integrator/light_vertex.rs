@@ -36,7 +36,7 @@ use super::surface::surface_point;
 use crate::accel::Accel;
 use crate::geometry::{Frame, Ray, offset_toward};
 use crate::light::{LightSample, LightSet, uniform_sphere};
-use crate::material::Bsdf;
+use crate::material::{Bsdf, BsdfModel};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -189,7 +189,7 @@ fn trace(ctx: &PathContext, accel: &dyn Accel, u_choice: f32, u: Vec2, rays: &mu
     *rays += 1;
     let hit = accel.intersect_deferred(&ray, 0.0, f32::INFINITY)?;
     let sp = surface_point::<true>(ctx.scene, ctx.normals, &ray, &hit);
-    let bsdf = sp.material.bsdf_at::<true>(sp.uv);
+    let bsdf = sp.material.bsdf_at::<true>(&sp.tex);
     if bsdf.is_delta() {
         return None;
     }
@@ -340,7 +340,7 @@ mod tests {
             p: Vec3::new(x, 0.0, 0.0),
             ng: Vec3::Z,
             frame: Frame::from_normal(Vec3::Z),
-            bsdf: Bsdf::Diffuse { albedo: Vec3::ONE },
+            bsdf: Bsdf::diffuse(Vec3::ONE),
             to_light: Vec3::Z,
             scale: Vec3::ONE,
             p_conn: 1.0,

@@ -8,7 +8,7 @@ use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::geometry::{Frame, Hit, Ray, offset_ray_origin, offset_toward};
 use crate::light::{LightChoice, LightSet};
-use crate::material::{Bsdf, BsdfSample};
+use crate::material::{Bsdf, BsdfModel, BsdfSample};
 use crate::sampler::SampleStream;
 use crate::scene::Scene;
 use crate::settings::{Estimator, RenderSettings};
@@ -107,8 +107,11 @@ pub(crate) fn radiance<
         }
         // Only Lambertian surfaces: the BSDF's variant is known here, so its methods inline
         // without dispatch.
-        let bsdf =
-            if GLOSSY || GLASS { sp.material.bsdf_at::<TEX>(sp.uv) } else { sp.material.lambert_at::<TEX>(sp.uv) };
+        let bsdf = if GLOSSY || GLASS {
+            sp.material.bsdf_at::<TEX>(&sp.tex)
+        } else {
+            Bsdf::Diffuse(sp.material.lambert_at::<TEX>(&sp.tex))
+        };
         let transmissive = GLASS && bsdf.is_transmissive();
         let (mut ng, mut ns) = (sp.ng, sp.ns);
         if !transmissive && wo.dot(ng) < 0.0 {
@@ -186,7 +189,7 @@ pub(crate) fn radiance<
         }
 
         // Continue the path by sampling the BSDF.
-        let bs = if uniform_diffuse && matches!(bsdf, Bsdf::Diffuse { .. }) {
+        let bs = if uniform_diffuse && bsdf.is_lambertian() {
             sample_uniform_hemisphere(&bsdf, wo_l, rng.next_2d())
         } else {
             // A lobe number only for BSDFs that choose between lobes.

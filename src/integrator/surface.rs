@@ -2,8 +2,9 @@
 //! triangles, re-projection for spheres), normals, texture coordinates, material.
 
 use crate::geometry::{Geometry, Hit, Ray};
-use crate::material::Material;
+use crate::material::{Material, MaterialModel};
 use crate::scene::Scene;
+use crate::texture::TexCoords;
 use glam::{Vec2, Vec3};
 
 pub struct SurfacePoint<'a> {
@@ -13,8 +14,27 @@ pub struct SurfacePoint<'a> {
     pub ng: Vec3,
     /// Unit shading normal, on the same side as `ng`.
     pub ns: Vec3,
-    pub uv: Vec2,
+    /// Where textures are looked up.
+    pub tex: TexCoords,
     pub material: &'a Material,
+}
+
+/// The shading normal `ns` perturbed by a normal map's `local` normal (tangent space: x along
+/// the tangent, y along the bitangent, z along `ns`), in the frame of the interpolated
+/// `tangent` (w: the bitangent's handedness) made orthogonal to `ns`. Where that frame does
+/// not exist (a zero tangent: no texture-space direction there), or the mapped normal would
+/// face away from the geometric normal `ng`, `ns` is kept.
+#[inline]
+fn normal_mapped(ns: Vec3, ng: Vec3, tangent: glam::Vec4, local: Vec3) -> Vec3 {
+    let t = tangent.truncate();
+    let Some(t) = (t - ns * ns.dot(t)).try_normalize() else {
+        return ns;
+    };
+    let b = if tangent.w < 0.0 { -ns.cross(t) } else { ns.cross(t) };
+    match (t * local.x + b * local.y + ns * local.z).try_normalize() {
+        Some(n) if n.dot(ng) > 0.0 => n,
+        _ => ns,
+    }
 }
 
 /// The unit geometric normal of every mesh triangle, (p1 − p0) × (p2 − p0) normalised (the
@@ -70,9 +90,20 @@ pub fn surface_point<'a, const TEX: bool>(
                 let n = (w * m.normals[i0] + u * m.normals[i1] + v * m.normals[i2]).normalize_or(ng);
                 if n.dot(ng) < 0.0 { -n } else { n }
             };
-            let uv =
-                if !TEX || m.uvs.is_empty() { Vec2::new(u, v) } else { w * m.uvs[i0] + u * m.uvs[i1] + v * m.uvs[i2] };
-            SurfacePoint { p, ng, ns, uv, material }
+            let at = |a: &[Vec2]| w * a[i0] + u * a[i1] + v * a[i2];
+            let uv = if !TEX || m.uvs.is_empty() { Vec2::new(u, v) } else { at(&m.uvs) };
+            let uv1 = if !TEX || m.uvs1.is_empty() { uv } else { at(&m.uvs1) };
+            let tex = TexCoords { uv: [uv, uv1], width: 0.0 };
+            let ns = if TEX && !m.tangents.is_empty() {
+                let [t0, t1, t2] = m.tangents[hit.prim as usize];
+                match material.kind.normal_at::<TEX>(&tex) {
+                    Some(local) => normal_mapped(ns, ng, w * t0 + u * t1 + v * t2, local),
+                    None => ns,
+                }
+            } else {
+                ns
+            };
+            SurfacePoint { p, ng, ns, tex, material }
         }
         Geometry::Spheres(s) => {
             let ng = hit.ng.normalize_or(-ray.d);
@@ -80,13 +111,19 @@ pub fn surface_point<'a, const TEX: bool>(
             // Re-projected onto the sphere along the hit's normal (which the sphere has already
             // turned to face the ray at near-tangent hits, where o + t·d rounds to the far side).
             let n = ng;
-            SurfacePoint { p: s.center + s.radius * n, ng: n, ns: n, uv: Vec2::new(hit.u, hit.v), material }
+            SurfacePoint {
+                p: s.center + s.radius * n,
+                ng: n,
+                ns: n,
+                tex: TexCoords::new(Vec2::new(hit.u, hit.v)),
+                material,
+            }
         }
         Geometry::Cylinders(c) => {
             let ng = hit.ng.normalize_or(-ray.d);
             // o + t·d carries the rounding error of a distant origin: project onto the surface.
             let (p, _) = c[hit.prim as usize].project(ray.at(hit.t), ng);
-            SurfacePoint { p, ng, ns: ng, uv: Vec2::new(hit.u, hit.v), material }
+            SurfacePoint { p, ng, ns: ng, tex: TexCoords::new(Vec2::new(hit.u, hit.v)), material }
         }
     }
 }

@@ -11,29 +11,37 @@ use glam::{Vec2, Vec3};
 
 use super::fresnel::fresnel_schlick;
 use super::microfacet::Ggx;
-use super::{Bsdf, BsdfSample, Lobes, MIN_COS, MaterialModel, reflect, reflect_z, same_hemisphere_above};
+use super::{BsdfModel, BsdfSample, Lobes, MIN_COS, MaterialModel, reflect, reflect_z, same_hemisphere_above};
 use crate::hash::Fingerprint;
-use crate::texture::Texture;
+use crate::texture::{TexCoords, Texture};
 
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Conductor {
+/// Reflectance F0 at normal incidence and a GGX distribution.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Conductor {
     /// Reflectance at normal incidence (Schlick's F0), per channel.
     f0: Vec3,
     ggx: Ggx,
 }
 
 impl Conductor {
-    pub(super) fn new(color: Vec3, roughness: f32) -> Self {
+    pub fn new(color: Vec3, roughness: f32) -> Self {
         Conductor { f0: color, ggx: Ggx::from_roughness(roughness) }
     }
+}
 
+impl BsdfModel for Conductor {
     /// A perfect mirror: the only lobe is a delta.
-    pub(super) fn is_delta(&self) -> bool {
+    fn is_delta(&self) -> bool {
         self.ggx.is_smooth()
     }
 
+    /// Its reflectance at normal incidence (the colour).
+    fn denoise_albedo(&self) -> Vec3 {
+        self.f0
+    }
+
     /// D(wm) F(wo·wm) G2(wo, wi) / (4 cos θo cos θi) with wm the half vector.
-    pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if self.is_delta() || !same_hemisphere_above(wo, wi) {
             return Vec3::ZERO;
         }
@@ -45,7 +53,7 @@ impl Conductor {
         f * (self.ggx.d(wm) * self.ggx.visibility(wo, wi))
     }
 
-    pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if self.is_delta() || !same_hemisphere_above(wo, wi) {
             return 0.0;
         }
@@ -55,7 +63,7 @@ impl Conductor {
         }
     }
 
-    pub(super) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<BsdfSample> {
         if wo.z <= MIN_COS {
             return None;
         }
@@ -82,9 +90,10 @@ pub struct MetalMaterial {
 }
 
 impl MaterialModel for MetalMaterial {
+    type Bsdf = Conductor;
     #[inline(always)]
-    fn bsdf<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
-        Bsdf::Conductor { color: self.color.at::<TEX>(uv), roughness: self.roughness }
+    fn bsdf<const TEX: bool>(&self, at: &TexCoords) -> Conductor {
+        Conductor::new(self.color.at::<TEX>(at), self.roughness)
     }
     /// Its colour: the reflectance at normal incidence (only towards grazing angles does it
     /// rise to 1).
@@ -101,8 +110,8 @@ impl MaterialModel for MetalMaterial {
             Lobes { glossy: true, ..Lobes::default() }
         }
     }
-    fn texture(&self) -> Option<&Texture> {
-        (!self.color.is_constant()).then_some(&self.color)
+    fn textures(&self) -> Vec<&Texture> {
+        self.color.varying().into_iter().collect()
     }
     fn fingerprint(&self, h: &mut Fingerprint) {
         h.str("metal");

@@ -9,11 +9,12 @@
 use glam::{Vec2, Vec3};
 
 use super::fresnel::{fresnel_dielectric, refracted_cos};
-use super::{Bsdf, BsdfSample, Lobes, MIN_COS, MaterialModel, coated, reflect_z};
+use super::{BsdfModel, BsdfSample, Lobes, MIN_COS, MaterialModel, coated, reflect_z};
 use crate::hash::Fingerprint;
+use crate::texture::TexCoords;
 
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Dielectric {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dielectric {
     /// IOR inside / outside (outside is the side +Z points to).
     ior: f32,
     tint: Vec3,
@@ -21,13 +22,44 @@ pub(super) struct Dielectric {
 
 impl Dielectric {
     /// A non-positive or non-finite `ior` is replaced by 1 (no interface).
-    pub(super) fn new(ior: f32, tint: Vec3) -> Self {
+    pub fn new(ior: f32, tint: Vec3) -> Self {
         let ior = if ior.is_finite() && ior > 0.0 { ior } else { 1.0 };
         Dielectric { ior, tint }
     }
+}
+
+impl BsdfModel for Dielectric {
+    /// Only delta lobes: nothing to evaluate.
+    fn eval(&self, _wo: Vec3, _wi: Vec3) -> Vec3 {
+        Vec3::ZERO
+    }
+
+    fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        0.0
+    }
+
+    /// Reflection or refraction.
+    #[inline(always)]
+    fn chooses_lobe(&self) -> bool {
+        true
+    }
+
+    fn is_delta(&self) -> bool {
+        true
+    }
+
+    fn is_transmissive(&self) -> bool {
+        true
+    }
+
+    /// 1: renders follow glass to the surface seen through it; this is used only where a
+    /// path ends on glass.
+    fn denoise_albedo(&self) -> Vec3 {
+        Vec3::ONE
+    }
 
     /// Picks reflection with probability F(wo), else refraction. `uc` in [0, 1).
-    pub(super) fn sample(&self, wo: Vec3, uc: f32) -> Option<BsdfSample> {
+    fn sample(&self, wo: Vec3, _u: Vec2, uc: f32) -> Option<BsdfSample> {
         if wo.z.abs() <= MIN_COS {
             return None;
         }
@@ -101,9 +133,10 @@ pub struct GlassMaterial {
 }
 
 impl MaterialModel for GlassMaterial {
+    type Bsdf = Dielectric;
     #[inline(always)]
-    fn bsdf<const TEX: bool>(&self, _uv: Vec2) -> Bsdf {
-        Bsdf::Dielectric { ior: self.ior, tint: self.tint }
+    fn bsdf<const TEX: bool>(&self, _at: &TexCoords) -> Dielectric {
+        Dielectric::new(self.ior, self.tint)
     }
     /// The reflected fraction F0 = ((η − 1)/(η + 1))² plus the tint times the rest.
     fn albedo(&self) -> f32 {

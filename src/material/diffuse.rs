@@ -7,39 +7,54 @@ use crate::fastmath::sin_cos_turns;
 
 use glam::{Vec2, Vec3};
 
-use super::{Bsdf, BsdfSample, Lobes, MIN_COS, MaterialModel, same_hemisphere_above};
+use super::{BsdfModel, BsdfSample, Lobes, MIN_COS, MaterialModel, same_hemisphere_above};
 use crate::hash::Fingerprint;
-use crate::texture::Texture;
+use crate::texture::{TexCoords, Texture};
 
 /// f = albedo / π.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Diffuse {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lambert {
     albedo: Vec3,
 }
 
-impl Diffuse {
-    #[inline(always)]
-    pub(super) fn new(albedo: Vec3) -> Self {
-        Diffuse { albedo }
-    }
+impl Lambert {
+    /// Black: what a kind that does not scatter gives.
+    pub const BLACK: Lambert = Lambert { albedo: Vec3::ZERO };
 
     #[inline(always)]
-    pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    pub fn new(albedo: Vec3) -> Self {
+        Lambert { albedo }
+    }
+
+    /// Its albedo (the colour).
+    pub fn albedo(&self) -> Vec3 {
+        self.albedo
+    }
+}
+
+impl BsdfModel for Lambert {
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if same_hemisphere_above(wo, wi) { self.albedo * FRAC_1_PI } else { Vec3::ZERO }
     }
 
     #[inline(always)]
-    pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if same_hemisphere_above(wo, wi) { cosine_hemisphere_pdf(wi) } else { 0.0 }
     }
 
     #[inline(always)]
-    pub(super) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+    fn sample(&self, wo: Vec3, u: Vec2, _uc: f32) -> Option<BsdfSample> {
         if wo.z <= MIN_COS {
             return None;
         }
         let wi = sample_cosine_hemisphere(u);
         Some(BsdfSample { wi, f: self.eval(wo, wi), pdf: self.pdf(wo, wi), delta: false })
+    }
+
+    /// Its colour.
+    fn denoise_albedo(&self) -> Vec3 {
+        self.albedo
     }
 }
 
@@ -66,13 +81,14 @@ pub struct DiffuseMaterial {
 }
 
 impl MaterialModel for DiffuseMaterial {
+    type Bsdf = Lambert;
     #[inline(always)]
-    fn bsdf<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
-        Bsdf::Diffuse { albedo: self.color.at::<TEX>(uv) }
+    fn bsdf<const TEX: bool>(&self, at: &TexCoords) -> Lambert {
+        Lambert::new(self.color.at::<TEX>(at))
     }
     #[inline(always)]
-    fn lambert<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
-        self.bsdf::<TEX>(uv)
+    fn lambert<const TEX: bool>(&self, at: &TexCoords) -> Lambert {
+        self.bsdf::<TEX>(at)
     }
     /// Its colour.
     fn albedo(&self) -> f32 {
@@ -84,8 +100,8 @@ impl MaterialModel for DiffuseMaterial {
     fn lobes(&self) -> Lobes {
         Lobes { diffuse: true, ..Lobes::default() }
     }
-    fn texture(&self) -> Option<&Texture> {
-        (!self.color.is_constant()).then_some(&self.color)
+    fn textures(&self) -> Vec<&Texture> {
+        self.color.varying().into_iter().collect()
     }
     fn fingerprint(&self, h: &mut Fingerprint) {
         h.str("diffuse");

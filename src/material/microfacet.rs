@@ -21,7 +21,7 @@ use glam::{Vec2, Vec3};
 pub(super) const MIN_ALPHA: f32 = 1e-3;
 
 /// An isotropic GGX distribution with width `alpha`.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Ggx {
     alpha: f32,
 }
@@ -31,6 +31,16 @@ impl Ggx {
     pub(super) fn from_roughness(roughness: f32) -> Self {
         let r = if roughness.is_nan() { 0.0 } else { roughness.clamp(0.0, 1.0) };
         Ggx { alpha: r * r }
+    }
+
+    /// The distribution of width `alpha` (NaN counts as 0; at most 1).
+    pub(super) fn from_alpha(alpha: f32) -> Self {
+        Ggx { alpha: if alpha.is_nan() { 0.0 } else { alpha.clamp(0.0, 1.0) } }
+    }
+
+    /// Its width α.
+    pub(super) fn alpha(&self) -> f32 {
+        self.alpha
     }
 
     /// True if the distribution is too narrow to be sampled: use a mirror instead.

@@ -9,60 +9,75 @@
 //! shading point, its albedo, the lobes the scene analysis reports, and its fingerprint:
 //! - `diffuse` ([`DiffuseMaterial`]), `conductor` ([`MetalMaterial`]), `plastic`
 //!   ([`PlasticMaterial`]), `dielectric` ([`GlassMaterial`]), `emissive`
-//!   ([`EmissiveMaterial`]);
+//!   ([`EmissiveMaterial`]), `pbr` (glTF's metallic-roughness material, [`PbrMaterial`]);
 //! - shared by them: `fresnel`, exact dielectric ([`fresnel_dielectric`]) and Schlick Fresnel
 //!   reflectance; `microfacet`, the GGX distribution, Smith masking-shadowing and
-//!   visible-normal sampling.
+//!   visible-normal sampling; `albedo`, GGX's directional albedo tabulated.
 //!
-//! Adding a kind: its file, a line in the `material_kinds!` list below and a [`Bsdf`] variant
-//! with its arms here, and its `[materials]` section (`scene/format.rs`) with the arm that
-//! builds it (`scene/toml_file.rs`).
+//! Each kind's description implements [`MaterialModel`] and its BSDF [`BsdfModel`]: the kind
+//! answers the scene analysis itself (lobes, albedo, textures, whether it scatters) and its
+//! BSDF whether it is delta, transmissive or chooses between lobes. Adding a kind: its file
+//! and one line in the `material_kinds!` list below (which makes both the [`MaterialKind`]
+//! and the [`Bsdf`] variant and their dispatch), and where scenes describe it, its
+//! `[materials]` section (`scene/format.rs`) with the arm that builds it
+//! (`scene/toml_file.rs`).
 //!
 //! Conventions shared by all BSDFs:
-//! - [`Bsdf::eval`] is f(wo, wi) *without* the cosine factor, and only for non-delta lobes.
-//! - [`Bsdf::pdf`] is the solid-angle density with which [`Bsdf::sample`] produces `wi`
-//!   through its non-delta lobes (including the lobe-selection probability).
+//! - [`BsdfModel::eval`] is f(wo, wi) *without* the cosine factor, and only for non-delta
+//!   lobes.
+//! - [`BsdfModel::pdf`] is the solid-angle density with which [`BsdfModel::sample`] produces
+//!   `wi` through its non-delta lobes (including the lobe-selection probability).
 //! - Delta lobes follow pbrt: `f = F / |cos θi|` and `pdf` = the discrete probability of picking
 //!   the lobe, so `f * |wi.z| / pdf` is the throughput multiplier.
 //! - Opaque BSDFs (diffuse, conductor, plastic) are zero when `wo` or `wi` lies below — or
 //!   within [`MIN_COS`] of — the surface plane; the caller flips the frame so that `wo.z > 0`.
 //! - No method returns NaN or infinity for unit-length inputs.
 
+mod albedo;
 mod conductor;
 mod dielectric;
 mod diffuse;
 mod emissive;
 mod fresnel;
 mod microfacet;
+mod pbr;
 mod plastic;
 
 use glam::{Vec2, Vec3};
 
 use crate::hash::Fingerprint;
-use crate::texture::Texture;
-use conductor::Conductor;
-use dielectric::Dielectric;
-use diffuse::Diffuse;
-use plastic::Plastic;
+use crate::texture::{TexCoords, Texture};
 
-pub use conductor::MetalMaterial;
-pub use dielectric::GlassMaterial;
-pub use diffuse::DiffuseMaterial;
+pub use conductor::{Conductor, MetalMaterial};
+pub use dielectric::{Dielectric, GlassMaterial};
+pub use diffuse::{DiffuseMaterial, Lambert};
 pub use emissive::EmissiveMaterial;
 pub use fresnel::fresnel_dielectric;
-pub use plastic::PlasticMaterial;
+pub use pbr::{AlphaMode, NormalMap, PbrBsdf, PbrMaterial};
+pub use plastic::{Plastic, PlasticMaterial};
 
 /// What a material kind answers: see the module documentation.
 pub trait MaterialModel {
-    /// The BSDF at texture coordinates `uv`. With `TEX == false` the caller knows no texture
-    /// is in use, so colours are read as the constants they are, without looking at `uv`.
-    fn bsdf<const TEX: bool>(&self, uv: Vec2) -> Bsdf;
+    /// The BSDF it turns into at a shading point.
+    type Bsdf: BsdfModel;
+
+    /// The BSDF at texture coordinates `at`. With `TEX == false` the caller knows no texture
+    /// is in use, so colours are read as the constants they are, without looking at `at`.
+    fn bsdf<const TEX: bool>(&self, at: &TexCoords) -> Self::Bsdf;
 
     /// [`MaterialModel::bsdf`] in a scene whose every surface is diffuse or purely emissive
     /// (the caller knows): the Lambertian BSDF this kind gives there (black unless diffuse).
     #[inline(always)]
-    fn lambert<const TEX: bool>(&self, _uv: Vec2) -> Bsdf {
-        Bsdf::Diffuse { albedo: Vec3::ZERO }
+    fn lambert<const TEX: bool>(&self, _at: &TexCoords) -> Lambert {
+        Lambert::BLACK
+    }
+
+    /// The shading normal in the surface's tangent frame (x along the tangent, y along the
+    /// bitangent, z along the interpolated normal) if the kind perturbs it (a normal map);
+    /// `None` keeps the interpolated normal.
+    #[inline(always)]
+    fn normal_at<const TEX: bool>(&self, _at: &TexCoords) -> Option<Vec3> {
+        None
     }
 
     /// The largest fraction of light it sends on in one bounce, for the best colour channel
@@ -77,13 +92,55 @@ pub trait MaterialModel {
     /// The kinds of scattering it has, as the scene analysis reports them.
     fn lobes(&self) -> Lobes;
 
-    /// The texture, if its colour varies over the surface.
-    fn texture(&self) -> Option<&Texture> {
-        None
+    /// Its textures that vary over the surface (colours, maps), each once.
+    fn textures(&self) -> Vec<&Texture> {
+        Vec::new()
+    }
+
+    /// Whether it perturbs the shading normal ([`MaterialModel::normal_at`]): the surface
+    /// then needs tangents.
+    fn has_normal_map(&self) -> bool {
+        false
     }
 
     /// Feeds its kind and parameters to a fingerprint.
     fn fingerprint(&self, h: &mut Fingerprint);
+}
+
+/// What a BSDF at a shading point answers (see the module documentation for the
+/// conventions). Each material kind's BSDF type implements it, and [`Bsdf`] dispatches to
+/// them.
+pub trait BsdfModel: Copy {
+    /// f(wo, wi) for the non-delta part (0 for delta-only BSDFs). Not multiplied by cos.
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
+
+    /// Solid-angle pdf with which [`BsdfModel::sample`] produces `wi` through its non-delta
+    /// lobes, including the lobe choice (0 for a delta-only BSDF).
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+
+    /// Samples wi: `u` in [0,1)² for the direction, `uc` in [0,1) for the lobe choice (only
+    /// if [`BsdfModel::chooses_lobe`]). `None` if sampling fails. Non-delta samples carry `f`
+    /// and `pdf` computed by the very code of `eval` and `pdf`, so MIS weights agree exactly.
+    fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample>;
+
+    /// Whether [`BsdfModel::sample`] uses its lobe number `uc`; a path draws it only then.
+    fn chooses_lobe(&self) -> bool {
+        false
+    }
+
+    /// Whether every lobe is delta (a mirror, smooth glass): next-event estimation is useless.
+    fn is_delta(&self) -> bool {
+        false
+    }
+
+    /// Whether light can leave on the other side of the surface (glass).
+    fn is_transmissive(&self) -> bool {
+        false
+    }
+
+    /// The albedo a denoiser is given for this surface (Open Image Denoise's guidance: the
+    /// surface's colour independent of lighting and view, in [0, 1]).
+    fn denoise_albedo(&self) -> Vec3;
 }
 
 /// Kinds of scattering (a material may have several).
@@ -99,24 +156,40 @@ pub struct Lobes {
     pub glass: bool,
 }
 
-/// The [`MaterialKind`] enum, one variant per kind, and its [`MaterialModel`] implementation,
-/// which hands every question to the variant's own type.
+/// The [`MaterialKind`] enum (one variant per kind, holding the kind's description) and the
+/// [`Bsdf`] enum (one variant per kind, holding the BSDF the kind gives at a point), with
+/// their [`MaterialModel`] and [`BsdfModel`] implementations, which hand every question to
+/// the variant's own type. A kind is one line of the list below.
 macro_rules! material_kinds {
-    ($($(#[$doc:meta])* $variant:ident($ty:ty),)*) => {
-        /// What a surface is made of.
+    ($($(#[$doc:meta])* $variant:ident($ty:ty) => $bsdf:ty,)*) => {
+        /// What a surface is made of. (A scene has a few materials, looked up by reference:
+        /// the size of the largest kind costs nothing.)
         #[derive(Clone, Debug, PartialEq)]
+        #[allow(clippy::large_enum_variant)]
         pub enum MaterialKind {
             $($(#[$doc])* $variant($ty),)*
         }
 
+        /// A BSDF with its parameters resolved at a shading point (textures looked up): the
+        /// one its material kind gives.
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub enum Bsdf {
+            $($(#[$doc])* $variant($bsdf),)*
+        }
+
         impl MaterialModel for MaterialKind {
+            type Bsdf = Bsdf;
             #[inline(always)]
-            fn bsdf<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
-                match self { $(MaterialKind::$variant(m) => m.bsdf::<TEX>(uv),)* }
+            fn bsdf<const TEX: bool>(&self, at: &TexCoords) -> Bsdf {
+                match self { $(MaterialKind::$variant(m) => Bsdf::$variant(m.bsdf::<TEX>(at)),)* }
             }
             #[inline(always)]
-            fn lambert<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
-                match self { $(MaterialKind::$variant(m) => m.lambert::<TEX>(uv),)* }
+            fn lambert<const TEX: bool>(&self, at: &TexCoords) -> Lambert {
+                match self { $(MaterialKind::$variant(m) => m.lambert::<TEX>(at),)* }
+            }
+            #[inline(always)]
+            fn normal_at<const TEX: bool>(&self, at: &TexCoords) -> Option<Vec3> {
+                match self { $(MaterialKind::$variant(m) => m.normal_at::<TEX>(at),)* }
             }
             fn albedo(&self) -> f32 {
                 match self { $(MaterialKind::$variant(m) => m.albedo(),)* }
@@ -127,11 +200,47 @@ macro_rules! material_kinds {
             fn lobes(&self) -> Lobes {
                 match self { $(MaterialKind::$variant(m) => m.lobes(),)* }
             }
-            fn texture(&self) -> Option<&Texture> {
-                match self { $(MaterialKind::$variant(m) => m.texture(),)* }
+            fn textures(&self) -> Vec<&Texture> {
+                match self { $(MaterialKind::$variant(m) => m.textures(),)* }
+            }
+            fn has_normal_map(&self) -> bool {
+                match self { $(MaterialKind::$variant(m) => m.has_normal_map(),)* }
             }
             fn fingerprint(&self, h: &mut Fingerprint) {
                 match self { $(MaterialKind::$variant(m) => m.fingerprint(h),)* }
+            }
+        }
+
+        impl BsdfModel for Bsdf {
+            #[inline]
+            fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+                match self { $(Bsdf::$variant(b) => b.eval(wo, wi),)* }
+            }
+            #[inline]
+            fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+                match self { $(Bsdf::$variant(b) => b.pdf(wo, wi),)* }
+            }
+            #[inline]
+            fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+                let s = match self { $(Bsdf::$variant(b) => b.sample(wo, u, uc),)* }?;
+                debug_assert!(s.f.is_finite() && s.pdf.is_finite() && s.wi.is_finite(), "{s:?}");
+                (s.pdf > 0.0).then_some(s)
+            }
+            #[inline(always)]
+            fn chooses_lobe(&self) -> bool {
+                match self { $(Bsdf::$variant(b) => b.chooses_lobe(),)* }
+            }
+            #[inline]
+            fn is_delta(&self) -> bool {
+                match self { $(Bsdf::$variant(b) => b.is_delta(),)* }
+            }
+            #[inline]
+            fn is_transmissive(&self) -> bool {
+                match self { $(Bsdf::$variant(b) => b.is_transmissive(),)* }
+            }
+            #[inline]
+            fn denoise_albedo(&self) -> Vec3 {
+                match self { $(Bsdf::$variant(b) => b.denoise_albedo(),)* }.clamp(Vec3::ZERO, Vec3::ONE)
             }
         }
     };
@@ -139,15 +248,18 @@ macro_rules! material_kinds {
 
 material_kinds! {
     /// Lambertian.
-    Diffuse(DiffuseMaterial),
+    Diffuse(DiffuseMaterial) => Lambert,
     /// GGX rough metal; roughness 0 is a mirror.
-    Metal(MetalMaterial),
+    Metal(MetalMaterial) => Conductor,
     /// A diffuse base under a GGX dielectric coat.
-    Plastic(PlasticMaterial),
+    Plastic(PlasticMaterial) => Plastic,
     /// Smooth glass.
-    Glass(GlassMaterial),
+    Glass(GlassMaterial) => Dielectric,
     /// Emits and reflects nothing.
-    Emissive(EmissiveMaterial),
+    Emissive(EmissiveMaterial) => Lambert,
+    /// glTF's metallic-roughness material: a metal and a dielectric over a diffuse base,
+    /// mixed by metalness, every factor textured.
+    Pbr(PbrMaterial) => PbrBsdf,
 }
 
 /// A named material; any material may also emit (`emission`, radiance, both faces).
@@ -168,27 +280,27 @@ impl Material {
         }
     }
 
-    /// The BSDF at `uv` ([`MaterialModel::bsdf`]).
+    /// The BSDF at `at` ([`MaterialModel::bsdf`]).
     #[inline(always)]
-    pub fn bsdf_at<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
-        self.kind.bsdf::<TEX>(uv)
+    pub fn bsdf_at<const TEX: bool>(&self, at: &TexCoords) -> Bsdf {
+        self.kind.bsdf::<TEX>(at)
     }
 
     /// The Lambertian BSDF of a scene whose every surface is diffuse or purely emissive
     /// ([`MaterialModel::lambert`]): the same value as [`Material::bsdf_at`] gives there,
     /// without dispatch.
     #[inline(always)]
-    pub fn lambert_at<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
-        self.kind.lambert::<TEX>(uv)
+    pub fn lambert_at<const TEX: bool>(&self, at: &TexCoords) -> Lambert {
+        self.kind.lambert::<TEX>(at)
     }
 
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
     }
 
-    /// The texture, if the colour varies over the surface.
-    pub fn texture(&self) -> Option<&Texture> {
-        self.kind.texture()
+    /// Its textures that vary over the surface.
+    pub fn textures(&self) -> Vec<&Texture> {
+        self.kind.textures()
     }
 
     /// Feeds the material to a fingerprint.
@@ -210,28 +322,7 @@ fn coated(f0: f32, c: f32) -> f32 {
 /// and microfacet terms finite (1/MIN_COS = 1e9) at a negligible angular cost (~6e-8°).
 pub const MIN_COS: f32 = 1e-9;
 
-/// A BSDF with its parameters already resolved (textures looked up by the caller).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Bsdf {
-    /// Lambertian, cosine-weighted sampling.
-    Diffuse { albedo: Vec3 },
-    /// Rough metal: GGX (Trowbridge-Reitz) microfacet reflection with the height-correlated
-    /// Smith G2 and visible-normal sampling, Schlick Fresnel with F0 = `color`,
-    /// alpha = roughness². Roughness is clamped to [0, 1]; alpha below 1e-3
-    /// (roughness < ~0.032) is a perfect mirror (delta).
-    Conductor { color: Vec3, roughness: f32 },
-    /// Glossy plastic: a GGX dielectric coating (IOR 1.5, alpha = roughness²) over a
-    /// Lambertian base `diffuse`, the base weighted by (1 − F(cos θo))(1 − F(cos θi)).
-    /// Roughness 0 gives a smooth coating (delta specular lobe + diffuse).
-    Plastic { diffuse: Vec3, roughness: f32 },
-    /// Smooth glass: exact dielectric Fresnel, reflection + refraction (both delta), total
-    /// internal reflection; `tint` multiplies transmission. `wo.z > 0` means the ray arrives
-    /// from outside (IOR 1), `wo.z < 0` from inside (IOR `ior`). `ior == 1` passes straight
-    /// through.
-    Dielectric { ior: f32, tint: Vec3 },
-}
-
-/// One direction drawn by [`Bsdf::sample`].
+/// One direction drawn by [`BsdfModel::sample`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BsdfSample {
     pub wi: Vec3,
@@ -247,104 +338,55 @@ pub struct BsdfSample {
 }
 
 impl Bsdf {
-    /// f(wo, wi) for the non-delta part (0 for delta-only BSDFs). Not multiplied by cos.
-    #[inline]
-    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        match *self {
-            Bsdf::Diffuse { albedo } => Diffuse::new(albedo).eval(wo, wi),
-            Bsdf::Conductor { color, roughness } => Conductor::new(color, roughness).eval(wo, wi),
-            Bsdf::Plastic { diffuse, roughness } => Plastic::new(diffuse, roughness).eval(wo, wi),
-            Bsdf::Dielectric { .. } => Vec3::ZERO,
-        }
+    /// Lambertian of albedo `albedo`.
+    pub fn diffuse(albedo: Vec3) -> Bsdf {
+        Bsdf::Diffuse(Lambert::new(albedo))
     }
 
-    /// Solid-angle pdf that [`sample`](Self::sample) would produce wi through its non-delta
-    /// lobes (0 for pure delta).
-    #[inline]
-    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        match *self {
-            Bsdf::Diffuse { albedo } => Diffuse::new(albedo).pdf(wo, wi),
-            Bsdf::Conductor { color, roughness } => Conductor::new(color, roughness).pdf(wo, wi),
-            Bsdf::Plastic { diffuse, roughness } => Plastic::new(diffuse, roughness).pdf(wo, wi),
-            Bsdf::Dielectric { .. } => 0.0,
-        }
+    /// Rough metal ([`Conductor`]): reflectance `color` at normal incidence, GGX roughness.
+    pub fn conductor(color: Vec3, roughness: f32) -> Bsdf {
+        Bsdf::Metal(Conductor::new(color, roughness))
     }
 
-    /// Samples wi. `u` in [0,1)² for the direction, `uc` in [0,1) for the lobe choice.
-    /// None if sampling fails (e.g. wo below the surface of an opaque BSDF, or a microfacet
-    /// reflection that ends below the horizon).
-    ///
-    /// For non-delta samples, `f` and `pdf` are computed at the returned `wi` by the very code
-    /// of [`eval`](Self::eval) and [`pdf`](Self::pdf), so MIS weights agree exactly.
-    #[inline]
-    pub fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
-        let s = match *self {
-            Bsdf::Diffuse { albedo } => Diffuse::new(albedo).sample(wo, u),
-            Bsdf::Conductor { color, roughness } => Conductor::new(color, roughness).sample(wo, u),
-            Bsdf::Plastic { diffuse, roughness } => Plastic::new(diffuse, roughness).sample(wo, u, uc),
-            Bsdf::Dielectric { ior, tint } => Dielectric::new(ior, tint).sample(wo, uc),
-        }?;
-        debug_assert!(s.f.is_finite() && s.pdf.is_finite() && s.wi.is_finite(), "{s:?}");
-        (s.pdf > 0.0).then_some(s)
+    /// Plastic ([`Plastic`]): a `diffuse` base under a coating of roughness `roughness`.
+    pub fn plastic(diffuse: Vec3, roughness: f32) -> Bsdf {
+        Bsdf::Plastic(Plastic::new(diffuse, roughness))
     }
 
-    /// [`Bsdf::eval`] where the caller knows every BSDF is `Diffuse` (kernels without glossy
-    /// or glass materials): the same arithmetic, inlined into the caller without dispatch.
+    /// Smooth glass ([`Dielectric`]) of index `ior`, transmission tinted by `tint`.
+    pub fn dielectric(ior: f32, tint: Vec3) -> Bsdf {
+        Bsdf::Glass(Dielectric::new(ior, tint))
+    }
+
+    /// glTF's metallic-roughness BSDF ([`PbrBsdf`]) of base colour `base`, dielectric index
+    /// 1.5, without `KHR_materials_specular`.
+    pub fn pbr(base: Vec3, metallic: f32, roughness: f32) -> Bsdf {
+        Bsdf::Pbr(PbrBsdf::new(base, metallic, roughness, 1.5, 1.0, Vec3::ONE))
+    }
+
+    /// [`BsdfModel::eval`] where the caller knows every BSDF is Lambertian (kernels without
+    /// glossy or glass materials): the same arithmetic, inlined without dispatch.
     #[inline(always)]
     pub fn eval_lambert(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        match *self {
-            Bsdf::Diffuse { albedo } => Diffuse::new(albedo).eval(wo, wi),
+        match self {
+            Bsdf::Diffuse(l) | Bsdf::Emissive(l) => l.eval(wo, wi),
             _ => self.eval(wo, wi),
         }
     }
 
-    /// [`Bsdf::sample`] where the caller knows every BSDF is `Diffuse`, inlined likewise.
+    /// [`BsdfModel::sample`] where the caller knows every BSDF is Lambertian, inlined likewise.
     #[inline(always)]
     pub fn sample_lambert(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
-        match *self {
-            Bsdf::Diffuse { albedo } => Diffuse::new(albedo).sample(wo, u).filter(|s| s.pdf > 0.0),
+        match self {
+            Bsdf::Diffuse(l) | Bsdf::Emissive(l) => l.sample(wo, u, uc).filter(|s| s.pdf > 0.0),
             _ => self.sample(wo, u, uc),
         }
     }
 
-    /// True if [`Bsdf::sample`] uses its lobe number `uc` (plastic: coating or base; glass:
-    /// reflection or refraction); the others ignore it, and a path does not draw it for them.
-    #[inline(always)]
-    pub fn chooses_lobe(&self) -> bool {
-        matches!(self, Bsdf::Plastic { .. } | Bsdf::Dielectric { .. })
-    }
-
-    /// True if every lobe is delta (mirror conductor, glass): next-event estimation is useless.
-    #[inline]
-    pub fn is_delta(&self) -> bool {
-        match *self {
-            Bsdf::Diffuse { .. } | Bsdf::Plastic { .. } => false,
-            Bsdf::Conductor { color, roughness } => Conductor::new(color, roughness).is_delta(),
-            Bsdf::Dielectric { .. } => true,
-        }
-    }
-
-    /// True if the BSDF transmits (light can leave on the other side), i.e. Dielectric.
-    #[inline]
-    pub fn is_transmissive(&self) -> bool {
-        matches!(self, Bsdf::Dielectric { .. })
-    }
-
-    /// The albedo a denoiser is given for this surface (Open Image Denoise's guidance: the
-    /// surface's colour independent of lighting and view, in [0, 1]): a diffuse colour; a
-    /// metal's reflectance at normal incidence (its colour); plastic's coating reflectance at
-    /// normal incidence (4 %) plus its base colour times what passes the coating; 1 for glass
-    /// (used only where a path ends on it: renders follow glass and mirrors to the surface
-    /// seen through them).
-    #[inline]
-    pub fn denoise_albedo(&self) -> Vec3 {
-        match *self {
-            Bsdf::Diffuse { albedo } => albedo,
-            Bsdf::Conductor { color, .. } => color,
-            Bsdf::Plastic { diffuse, .. } => Vec3::splat(plastic::COATING_F0) + (1.0 - plastic::COATING_F0) * diffuse,
-            Bsdf::Dielectric { .. } => Vec3::ONE,
-        }
-        .clamp(Vec3::ZERO, Vec3::ONE)
+    /// Whether it is Lambertian (diffuse or black): the uniform-hemisphere estimator samples
+    /// only those uniformly.
+    pub fn is_lambertian(&self) -> bool {
+        matches!(self, Bsdf::Diffuse(_) | Bsdf::Emissive(_))
     }
 }
 

@@ -28,21 +28,22 @@ use glam::{Vec2, Vec3};
 use super::diffuse::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use super::fresnel::fresnel_dielectric;
 use super::microfacet::Ggx;
-use super::{Bsdf, BsdfSample, Lobes, MIN_COS, MaterialModel, coated, reflect, reflect_z, same_hemisphere_above};
+use super::{BsdfModel, BsdfSample, Lobes, MIN_COS, MaterialModel, coated, reflect, reflect_z, same_hemisphere_above};
 use crate::hash::Fingerprint;
-use crate::texture::Texture;
+use crate::texture::{TexCoords, Texture};
 
 /// Index of refraction of the coating.
 const COATING_IOR: f32 = 1.5;
 
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Plastic {
+/// A Lambertian base under a GGX dielectric coating.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plastic {
     diffuse: Vec3,
     ggx: Ggx,
 }
 
 impl Plastic {
-    pub(super) fn new(diffuse: Vec3, roughness: f32) -> Self {
+    pub fn new(diffuse: Vec3, roughness: f32) -> Self {
         Plastic { diffuse, ggx: Ggx::from_roughness(roughness) }
     }
 
@@ -53,8 +54,22 @@ impl Plastic {
         // fr ≥ 0.04 for IOR 1.5, so the denominator is positive.
         if base > 0.0 { fr / (fr + base) } else { 1.0 }
     }
+}
 
-    pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+impl BsdfModel for Plastic {
+    /// Coating or base.
+    #[inline(always)]
+    fn chooses_lobe(&self) -> bool {
+        true
+    }
+
+    /// The coating's reflectance at normal incidence (4 %) plus the base colour times what
+    /// passes the coating.
+    fn denoise_albedo(&self) -> Vec3 {
+        Vec3::splat(COATING_F0) + (1.0 - COATING_F0) * self.diffuse
+    }
+
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if !same_hemisphere_above(wo, wi) {
             return Vec3::ZERO;
         }
@@ -73,7 +88,7 @@ impl Plastic {
         base + Vec3::splat(coat)
     }
 
-    pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !same_hemisphere_above(wo, wi) {
             return 0.0;
         }
@@ -89,7 +104,7 @@ impl Plastic {
         p * coat + diffuse
     }
 
-    pub(super) fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+    fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
         if wo.z <= MIN_COS {
             return None;
         }
@@ -112,7 +127,7 @@ impl Plastic {
 }
 
 /// Reflectance at normal incidence of the coating (IOR 1.5).
-pub(super) const COATING_F0: f32 = 0.04;
+const COATING_F0: f32 = 0.04;
 
 /// Glossy plastic: a base of colour `color` under a coating of roughness `roughness` (scene
 /// files: `type = "plastic"`).
@@ -123,9 +138,10 @@ pub struct PlasticMaterial {
 }
 
 impl MaterialModel for PlasticMaterial {
+    type Bsdf = Plastic;
     #[inline(always)]
-    fn bsdf<const TEX: bool>(&self, uv: Vec2) -> Bsdf {
-        Bsdf::Plastic { diffuse: self.color.at::<TEX>(uv), roughness: self.roughness }
+    fn bsdf<const TEX: bool>(&self, at: &TexCoords) -> Plastic {
+        Plastic::new(self.color.at::<TEX>(at), self.roughness)
     }
     /// The coating's 4 % plus the base colour times the 96 % that passes the coating.
     fn albedo(&self) -> f32 {
@@ -138,8 +154,8 @@ impl MaterialModel for PlasticMaterial {
     fn lobes(&self) -> Lobes {
         Lobes { diffuse: true, glossy: true, ..Lobes::default() }
     }
-    fn texture(&self) -> Option<&Texture> {
-        (!self.color.is_constant()).then_some(&self.color)
+    fn textures(&self) -> Vec<&Texture> {
+        self.color.varying().into_iter().collect()
     }
     fn fingerprint(&self, h: &mut Fingerprint) {
         h.str("plastic");

@@ -125,7 +125,7 @@ impl Effects {
             if m.is_emissive() {
                 e.emissive = true;
             }
-            e.textures |= m.texture().is_some();
+            e.textures |= !m.textures().is_empty();
             if m.kind.scatters() {
                 e.albedo = e.albedo.max(m.kind.albedo());
             }

@@ -20,7 +20,7 @@ use crate::light::{Background, Light, LightSet};
 use crate::material::Material;
 use crate::memory::{LoadBudget, MemoryLimit};
 use crate::settings::RenderDefaults;
-use crate::texture::{Image, Texture};
+use crate::texture::{MipImage, Texture};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -219,22 +219,23 @@ impl Scene {
                 Geometry::Cylinders(c) => std::mem::size_of_val(&c[..]) as u64,
             })
             .sum();
-        let mut images: Vec<&Arc<Image>> = self
+        let mut maps: Vec<&Arc<MipImage>> = self
             .materials
             .iter()
-            .filter_map(|m| match m.texture() {
-                Some(Texture::Image(i)) => Some(i),
+            .flat_map(|m| m.textures())
+            .filter_map(|t| match t {
+                Texture::Map { map, .. } => Some(&map.image),
                 _ => None,
             })
             .collect();
-        let mut sampling = 0;
-        if let Background::Image(env) = self.background() {
-            images.push(env.image());
-            sampling = env.sampling_bytes();
-        }
-        images.sort_by_key(|i| Arc::as_ptr(i));
-        images.dedup_by(|a, b| Arc::ptr_eq(a, b));
-        geometry + sampling + images.iter().map(|i| (i.pixels.capacity() * size_of::<Vec3>()) as u64).sum::<u64>()
+        maps.sort_by_key(|i| Arc::as_ptr(i));
+        maps.dedup_by(|a, b| Arc::ptr_eq(a, b));
+        let textures: u64 = maps.iter().map(|i| i.heap_bytes()).sum();
+        let environment = match self.background() {
+            Background::Image(env) => env.sampling_bytes() + (env.image().pixels.capacity() * size_of::<Vec3>()) as u64,
+            _ => 0,
+        };
+        geometry + textures + environment
     }
 
     /// (triangles, spheres, cylinders)

@@ -11,7 +11,7 @@ use crate::material::{
 };
 use crate::memory::{self, LoadBudget};
 use crate::settings::{RenderDefaults, RenderSettings};
-use crate::texture::{Image, Texture};
+use crate::texture::{Encoding, Image, MipImage, Texture, colour_map};
 use glam::{Affine3A, Quat, Vec3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -29,7 +29,7 @@ struct SceneFileReader<'a> {
     path: &'a Path,
     text: &'a str,
     dir: PathBuf,
-    images: HashMap<PathBuf, Arc<Image>>,
+    images: HashMap<PathBuf, Arc<MipImage>>,
     /// Files read so far, for [`Scene::inputs`].
     inputs: Vec<PathBuf>,
 }
@@ -43,26 +43,22 @@ impl SceneFileReader<'_> {
         self.dir.join(file)
     }
 
-    fn image(&mut self, file: &str, span: std::ops::Range<usize>) -> Result<Arc<Image>, SceneError> {
+    fn image(&mut self, file: &str, span: std::ops::Range<usize>) -> Result<Arc<MipImage>, SceneError> {
         let p = self.resolve(file);
         if let Some(img) = self.images.get(&p) {
             return Ok(img.clone());
         }
-        let img =
-            Image::load(&p, self.budget).map_err(|e| self.err_at(span, format!("texture {}: {e}", p.display())))?;
+        let img = MipImage::load(&p, self.budget, Encoding::Srgb)
+            .map_err(|e| self.err_at(span, format!("texture {}: {e}", p.display())))?;
         let img = Arc::new(img);
         self.inputs.push(p.clone());
         self.images.insert(p, img.clone());
         Ok(img)
     }
 
-    /// The environment image `file`: 8-bit (sRGB) or HDR (linear). One a texture already
-    /// loaded is shared.
+    /// The environment image `file`: 8-bit (sRGB) or HDR (linear).
     fn environment_image(&mut self, file: &str, span: std::ops::Range<usize>) -> Result<Arc<Image>, SceneError> {
         let p = self.resolve(file);
-        if let Some(img) = self.images.get(&p) {
-            return Ok(img.clone());
-        }
         let img = Image::load_environment(&p, self.budget)
             .map_err(|e| self.err_at(span, format!("environment image {}: {e}", p.display())))?;
         self.inputs.push(p);
@@ -75,7 +71,7 @@ impl SceneFileReader<'_> {
             return Err(self.err_at(at, "give only one of color, texture and checker"));
         }
         Ok(if let Some(t) = c.texture {
-            Texture::Image(self.image(&t, at)?)
+            colour_map(self.image(&t, at)?)
         } else if let Some(ch) = c.checker {
             Texture::Checker { a: ch.a.0, b: ch.b.0, scale: ch.scale.0 }
         } else {

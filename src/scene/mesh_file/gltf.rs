@@ -16,12 +16,12 @@
 
 use super::{FileMesh, MeshFile};
 use crate::light::PointLight;
-use crate::material::{DiffuseMaterial, GlassMaterial, Material, MaterialKind, MetalMaterial, PlasticMaterial};
+use crate::material::{AlphaMode, GlassMaterial, Material, MaterialKind, NormalMap, PbrMaterial};
 use crate::memory::{self, LoadBudget};
 use crate::scene::{CameraSpec, SceneError, input};
-use crate::texture::{Image, Texture};
+use crate::texture::{Encoding, MipImage, Sampler, Texture, TextureMap, UvTransform, Wrap};
 use base64::Engine;
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use std::borrow::Cow;
@@ -36,27 +36,18 @@ use std::sync::Arc;
 /// reads back as P / 4π W/sr, the radiant intensity of an isotropic P-watt source.
 pub const CANDELA_PER_WATT_PER_SR: f32 = 683.0;
 
-/// Roughness at and above which a non-metal becomes ember's diffuse material instead of
-/// plastic. glTF's non-metal is a diffuse base under a 4 % (IOR 1.5) GGX coat, which is what
-/// ember's plastic is, so plastic is the faithful mapping; but at roughness ≥ 0.9 (GGX
-/// alpha ≥ 0.81) the coat's lobe spreads over the whole hemisphere and the surface looks
-/// Lambertian, and diffuse lets ember run its cheaper diffuse-only kernel.
-pub const DIFFUSE_ROUGHNESS: f32 = 0.9;
-
-/// Metallic factor at and above which a material is ember's metal (glTF blends metal and
-/// dielectric by this factor; ember picks one).
-pub const METAL_THRESHOLD: f32 = 0.5;
-
 /// Transmission factor above which a material is ember's glass.
 pub const GLASS_THRESHOLD: f32 = 0.5;
 
 /// Extensions whose data is read (the rest are warned about, or refused when required).
-const SUPPORTED: [&str; 5] = [
+const SUPPORTED: [&str; 7] = [
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_mesh_quantization",
+    "KHR_texture_transform",
 ];
 
 /// Memory per vertex of a world-space mesh while it is built: the accessor values read as
@@ -269,8 +260,16 @@ impl<'a> Loader<'a> {
         for inst in &instances {
             for prim in inst.mesh.primitives() {
                 let at = format!("meshes[{}].primitives[{}]", inst.mesh.index(), prim.index());
+                // A normal-mapped material needs tangents, for its normal map's coordinate set.
+                let tangents = prim.material().index().and_then(|i| match &materials[i].kind {
+                    MaterialKind::Pbr(PbrMaterial {
+                        normal: Some(NormalMap { texture: Texture::Map { map, .. }, .. }),
+                        ..
+                    }) => Some(map.set),
+                    _ => None,
+                });
                 if let Some(m) =
-                    self.primitive(&at, &inst.mesh, &prim, inst.world, &buffers, &mut ignored, &mut warnings)?
+                    self.primitive(&at, &inst.mesh, &prim, inst.world, &buffers, tangents, &mut ignored, &mut warnings)?
                 {
                     meshes.push(m);
                 }
@@ -355,18 +354,24 @@ impl<'a> Loader<'a> {
         Ok(Cow::Owned(bytes))
     }
 
-    /// ember's materials, one per glTF material, in order.
+    /// ember's materials, one per glTF material, in order: glTF's metallic-roughness material
+    /// ([`PbrMaterial`]) with its textures, or glass.
     ///
-    /// Mapping (metallic-roughness): metallic ≥ [`METAL_THRESHOLD`] → metal (colour = base
-    /// colour, roughness); otherwise plastic, or diffuse at roughness ≥ [`DIFFUSE_ROUGHNESS`];
-    /// `KHR_materials_transmission` above [`GLASS_THRESHOLD`] → glass (IOR from
-    /// `KHR_materials_ior`, default 1.5; tint = base colour factor). Base colour = factor ×
-    /// texture (TEXCOORD_0). Emission = emissive factor × `KHR_materials_emissive_strength`
-    /// (× the emissive texture's mean colour: emission is uniform over a surface in ember).
-    /// Normal, occlusion, metallic-roughness and transmission textures, alpha, and texture
-    /// coordinate sets other than 0 are ignored, with one warning per kind.
+    /// - Base colour (factor × texture, RGBA: alpha for `alphaMode` `MASK` and `BLEND`),
+    ///   metallic-roughness (factors × the texture's B and G), normal texture (with its
+    ///   scale), emission (factor × `KHR_materials_emissive_strength` × texture), each texture
+    ///   through its sampler, its `texCoord` set (0 or 1) and `KHR_texture_transform`.
+    /// - `KHR_materials_ior` (the dielectric's index) and `KHR_materials_specular` (its
+    ///   weight and colour factors).
+    /// - `KHR_materials_transmission` above [`GLASS_THRESHOLD`]: ember's smooth glass (IOR
+    ///   from `KHR_materials_ior`; tint = base colour factor).
+    /// - `occlusionTexture` is read past: it is ambient occlusion baked for rasterisers, the
+    ///   shadowing a path tracer computes itself.
+    ///
+    /// Each image is decoded once per encoding (sRGB for colours, linear for data), however
+    /// many textures and materials use it.
     fn materials(&self, buffers: &[Vec<u8>], ignored: &mut Tally) -> Result<Vec<Material>, SceneError> {
-        let mut images: HashMap<usize, Arc<Image>> = HashMap::new();
+        let mut images: HashMap<(usize, bool), Arc<MipImage>> = HashMap::new();
         let mut out = Vec::new();
         let file_name = self.path.file_name().map_or(String::new(), |f| f.to_string_lossy().into_owned());
         for m in self.doc.materials() {
@@ -375,33 +380,58 @@ impl<'a> Loader<'a> {
             let pbr = m.pbr_metallic_roughness();
             let factor = pbr.base_color_factor();
             let base = Vec3::new(factor[0], factor[1], factor[2]);
-            let roughness = pbr.roughness_factor().clamp(0.0, 1.0);
+            let roughness = pbr.roughness_factor();
             let metallic = pbr.metallic_factor();
-            let mut image =
-                |info: &gltf::texture::Info, slot: &str, ignored: &mut Tally| -> Result<Arc<Image>, SceneError> {
-                    let at = format!("{at}.{slot}");
-                    if info.tex_coord() != 0 {
-                        ignored.add("texture coordinate sets other than TEXCOORD_0 (set 0 is used)", &at);
+            let mut map = |slot: TextureSlot, what: &str, encoding: Encoding, ignored: &mut Tally| {
+                let at = format!("{at}.{what}");
+                let set = match slot.tex_coord {
+                    0 | 1 => slot.tex_coord as usize,
+                    k => {
+                        ignored.add("texture coordinate sets beyond TEXCOORD_1 (set 0 is used)", format!("{at}: {k}"));
+                        0
                     }
-                    let img = info.texture().source();
-                    if let Some(done) = images.get(&img.index()) {
-                        return Ok(done.clone());
-                    }
-                    let loaded = Arc::new(self.image(&at, &img, buffers)?);
-                    images.insert(img.index(), loaded.clone());
-                    Ok(loaded)
                 };
-            let color = match pbr.base_color_texture() {
-                Some(info) => {
-                    let img = image(&info, "pbrMetallicRoughness.baseColorTexture", ignored)?;
-                    if base == Vec3::ONE {
-                        Texture::Image(img)
-                    } else {
-                        let pixels = img.pixels.iter().map(|p| *p * base).collect();
-                        Texture::Image(Arc::new(Image { width: img.width, height: img.height, pixels }))
+                let key = (slot.texture.source().index(), encoding == Encoding::Srgb);
+                let image = match images.get(&key) {
+                    Some(done) => done.clone(),
+                    None => {
+                        let loaded = Arc::new(self.image(&at, &slot.texture.source(), buffers, encoding)?);
+                        images.insert(key, loaded.clone());
+                        loaded
                     }
-                }
+                };
+                let transform = texture_transform(slot.extensions).map_err(|e| self.err(&at, e))?;
+                Ok::<TextureMap, SceneError>(texture_map(image, &slot.texture.sampler(), set, transform))
+            };
+            let color = match pbr.base_color_texture() {
+                Some(info) => Texture::Map {
+                    map: map(TextureSlot::of(&info), "pbrMetallicRoughness.baseColorTexture", Encoding::Srgb, ignored)?,
+                    factor: base,
+                },
                 None => Texture::Constant(base),
+            };
+            let mr = Vec3::new(1.0, roughness, metallic);
+            let metal_rough = match pbr.metallic_roughness_texture() {
+                Some(info) => Texture::Map {
+                    map: map(
+                        TextureSlot::of(&info),
+                        "pbrMetallicRoughness.metallicRoughnessTexture",
+                        Encoding::Linear,
+                        ignored,
+                    )?,
+                    factor: mr,
+                },
+                None => Texture::Constant(mr),
+            };
+            let normal = match m.normal_texture() {
+                Some(n) => {
+                    let slot =
+                        TextureSlot { texture: n.texture(), tex_coord: n.tex_coord(), extensions: n.extensions() };
+                    let texture =
+                        Texture::Map { map: map(slot, "normalTexture", Encoding::Linear, ignored)?, factor: Vec3::ONE };
+                    Some(NormalMap { texture, scale: n.scale() })
+                }
+                None => None,
             };
             let mut emission = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
             if let Some(info) = m.emissive_texture() {
@@ -410,26 +440,53 @@ impl<'a> Loader<'a> {
                     format!("{at}.emissiveTexture"),
                 );
                 if emission != Vec3::ZERO {
-                    emission *= image(&info, "emissiveTexture", ignored)?.mean();
+                    let slot = TextureSlot::of(&info);
+                    emission *= map(slot, "emissiveTexture", Encoding::Srgb, ignored)?.image.mean().truncate();
                 }
             }
             if !emission.is_finite() || emission.min_element() < 0.0 {
                 return Err(self.err(format!("{at}.emissiveFactor"), "emission must be finite and not negative"));
             }
-            if m.normal_texture().is_some() {
-                ignored.add("normalTexture", format!("{at}.normalTexture"));
-            }
-            if m.occlusion_texture().is_some() {
-                ignored.add("occlusionTexture", format!("{at}.occlusionTexture"));
-            }
-            if pbr.metallic_roughness_texture().is_some() {
-                ignored.add(
-                    "metallicRoughnessTexture (the metallic and roughness factors are used)",
-                    format!("{at}.pbrMetallicRoughness.metallicRoughnessTexture"),
+            let ior = m.ior().unwrap_or(1.5);
+            if !(ior.is_finite() && ior >= 1.0) {
+                return Err(
+                    self.err(format!("{at}.extensions.KHR_materials_ior"), format!("ior must be ≥ 1, found {ior}"))
                 );
             }
-            if m.alpha_mode() != gltf::material::AlphaMode::Opaque || factor[3] < 1.0 {
-                ignored.add("alpha (alphaMode, base colour alpha): surfaces are opaque", &at);
+            let alpha_mode = match m.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5)),
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+            };
+            if alpha_mode != AlphaMode::Opaque {
+                ignored.add("alphaMode MASK and BLEND (surfaces are opaque)", &at);
+            }
+            let (specular, specular_color) = match m.specular() {
+                Some(s) => {
+                    if s.specular_texture().is_some() || s.specular_color_texture().is_some() {
+                        ignored.add(
+                            "KHR_materials_specular textures (its factors are used)",
+                            format!("{at}.extensions.KHR_materials_specular"),
+                        );
+                    }
+                    (s.specular_factor(), Vec3::from(s.specular_color_factor()))
+                }
+                None => (1.0, Vec3::ONE),
+            };
+            if !(specular.is_finite()
+                && specular >= 0.0
+                && specular_color.is_finite()
+                && specular_color.min_element() >= 0.0)
+            {
+                return Err(self.err(
+                    format!("{at}.extensions.KHR_materials_specular"),
+                    "specular factors must be finite and not negative",
+                ));
+            }
+            for ext in ["KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_unlit"] {
+                if m.extension_value(ext).is_some() {
+                    ignored.add(ext, format!("{at}.extensions.{ext}"));
+                }
             }
             let transmission = m.transmission();
             let kind = match &transmission {
@@ -440,18 +497,18 @@ impl<'a> Loader<'a> {
                     if pbr.base_color_texture().is_some() {
                         ignored.add("baseColorTexture on glass (the base colour factor tints it)", &at);
                     }
-                    let ior = m.ior().unwrap_or(1.5);
-                    if !(ior.is_finite() && ior > 0.0) {
-                        return Err(self.err(
-                            format!("{at}.extensions.KHR_materials_ior"),
-                            format!("ior must be > 0, found {ior}"),
-                        ));
-                    }
                     MaterialKind::Glass(GlassMaterial { ior, tint: base.clamp(Vec3::ZERO, Vec3::ONE) })
                 }
-                _ if metallic >= METAL_THRESHOLD => MaterialKind::Metal(MetalMaterial { color, roughness }),
-                _ if roughness >= DIFFUSE_ROUGHNESS => MaterialKind::Diffuse(DiffuseMaterial { color }),
-                _ => MaterialKind::Plastic(PlasticMaterial { color, roughness }),
+                _ => MaterialKind::Pbr(PbrMaterial {
+                    base: color,
+                    alpha: factor[3],
+                    alpha_mode,
+                    metal_rough,
+                    normal,
+                    ior,
+                    specular,
+                    specular_color,
+                }),
             };
             if matches!(&transmission, Some(t) if t.transmission_factor() > 0.0 && t.transmission_factor() <= GLASS_THRESHOLD)
             {
@@ -465,13 +522,19 @@ impl<'a> Loader<'a> {
     }
 
     /// Decodes an image (PNG or JPEG) from a buffer view or a URI.
-    fn image(&self, at: &str, img: &gltf::Image, buffers: &[Vec<u8>]) -> Result<Image, SceneError> {
+    fn image(
+        &self,
+        at: &str,
+        img: &gltf::Image,
+        buffers: &[Vec<u8>],
+        encoding: Encoding,
+    ) -> Result<MipImage, SceneError> {
         let at = format!("{at}: images[{}]", img.index());
         let bytes: Cow<[u8]> = match img.source() {
             gltf::image::Source::View { view, .. } => Cow::Borrowed(self.view_bytes(&at, &view, buffers)?),
             gltf::image::Source::Uri { uri, .. } => self.uri(&at, uri)?,
         };
-        Image::from_memory(&bytes, self.budget).map_err(|e| self.err(at, e.to_string()))
+        MipImage::decode(&bytes, self.budget, encoding).map_err(|e| self.err(at, e.to_string()))
     }
 
     /// The bytes of a buffer view.
@@ -507,6 +570,7 @@ impl<'a> Loader<'a> {
         prim: &gltf::Primitive,
         world: Mat4,
         buffers: &[Vec<u8>],
+        tangents: Option<usize>,
         ignored: &mut Tally,
         warnings: &mut Vec<String>,
     ) -> Result<Option<FileMesh>, SceneError> {
@@ -552,6 +616,24 @@ impl<'a> Loader<'a> {
                 same_count(&a, "TEXCOORD_0")?;
                 let v = self.read(&attr("TEXCOORD_0"), &a, &[Dimensions::Vec2], buffers)?;
                 finite(&v, "TEXCOORD_0", 2)?;
+                v
+            }
+            None => Vec::new(),
+        };
+        let uvs1 = match prim.get(&gltf::Semantic::TexCoords(1)) {
+            Some(a) => {
+                same_count(&a, "TEXCOORD_1")?;
+                let v = self.read(&attr("TEXCOORD_1"), &a, &[Dimensions::Vec2], buffers)?;
+                finite(&v, "TEXCOORD_1", 2)?;
+                v
+            }
+            None => Vec::new(),
+        };
+        let given_tangents = match prim.get(&gltf::Semantic::Tangents).filter(|_| tangents.is_some()) {
+            Some(a) => {
+                same_count(&a, "TANGENT")?;
+                let v = self.read(&attr("TANGENT"), &a, &[Dimensions::Vec4], buffers)?;
+                finite(&v, "TANGENT", 4)?;
                 v
             }
             None => Vec::new(),
@@ -613,15 +695,35 @@ impl<'a> Loader<'a> {
             .map(|v| (normal_matrix * Vec3::new(v[0], v[1], v[2])).normalize_or_zero())
             .collect();
         // glTF's v runs down from the image's top; ember's (OBJ's) up from its bottom.
-        let uvs: Vec<Vec2> = uvs.chunks_exact(2).map(|v| Vec2::new(v[0], 1.0 - v[1])).collect();
+        let flip = |v: Vec<f32>| -> Vec<Vec2> { v.chunks_exact(2).map(|v| Vec2::new(v[0], 1.0 - v[1])).collect() };
+        let (uvs, uvs1) = (flip(uvs), flip(uvs1));
+        // Tangents as the normal matrix's dual: xyz by the linear part, the handedness turned
+        // by a mirroring transform.
+        let linear = Mat3::from_mat4(world);
+        let handedness = linear.determinant().signum();
+        let given_tangents: Vec<Vec4> = given_tangents
+            .chunks_exact(4)
+            .map(|t| (linear * Vec3::new(t[0], t[1], t[2])).normalize_or_zero().extend(t[3].signum() * handedness))
+            .collect();
         let colors: Vec<Vec3> = colors.chunks_exact(color_width).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
         let name = match mesh.name() {
             Some(s) => format!("{s}#{}", prim.index()),
             None => at.to_string(),
         };
-        let tri = crate::geometry::TriMesh::new(name, positions, triangles, normals, uvs)
+        let mut tri = crate::geometry::TriMesh::new(name, positions, triangles, normals, uvs)
             .map_err(|e| self.err(at, e.to_string()))?;
-        Ok(super::keep_hittable(self.path, tri, warnings).map(|mesh| {
+        tri.uvs1 = uvs1;
+        let Some(mut tri) = super::keep_hittable(self.path, tri, warnings) else {
+            return Ok(None);
+        };
+        if let Some(set) = tangents {
+            if !given_tangents.is_empty() {
+                tri.tangents = tri.indices.iter().map(|t| t.map(|i| given_tangents[i as usize])).collect();
+            } else if !tri.generate_tangents(set) {
+                ignored.add("normal maps on primitives without texture coordinates", at);
+            }
+        }
+        Ok(Some(tri).map(|mesh| {
             self.budget.keep(mesh.heap_bytes() + size_of_val(&colors[..]) as u64);
             self.budget.keep_primitives(mesh.triangle_count() as u64, 0);
             FileMesh { mesh, material: prim.material().index(), colors }
@@ -811,6 +913,75 @@ impl<'a> Loader<'a> {
             )),
         }
     }
+}
+
+/// Where a material takes a texture: the texture, its coordinate set, and the extensions of
+/// its `textureInfo` (for `KHR_texture_transform`).
+struct TextureSlot<'a> {
+    texture: gltf::texture::Texture<'a>,
+    tex_coord: u32,
+    extensions: Option<&'a serde_json::Map<String, gltf::json::Value>>,
+}
+
+impl<'a> TextureSlot<'a> {
+    fn of(info: &'a gltf::texture::Info<'a>) -> TextureSlot<'a> {
+        TextureSlot { texture: info.texture(), tex_coord: info.tex_coord(), extensions: info.extensions() }
+    }
+}
+
+/// A `textureInfo`'s `KHR_texture_transform`, if any, as an error message if malformed.
+fn texture_transform(
+    extensions: Option<&serde_json::Map<String, gltf::json::Value>>,
+) -> Result<Option<UvTransform>, String> {
+    let Some(t) = extensions.and_then(|e| e.get("KHR_texture_transform")) else {
+        return Ok(None);
+    };
+    let pair = |key: &str, default: [f32; 2]| -> Result<Vec2, String> {
+        match t.get(key) {
+            None => Ok(Vec2::from(default)),
+            Some(v) => v
+                .as_array()
+                .filter(|a| a.len() == 2)
+                .and_then(|a| Some(Vec2::new(a[0].as_f64()? as f32, a[1].as_f64()? as f32)))
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("KHR_texture_transform.{key}: expected two finite numbers")),
+        }
+    };
+    let rotation = match t.get("rotation") {
+        None => 0.0,
+        Some(v) => v
+            .as_f64()
+            .map(|r| r as f32)
+            .filter(|r| r.is_finite())
+            .ok_or("KHR_texture_transform.rotation: expected a finite number")?,
+    };
+    if t.get("texCoord").is_some() {
+        return Err("KHR_texture_transform.texCoord is not supported (give textureInfo.texCoord)".into());
+    }
+    Ok(Some(UvTransform::offset_rotation_scale(pair("offset", [0.0, 0.0])?, rotation, pair("scale", [1.0, 1.0])?)))
+}
+
+/// A texture map of `image` through a glTF sampler (its wrap modes), at coordinate set
+/// `set`, with `transform` (`KHR_texture_transform`) applied after flipping the coordinates
+/// back to glTF's (v down from the image's top: meshes keep v up, as OBJ's).
+fn texture_map(
+    image: Arc<MipImage>,
+    sampler: &gltf::texture::Sampler,
+    set: usize,
+    transform: Option<UvTransform>,
+) -> TextureMap {
+    let wrap = |w: gltf::texture::WrappingMode| match w {
+        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+    };
+    let sampler = Sampler { wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())] };
+    let flip = UvTransform::FLIP_V;
+    let transform = match transform {
+        Some(t) => UvTransform(t.0 * flip.0),
+        None => flip,
+    };
+    TextureMap { transform: Some(transform), set, ..TextureMap::new(image, sampler) }
 }
 
 /// `%XX` escapes of a URI decoded (glTF URIs are percent-encoded); bad escapes kept as they are.

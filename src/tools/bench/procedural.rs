@@ -53,7 +53,7 @@ pub fn blob(quads_per_edge: u32) -> TriMesh {
             }
         }
     }
-    TriMesh { name: format!("blob n={n}"), positions, indices, normals: Vec::new(), uvs: Vec::new() }
+    TriMesh { name: format!("blob n={n}"), positions, indices, ..TriMesh::default() }
 }
 
 fn bump(d: Vec3) -> f32 {

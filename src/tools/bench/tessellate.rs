@@ -149,7 +149,7 @@ impl MeshBuilder {
             positions: self.positions,
             indices: self.indices,
             normals: self.normals,
-            uvs: Vec::new(),
+            ..TriMesh::default()
         };
         Tessellation { mesh, source: self.source }
     }

@@ -1,0 +1,348 @@
+//! The glTF 2.0 metallic-roughness material (glTF files; scene files: `type = "pbr"`): a
+//! metal and a dielectric layer mixed by metalness, each factor possibly textured, as the
+//! glTF specification's appendix B defines it and as Blender Cycles' Principled BSDF renders
+//! what Blender's glTF importer makes of it.
+//!
+//! - **Specular**: one GGX lobe (height-correlated Smith G2, visible-normal sampling) of
+//!   α = roughness², whose Fresnel is the mix, by metalness m, of the dielectric's exact
+//!   Fresnel at index `ior` (1.5 by default; `KHR_materials_ior`), scaled to
+//!   `KHR_materials_specular`'s weight and colour, and the metal's Schlick Fresnel with
+//!   F0 = base colour. Each part gets Turquin's multiple-scattering compensation
+//!   (`albedo.rs`), so a white rough metal reflects all the light at every roughness, as
+//!   Cycles' multiscatter GGX does.
+//! - **Diffuse**: (1 − m) base / π under the dielectric layer, weighted by 1 − E_spec(μo),
+//!   the light the specular layer does not reflect at this view (albedo scaling, as Cycles
+//!   layers its Principled BSDF): a white dielectric reflects all the light, in proportions
+//!   that depend on the view.
+//! - **Textures**: base colour (RGBA: alpha for `MASK` and `BLEND`), metallic-roughness
+//!   (B = metalness, G = roughness), normal map (tangent space, scaled in x and y by its
+//!   `scale`) — each times its factor. Roughness 0 is a smooth layer: a delta reflection
+//!   over the diffuse base (a pure mirror where the metalness is 1).
+//! - **Sampling**: the specular lobe with the probability of its share of the albedo at this
+//!   view, else the cosine-weighted base; the pdf is the mixture, so MIS weights are exact.
+
+use std::f32::consts::FRAC_1_PI;
+
+use glam::{Vec2, Vec3};
+
+use super::albedo::{dielectric_albedo, ggx_albedo};
+use super::diffuse::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
+use super::fresnel::{fresnel_dielectric, fresnel_schlick};
+use super::microfacet::Ggx;
+use super::{BsdfModel, BsdfSample, Lobes, MIN_COS, MaterialModel, coated, reflect, reflect_z, same_hemisphere_above};
+use crate::hash::Fingerprint;
+use crate::light::luminance;
+use crate::texture::{TexCoords, Texture};
+
+/// How a surface's alpha (base colour alpha × factor) is used (glTF `alphaMode`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha is ignored: the surface is opaque.
+    #[default]
+    Opaque,
+    /// A cut-out: where alpha is below the cutoff the surface is not there.
+    Mask(f32),
+    /// Partly transparent: a ray passes with probability 1 − alpha (stochastic transparency).
+    Blend,
+}
+
+/// A tangent-space normal map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NormalMap {
+    /// The map (linear RGB: x, y, z each encoded as (n + 1) / 2).
+    pub texture: Texture,
+    /// glTF `normalTexture.scale`: multiplies the map's x and y.
+    pub scale: f32,
+}
+
+/// The glTF metallic-roughness material: see the module documentation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PbrMaterial {
+    /// Base colour (linear RGB): a map's colour times the factor.
+    pub base: Texture,
+    /// The alpha factor (a base colour map's alpha multiplies it).
+    pub alpha: f32,
+    pub alpha_mode: AlphaMode,
+    /// (unused, roughness, metalness): a metallic-roughness map's (R, G, B) times
+    /// (1, roughness factor, metallic factor), or those factors.
+    pub metal_rough: Texture,
+    pub normal: Option<NormalMap>,
+    /// Index of refraction of the dielectric layer.
+    pub ior: f32,
+    /// `KHR_materials_specular`: the dielectric reflection's weight and the colour that tints
+    /// its reflectance at normal incidence.
+    pub specular: f32,
+    pub specular_color: Vec3,
+}
+
+impl PbrMaterial {
+    /// A material of constant base colour, metalness and roughness, dielectric index 1.5.
+    pub fn new(base: Vec3, metallic: f32, roughness: f32) -> PbrMaterial {
+        PbrMaterial {
+            base: Texture::Constant(base),
+            alpha: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            metal_rough: Texture::Constant(Vec3::new(1.0, roughness, metallic)),
+            normal: None,
+            ior: 1.5,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+        }
+    }
+
+    /// The alpha at `at`: the factor times the base colour map's alpha.
+    pub fn alpha_at(&self, at: &TexCoords) -> f32 {
+        match &self.base {
+            Texture::Map { map, .. } => self.alpha * map.sample(at).w,
+            _ => self.alpha,
+        }
+    }
+}
+
+impl MaterialModel for PbrMaterial {
+    type Bsdf = PbrBsdf;
+
+    #[inline(always)]
+    fn bsdf<const TEX: bool>(&self, at: &TexCoords) -> PbrBsdf {
+        let mr = self.metal_rough.at::<TEX>(at);
+        PbrBsdf::new(self.base.at::<TEX>(at), mr.z, mr.y, self.ior, self.specular, self.specular_color)
+    }
+
+    #[inline(always)]
+    fn normal_at<const TEX: bool>(&self, at: &TexCoords) -> Option<Vec3> {
+        let n = self.normal.as_ref().filter(|_| TEX)?;
+        let c = n.texture.eval(at) * 2.0 - Vec3::ONE;
+        Some(Vec3::new(c.x * n.scale, c.y * n.scale, c.z).normalize_or(Vec3::Z))
+    }
+
+    /// A metal's colour, or the dielectric's reflectance plus its base colour times what
+    /// passes it, at the brightest texel.
+    fn albedo(&self) -> f32 {
+        let base = self.base.max().max_element().clamp(0.0, 1.0);
+        if self.metal_rough.min().z >= 1.0 {
+            return base;
+        }
+        let f0 = self.specular * (self.specular_color * dielectric_f0(self.ior)).max_element().min(1.0);
+        coated(f0, base).max(base)
+    }
+
+    fn scatters(&self) -> bool {
+        true
+    }
+
+    fn lobes(&self) -> Lobes {
+        let (lo, hi) = (self.metal_rough.min(), self.metal_rough.max());
+        let rough = |r: f32| !Ggx::from_roughness(r).is_smooth();
+        Lobes {
+            diffuse: lo.z < 1.0 && self.base.max().max_element() > 0.0,
+            glossy: rough(hi.y),
+            mirror: !rough(lo.y),
+            glass: false,
+        }
+    }
+
+    fn textures(&self) -> Vec<&Texture> {
+        let normal = self.normal.as_ref().map(|n| &n.texture);
+        [Some(&self.base), Some(&self.metal_rough), normal].into_iter().flatten().filter(|t| !t.is_constant()).collect()
+    }
+
+    fn has_normal_map(&self) -> bool {
+        self.normal.is_some()
+    }
+
+    fn fingerprint(&self, h: &mut Fingerprint) {
+        h.str("pbr");
+        self.base.fingerprint(h);
+        self.metal_rough.fingerprint(h);
+        h.f32s(&[self.alpha, self.ior, self.specular]);
+        h.v3(&[self.specular_color]);
+        match self.alpha_mode {
+            AlphaMode::Opaque => h.u32(0),
+            AlphaMode::Mask(c) => {
+                h.u32(1);
+                h.f32s(&[c]);
+            }
+            AlphaMode::Blend => h.u32(2),
+        }
+        if let Some(n) = &self.normal {
+            n.texture.fingerprint(h);
+            h.f32s(&[n.scale]);
+        }
+    }
+}
+
+/// The reflectance at normal incidence of a dielectric of index `ior`.
+fn dielectric_f0(ior: f32) -> f32 {
+    ((ior - 1.0) / (ior + 1.0)).powi(2)
+}
+
+/// The glTF material at a shading point: see the module documentation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PbrBsdf {
+    base: Vec3,
+    metallic: f32,
+    ggx: Ggx,
+    eta: f32,
+    /// The dielectric's reflectance is a + b F(cos θ, η), per channel:
+    /// `KHR_materials_specular`'s weight and colour (a = 0, b = 1 without them).
+    spec_a: Vec3,
+    spec_b: Vec3,
+}
+
+impl PbrBsdf {
+    /// Base colour `base`, metalness, roughness (both clamped to [0, 1]), dielectric index
+    /// `ior` and the specular weight and colour.
+    pub fn new(base: Vec3, metallic: f32, roughness: f32, ior: f32, specular: f32, specular_color: Vec3) -> PbrBsdf {
+        let eta = if ior.is_finite() && ior >= 1.0 { ior } else { 1.0 };
+        let f0 = dielectric_f0(eta);
+        // F' = w (f0' + (1 − f0') (F − f0) / (1 − f0)) with f0' = min(f0 × colour, 1): the
+        // reflectance F0 is tinted, grazing reflection stays w.
+        let f0t = (specular_color.max(Vec3::ZERO) * f0).min(Vec3::ONE);
+        let b0 = (Vec3::ONE - f0t) / (1.0 - f0);
+        let w = specular.clamp(0.0, 1.0);
+        PbrBsdf {
+            base: base.clamp(Vec3::ZERO, Vec3::ONE),
+            metallic: if metallic.is_nan() { 0.0 } else { metallic.clamp(0.0, 1.0) },
+            ggx: Ggx::from_roughness(roughness),
+            eta,
+            spec_a: w * (f0t - f0 * b0),
+            spec_b: w * b0,
+        }
+    }
+
+    /// The dielectric layer's reflectance at a microfacet seen at cos θ = `c`.
+    #[inline]
+    fn dielectric_fresnel(&self, c: f32) -> Vec3 {
+        self.spec_a + self.spec_b * fresnel_dielectric(c, self.eta)
+    }
+
+    /// (1 − E(μ)) / E(μ) for this lobe's width: what the multiple-scattering compensation
+    /// adds per unit of F0 (0 for a smooth layer).
+    #[inline]
+    fn lost(&self, mu: f32) -> f32 {
+        if self.ggx.is_smooth() {
+            return 0.0;
+        }
+        let e = ggx_albedo(mu, self.ggx.alpha()).max(1e-3);
+        (1.0 - e) / e
+    }
+
+    /// The directional albedo of the dielectric specular layer at cos θo = `mu` (per
+    /// channel, compensated), with `lost` from [`PbrBsdf::lost`].
+    #[inline]
+    fn dielectric_albedo(&self, mu: f32, lost: f32) -> Vec3 {
+        let alpha = self.ggx.alpha();
+        let (e1, ed) = if self.ggx.is_smooth() {
+            (1.0, fresnel_dielectric(mu, self.eta))
+        } else {
+            (ggx_albedo(mu, alpha), dielectric_albedo(mu, alpha, self.eta))
+        };
+        let f0 = self.spec_a + self.spec_b * dielectric_f0(self.eta);
+        ((self.spec_a * e1 + self.spec_b * ed) * (Vec3::ONE + f0 * lost)).clamp(Vec3::ZERO, Vec3::ONE)
+    }
+
+    /// The diffuse base's weight at cos θo = `mu`: (1 − m) times what the dielectric layer
+    /// leaves.
+    #[inline]
+    fn diffuse_weight(&self, mu: f32, lost: f32) -> Vec3 {
+        (1.0 - self.metallic) * (Vec3::ONE - self.dielectric_albedo(mu, lost))
+    }
+
+    /// The probability of sampling the specular lobe at `wo` (wo.z > 0): its share of the
+    /// albedo there.
+    #[inline]
+    fn specular_probability(&self, wo: Vec3, lost: f32) -> f32 {
+        let m = self.metallic;
+        let spec = (1.0 - m) * self.dielectric_albedo(wo.z, lost) + m * fresnel_schlick(self.base, wo.z);
+        let diffuse = self.base * self.diffuse_weight(wo.z, lost);
+        let (s, d) = (luminance(spec).max(0.0), luminance(diffuse).max(0.0));
+        if d <= 0.0 {
+            1.0
+        } else if s <= 0.0 {
+            0.0
+        } else {
+            s / (s + d)
+        }
+    }
+
+    /// The specular lobe's reflectance at a microfacet seen at cos θ = `c`, compensated.
+    #[inline]
+    fn specular_fresnel(&self, c: f32, lost: f32) -> Vec3 {
+        let m = self.metallic;
+        let f0d = self.spec_a + self.spec_b * dielectric_f0(self.eta);
+        let dielectric = self.dielectric_fresnel(c) * (Vec3::ONE + f0d * lost);
+        let metal = fresnel_schlick(self.base, c) * (Vec3::ONE + self.base * lost);
+        (1.0 - m) * dielectric + m * metal
+    }
+}
+
+impl BsdfModel for PbrBsdf {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if !same_hemisphere_above(wo, wi) {
+            return Vec3::ZERO;
+        }
+        let lost = self.lost(wo.z);
+        let diffuse = self.base * self.diffuse_weight(wo.z, lost) * FRAC_1_PI;
+        if self.ggx.is_smooth() {
+            return diffuse;
+        }
+        let Some(wm) = (wo + wi).try_normalize() else {
+            return diffuse;
+        };
+        diffuse + self.specular_fresnel(wo.dot(wm), lost) * (self.ggx.d(wm) * self.ggx.visibility(wo, wi))
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if !same_hemisphere_above(wo, wi) {
+            return 0.0;
+        }
+        let p = self.specular_probability(wo, self.lost(wo.z));
+        let diffuse = (1.0 - p) * cosine_hemisphere_pdf(wi);
+        if self.ggx.is_smooth() {
+            return diffuse;
+        }
+        let specular = match (wo + wi).try_normalize() {
+            Some(wm) => self.ggx.reflection_pdf(wo, wm),
+            None => 0.0,
+        };
+        p * specular + diffuse
+    }
+
+    fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
+        if wo.z <= MIN_COS {
+            return None;
+        }
+        let lost = self.lost(wo.z);
+        let p = self.specular_probability(wo, lost);
+        let wi = if uc < p {
+            if self.ggx.is_smooth() {
+                let f = self.specular_fresnel(wo.z, 0.0) / wo.z;
+                return Some(BsdfSample { wi: reflect_z(wo), f, pdf: p, delta: true });
+            }
+            reflect(wo, self.ggx.sample_visible_normal(wo, u))
+        } else {
+            sample_cosine_hemisphere(u)
+        };
+        if wi.z <= MIN_COS {
+            return None;
+        }
+        Some(BsdfSample { wi, f: self.eval(wo, wi), pdf: self.pdf(wo, wi), delta: false })
+    }
+
+    /// Specular or diffuse.
+    #[inline(always)]
+    fn chooses_lobe(&self) -> bool {
+        true
+    }
+
+    /// A smooth surface without a diffuse base (a mirror-like metal).
+    fn is_delta(&self) -> bool {
+        self.ggx.is_smooth() && ((1.0 - self.metallic) * self.base).max_element() <= 0.0
+    }
+
+    /// The base colour, seen through the dielectric's 4 % where it is not metal.
+    fn denoise_albedo(&self) -> Vec3 {
+        let dielectric = Vec3::splat(0.04) + 0.96 * self.base;
+        dielectric.lerp(self.base, self.metallic)
+    }
+}
