@@ -31,7 +31,7 @@ if [ -f "$dir/.complete" ] && [ "$(cat "$dir/.complete")" = "$stamp" ] && [ -e "
   exit 0
 fi
 
-[ "$(uname -m)" = x86_64 ] || die "the embreex wheel used here is for x86_64 Linux only (this is $(uname -m)); install Embree 4 from your distribution instead (see README, 'Embree 4')"
+[ "$(uname -m)" = x86_64 ] || die "the embreex wheel used here is for x86_64 Linux only (this is $(uname -m)); install Embree 4 from your distribution instead (see docs/installing.md, 'Embree 4')"
 
 # shellcheck source=find-pip.sh
 . "$(dirname "$0")/find-pip.sh"

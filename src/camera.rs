@@ -1,16 +1,33 @@
-//! Pinhole and thin-lens cameras.
+//! Cameras: pinhole, thin lens and orthographic.
 
 use crate::geometry::{Aabb, LANES, Ray};
 use glam::{Vec2, Vec3};
 
 /// The direction from a model's centre to a camera that shows it front-right-above, the way a
-/// user would first look at it (Y up).
-fn model_view_dir() -> Vec3 {
+/// user would first look at it (Y up): azimuth 28.8°, elevation 21.5° ([`orbit_dir`]).
+pub fn model_view_dir() -> Vec3 {
     Vec3::new(0.55, 0.45, 1.0).normalize()
 }
 
-/// A perspective camera. With `aperture_radius > 0` it is a thin lens focused at
-/// `focus_distance` (depth of field); otherwise a pinhole.
+/// The unit direction from a centre to a camera orbiting it at `azimuth` and `elevation`
+/// (degrees), Y up: azimuth turns about +Y from +Z towards +X, elevation rises from the XZ
+/// plane towards +Y. (0, 0) looks along −Z; (90, 0) along −X; (0, 90) straight down.
+pub fn orbit_dir(azimuth_deg: f32, elevation_deg: f32) -> Vec3 {
+    let (a, e) = (azimuth_deg.to_radians(), elevation_deg.to_radians());
+    Vec3::new(a.sin() * e.cos(), e.sin(), a.cos() * e.cos())
+}
+
+/// The azimuth and elevation, in degrees, of a direction ([`orbit_dir`] inverted).
+pub fn orbit_angles(dir: Vec3) -> (f32, f32) {
+    let d = dir.normalize_or(Vec3::Z);
+    // Straight up or down, the azimuth is any: 0 rather than rounding's.
+    let azimuth = if d.x.hypot(d.z) < 1e-4 { 0.0 } else { d.x.atan2(d.z).to_degrees() };
+    (azimuth, d.y.clamp(-1.0, 1.0).asin().to_degrees())
+}
+
+/// A camera. Perspective: with `aperture_radius > 0` a thin lens focused at `focus_distance`
+/// (depth of field), otherwise a pinhole. Orthographic: parallel rays along the view
+/// direction, from a plane through `position`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub position: Vec3,
@@ -18,11 +35,29 @@ pub struct Camera {
     right: Vec3,
     up: Vec3,
     forward: Vec3,
-    /// Half extents of the image plane at distance 1.
+    /// Half extents of the image plane: at distance 1 (perspective), or in world units
+    /// (orthographic).
     half_w: f32,
     half_h: f32,
     pub aperture_radius: f32,
     pub focus_distance: f32,
+    orthographic: bool,
+}
+
+/// The camera's frame looking from `position` at `look_at`: (forward, right, up), unit vectors.
+/// When `up` is parallel to the view direction another up vector is chosen rather than
+/// producing NaNs.
+fn frame(position: Vec3, look_at: Vec3, up: Vec3) -> (Vec3, Vec3, Vec3) {
+    let forward = (look_at - position).normalize_or(Vec3::NEG_Z);
+    // Normalised first, so that the parallel test below does not depend on up's length.
+    let mut right = forward.cross(up.normalize_or_zero());
+    if right.length_squared() < 1e-12 {
+        // Up parallel to the view: pick any perpendicular.
+        let alt = if forward.x.abs() < 0.9 { Vec3::X } else { Vec3::Z };
+        right = forward.cross(alt.cross(forward));
+    }
+    let right = right.normalize();
+    (forward, right, right.cross(forward))
 }
 
 impl Camera {
@@ -38,18 +73,44 @@ impl Camera {
         aperture_radius: f32,
         focus_distance: f32,
     ) -> Camera {
-        let forward = (look_at - position).normalize_or(Vec3::NEG_Z);
-        // Normalised first, so that the parallel test below does not depend on up's length.
-        let mut right = forward.cross(up.normalize_or_zero());
-        if right.length_squared() < 1e-12 {
-            // Up parallel to the view: pick any perpendicular.
-            let alt = if forward.x.abs() < 0.9 { Vec3::X } else { Vec3::Z };
-            right = forward.cross(alt.cross(forward));
-        }
-        let right = right.normalize();
-        let up = right.cross(forward);
+        let (forward, right, up) = frame(position, look_at, up);
         let half_h = (0.5 * vfov_deg.to_radians()).tan();
-        Camera { position, right, up, forward, half_w: half_h * aspect, half_h, aperture_radius, focus_distance }
+        Camera {
+            position,
+            right,
+            up,
+            forward,
+            half_w: half_h * aspect,
+            half_h,
+            aperture_radius,
+            focus_distance,
+            orthographic: false,
+        }
+    }
+
+    /// An orthographic camera looking from `position` towards `look_at`: its rays are parallel
+    /// to that direction and start on the plane through `position` across it, over a view
+    /// `width` wide (world units) and `width / aspect` high. What lies behind that plane is not
+    /// seen.
+    pub fn orthographic(position: Vec3, look_at: Vec3, up: Vec3, width: f32, aspect: f32) -> Camera {
+        let (forward, right, up) = frame(position, look_at, up);
+        let half_w = 0.5 * width;
+        Camera {
+            position,
+            right,
+            up,
+            forward,
+            half_w,
+            half_h: half_w / aspect,
+            aperture_radius: 0.0,
+            focus_distance: 1.0,
+            orthographic: true,
+        }
+    }
+
+    /// Whether the rays are parallel (orthographic).
+    pub fn is_orthographic(&self) -> bool {
+        self.orthographic
     }
 
     /// A camera that frames `bounds` from the front-right-above, the way a user would first
@@ -71,9 +132,20 @@ impl Camera {
     /// elongated models (the teapot filled under half the width of the frame); this fit is
     /// tight on the side that limits it.
     pub fn fitting(points: impl Iterator<Item = Vec3>, bounds: &Aabb, vfov_deg: f32, aspect: f32) -> Camera {
+        Camera::fitting_from(model_view_dir(), points, bounds, vfov_deg, aspect)
+    }
+
+    /// [`Camera::fitting`] from direction `dir` (from the centre of `bounds` towards the
+    /// camera; a unit vector) instead of the front-right-above one.
+    pub fn fitting_from(
+        dir: Vec3,
+        points: impl Iterator<Item = Vec3>,
+        bounds: &Aabb,
+        vfov_deg: f32,
+        aspect: f32,
+    ) -> Camera {
         let center = bounds.center();
         let radius = (0.5 * bounds.diagonal().length()).max(1e-6);
-        let dir = model_view_dir();
         let view = Camera::look_at(center + dir, center, Vec3::Y, vfov_deg, aspect, 0.0, 1.0);
         let (tan_w, tan_h) = (0.9 * view.half_w, 0.9 * view.half_h);
         // A point at offset r from the centre is (dist + r·forward) in front of a camera
@@ -89,7 +161,8 @@ impl Camera {
         }
         if !(dist.is_finite() && dist > 0.05 * radius) {
             // A point-like model (or NaN): the bounding sphere's framing.
-            return Camera::framing(bounds, vfov_deg, aspect);
+            let fov = vfov_deg.min(vfov_deg * aspect).to_radians();
+            dist = radius / (0.5 * fov).sin() * 1.05;
         }
         Camera::look_at(center + dir * dist, center, Vec3::Y, vfov_deg, aspect, 0.0, dist)
     }
@@ -100,9 +173,14 @@ impl Camera {
     }
 
     /// Primary ray through film position `film` in [0,1]² (x right, y down) with lens sample
-    /// `lens` in [0,1]² (ignored for a pinhole). The direction is normalized.
+    /// `lens` in [0,1]² (ignored for a pinhole and an orthographic camera). The direction is
+    /// normalized.
     #[inline]
     pub fn ray(&self, film: Vec2, lens: Vec2) -> Ray {
+        if self.orthographic {
+            let o = self.ortho_origins(&[film.x; LANES], &[film.y; LANES]);
+            return Ray::new(Vec3::new(o[0][0], o[1][0], o[2][0]), self.forward);
+        }
         let d = self.pinhole_dir(film);
         if self.aperture_radius <= 0.0 {
             return Ray::new(self.position, d);
@@ -123,20 +201,38 @@ impl Camera {
     /// lane by lane, so the same bits, in loops over the lanes that compile to SIMD.
     #[inline]
     pub fn pinhole_dirs(&self, fx: &[f32; LANES], fy: &[f32; LANES]) -> [[f32; LANES]; 3] {
-        let (f, r, u) = (self.forward, self.right, self.up);
-        let mut d = [[0.0; LANES]; 3];
+        // As glam evaluates `forward + sx * right + sy * up` and `normalize` (a multiply by
+        // 1 / √(x² + y² + z²)), operation for operation.
+        let mut d = self.across_view(self.forward, fx, fy);
+        let [dx, dy, dz] = &mut d;
+        for ((x, y), z) in dx.iter_mut().zip(dy.iter_mut()).zip(dz.iter_mut()) {
+            let inv = 1.0 / ((*x * *x) + (*y * *y) + (*z * *z)).sqrt();
+            (*x, *y, *z) = (*x * inv, *y * inv, *z * inv);
+        }
+        d
+    }
+
+    /// The origins of an orthographic camera's rays through [`LANES`] film positions,
+    /// structure-of-arrays as [`Camera::pinhole_dirs`]: the point `position + sx·right +
+    /// sy·up` of the view plane (their direction is [`Camera::forward`]).
+    #[inline]
+    pub fn ortho_origins(&self, fx: &[f32; LANES], fy: &[f32; LANES]) -> [[f32; LANES]; 3] {
+        self.across_view(self.position, fx, fy)
+    }
+
+    /// `base + sx·right + sy·up` for [`LANES`] film positions, sx and sy the positions
+    /// across the view's half extents, evaluated as glam evaluates that sum.
+    #[inline]
+    fn across_view(&self, base: Vec3, fx: &[f32; LANES], fy: &[f32; LANES]) -> [[f32; LANES]; 3] {
+        let (p, r, u) = (base, self.right, self.up);
+        let mut o = [[0.0; LANES]; 3];
         for i in 0..LANES {
             let sx = (2.0 * fx[i] - 1.0) * self.half_w;
             let sy = (1.0 - 2.0 * fy[i]) * self.half_h;
-            // As glam evaluates `forward + sx * right + sy * up` and `normalize` (a multiply by
-            // 1 / √(x² + y² + z²)), operation for operation.
-            let x = (f.x + sx * r.x) + sy * u.x;
-            let y = (f.y + sx * r.y) + sy * u.y;
-            let z = (f.z + sx * r.z) + sy * u.z;
-            let inv = 1.0 / ((x * x) + (y * y) + (z * z)).sqrt();
-            (d[0][i], d[1][i], d[2][i]) = (x * inv, y * inv, z * inv);
+            (o[0][i], o[1][i], o[2][i]) =
+                ((p.x + sx * r.x) + sy * u.x, (p.y + sx * r.y) + sy * u.y, (p.z + sx * r.z) + sy * u.z);
         }
-        d
+        o
     }
 
     /// Thin-lens ray for a pinhole direction `d`: the ray through the lens point that reaches
@@ -187,6 +283,32 @@ mod tests {
                     assert_eq!([d[0][i], d[1][i], d[2][i]].map(f32::to_bits), one.to_array().map(f32::to_bits));
                 }
             }
+        }
+    }
+
+    #[test]
+    fn orthographic_origins_in_lanes_are_the_single_rays_bit_for_bit() {
+        let mut rng = crate::sampler::Rng::new(5, 2);
+        for (pos, at, up, width, aspect) in [
+            (Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, Vec3::Y, 4.0, 2.0),
+            (Vec3::new(3.0, 7.5, -2.0), Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.2, 1.0, 0.1), 13.7, 0.75),
+        ] {
+            let c = Camera::orthographic(pos, at, up, width, aspect);
+            for _ in 0..200 {
+                let fx: [f32; LANES] = std::array::from_fn(|_| rng.next_f32());
+                let fy: [f32; LANES] = std::array::from_fn(|_| rng.next_f32());
+                let o = c.ortho_origins(&fx, &fy);
+                for i in 0..LANES {
+                    let one = c.ray(Vec2::new(fx[i], fy[i]), Vec2::new(0.5, 0.5));
+                    assert_eq!([o[0][i], o[1][i], o[2][i]].map(f32::to_bits), one.o.to_array().map(f32::to_bits));
+                    assert_eq!(one.d, c.forward());
+                }
+            }
+            // The view is `width` wide and `width / aspect` high, centred on the position.
+            let (a, b) = (c.ray(Vec2::ZERO, Vec2::ZERO).o, c.ray(Vec2::ONE, Vec2::ZERO).o);
+            assert!(((b - a).dot(c.right) - width).abs() < 1e-4 * width);
+            assert!(((a - b).dot(c.up) - width / aspect).abs() < 1e-4 * width);
+            assert!(((a + b) * 0.5 - pos).length() < 1e-4 * width);
         }
     }
 

@@ -240,6 +240,19 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     /// Whether paths connect to light vertices.
     pub light_vertices: LightVertices,
+    /// A sample clamp, as Cycles' (`--clamp`): a sample whose largest channel is above this is
+    /// scaled down to it, its hue kept ([`clamp_sample`]). Biased: it removes fireflies by
+    /// removing energy. `None`: no clamp.
+    pub clamp: Option<f32>,
+}
+
+/// Sample `v` under clamp `limit`: scaled by `limit / max channel` where its largest channel
+/// exceeds `limit`, so the hue stays; otherwise unchanged. The second value says whether it
+/// was scaled.
+#[inline]
+pub fn clamp_sample(v: glam::Vec3, limit: f32) -> (glam::Vec3, bool) {
+    let m = v.max_element();
+    if m > limit { (v * (limit / m), true) } else { (v, false) }
 }
 
 impl RenderSettings {
@@ -288,6 +301,7 @@ impl Default for RenderSettings {
             shard: None,
             sampler: SamplerKind::default(),
             light_vertices: LightVertices::Auto,
+            clamp: None,
         }
     }
 }
@@ -325,6 +339,15 @@ mod tests {
         }
         assert_eq!("banana".parse::<RrDepth>(), Err("expected a number, \"off\" or \"auto\", found \"banana\"".into()));
         assert!("-1".parse::<RrDepth>().is_err());
+    }
+
+    #[test]
+    fn a_clamped_sample_keeps_its_hue_and_a_small_one_is_untouched() {
+        let (v, scaled) = clamp_sample(glam::Vec3::new(40.0, 20.0, 10.0), 10.0);
+        assert!(scaled);
+        assert_eq!(v, glam::Vec3::new(10.0, 5.0, 2.5));
+        let small = glam::Vec3::new(9.0, 10.0, 0.5);
+        assert_eq!(clamp_sample(small, 10.0), (small, false));
     }
 
     #[test]

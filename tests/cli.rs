@@ -59,8 +59,7 @@ fn render_writes_a_png_atomically() {
     assert!(o.status.success(), "{}", stderr(&o));
     let img = image::open(&out).unwrap();
     assert_eq!((img.width(), img.height()), (64, 48));
-    // Nothing but the image: no temporary or probe file left behind (the old check looked
-    // for names ending in ".tmp", which no temporary file ever had).
+    // Nothing but the image: no temporary or probe file left behind, whatever its name.
     let names: Vec<_> = std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(names, ["teapot.png"]);
 }
@@ -184,6 +183,67 @@ fn a_camera_on_the_command_line() {
     // A mesh, from the other side of the framing camera.
     let teapot = common::scene_path("teapot.obj");
     assert_ne!(run(&teapot, "framed.exr", &[]), run(&teapot, "behind.exr", &["--camera-position", "-3,-2,-6"]));
+}
+
+/// The value of `key = [x, y, z]` in TOML lines, as `x,y,z`.
+fn toml_vec3(text: &str, key: &str) -> String {
+    let line = text.lines().find(|l| l.starts_with(&format!("{key} = ["))).unwrap_or_else(|| panic!("{key}: {text}"));
+    line.split('[').nth(1).unwrap().trim_end_matches(']').replace(' ', "")
+}
+
+/// `ember render scenes/teapot.obj` to `out` at 16×12 and 2 spp with `extra`: the image's
+/// bytes and what it printed.
+fn render_teapot_obj(out: &Path, extra: &[&str]) -> (Vec<u8>, String) {
+    let teapot = common::scene_path("teapot.obj");
+    let mut args = vec!["render", teapot.to_str().unwrap(), "-o", out.to_str().unwrap()];
+    args.extend(["--width", "16", "--height", "12", "--spp", "2"]);
+    args.extend(extra);
+    let o = ember(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    (std::fs::read(out).unwrap(), stderr(&o))
+}
+
+#[test]
+fn the_automatic_camera_is_printed_as_a_scene_files_lines() {
+    let teapot = common::scene_path("teapot.obj");
+    let o = ember(&["info", teapot.to_str().unwrap()]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("camera: automatic, framing the scene for a 1.333:1 image (--orbit 28.8,21.5,"), "{out}");
+    assert!(out.contains("; as a scene file's lines:\n[camera]\nposition = ["), "{out}");
+    assert!(out.contains("\nlook_at = [0.21700001, 1.575, 0]\nup = [0, 1, 0]\nfov = 40\n"), "{out}");
+    // `ember render` says the same, and its numbers are exact: given back as flags, the same
+    // image.
+    let d = common::fresh_dir("cli", "auto-camera");
+    let run = |name: &str, extra: &[&str]| render_teapot_obj(&d.join(name), extra);
+    let (image, said) = run("auto.exr", &[]);
+    assert!(said.contains("camera: automatic, framing the scene for a 1.333:1 image"), "{said}");
+    let (position, look_at) = (toml_vec3(&said, "position"), toml_vec3(&said, "look_at"));
+    let (again, said) = run("given.exr", &["--camera-position", &position, "--look-at", &look_at]);
+    assert_eq!(again, image);
+    assert!(said.contains("camera: set by the command line"), "{said}");
+    // A scene's own camera is not repeated.
+    let o = ember(&["info", common::scene_path("cornell.toml").to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("camera: the scene's; as a scene file's lines:"));
+    let out = d.join("c.png");
+    let cornell = common::scene_path("cornell.toml");
+    let o = ember(&["render", cornell.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "8", "--height", "8"]);
+    assert!(!stderr(&o).contains("[camera]"), "{}", stderr(&o));
+}
+
+#[test]
+fn an_orbit_and_an_orthographic_view_on_the_command_line() {
+    let d = common::fresh_dir("cli", "orbit");
+    let run = |name: &str, extra: &[&str]| render_teapot_obj(&d.join(name), extra);
+    // The teapot's bounds are (-3, 0, -2)..(3.434, 3.15, 2): its centre (0.217, 1.575, 0). At
+    // azimuth 90, elevation 0, distance 10 the camera is 10 along +X from it.
+    let (side, said) = run("side.exr", &["--orbit", "90,0,10"]);
+    assert!(said.contains("(--orbit 90.0,0.0,10.0000 around the scene's centre)"), "{said}");
+    let position: Vec<f32> = toml_vec3(&said, "position").split(',').map(|v| v.parse().unwrap()).collect();
+    assert!((position[0] - 10.217).abs() < 1e-4 && (position[1] - 1.575).abs() < 1e-6 && position[2].abs() < 1e-5);
+    // Orthographic from the same place: another image, and the lines say so.
+    let (flat, said) = run("flat.exr", &["--orbit", "90,0,10", "--ortho", "8"]);
+    assert_ne!(flat, side);
+    assert!(said.contains("type = \"orthographic\"\nwidth = 8\n"), "{said}");
 }
 
 #[test]

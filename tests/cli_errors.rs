@@ -346,6 +346,31 @@ fn out_of_range_values() {
         Some(2),
         "camera position and look_at are the same point",
     );
+    let ortho = "[camera]\ntype = \"orthographic\"\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\n";
+    for (name, text, line, needle) in [
+        ("ortho-width", format!("{ortho}{SPHERE_OK}"), 2, "an orthographic camera needs `width`"),
+        ("ortho-fov", format!("{ortho}width = 2.0\nfov = 30\n{SPHERE_OK}"), 6, "an orthographic camera has no fov"),
+        (
+            "ortho-aperture",
+            format!("{ortho}width = 2.0\naperture = 0.1\n{SPHERE_OK}"),
+            6,
+            "an orthographic camera has no aperture",
+        ),
+        (
+            "width-perspective",
+            format!("[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nwidth = 2.0\n{SPHERE_OK}"),
+            4,
+            "`width` is an orthographic camera's",
+        ),
+        (
+            "camera-type",
+            format!("[camera]\ntype = \"fisheye\"\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\n{SPHERE_OK}"),
+            2,
+            "unknown camera type \"fisheye\" (expected \"perspective\" or \"orthographic\")",
+        ),
+    ] {
+        expect_scene_error(name, &text, Some(line), needle);
+    }
     expect_scene_error(
         "quad",
         "[materials.m]\ntype = \"diffuse\"\n[[quads]]\ncorner = [0.0, 0.0, 0.0]\nedge1 = [1.0, 0.0, 0.0]\nedge2 = [2.0, 0.0, 0.0]\nmaterial = \"m\"\n",
@@ -578,6 +603,14 @@ fn bad_flags() {
         (&["--tonemap", "filmic"], "unknown tone curve \"filmic\" (expected clamp, aces or neutral)"),
         (&["--exposure", "100"], "exposure must be a number of stops between -64 and 64, found 100"),
         (&["--exposure", "bright"], "expected a number of stops (e.g. 1.5 or -2), found \"bright\""),
+        (&["--orbit", "30"], "expected AZIMUTH,ELEVATION[,DISTANCE] in degrees"),
+        (&["--orbit", "30,100"], "the elevation must be between -90 and 90 degrees, found 100"),
+        (&["--orbit", "30,10", "--camera-position", "1,2,3"], "cannot be used with"),
+        (&["--ortho", "0"], "expected the view's width in world units, a positive number, found \"0\""),
+        (&["--ortho", "2", "--fov", "30"], "cannot be used with"),
+        (&["--clamp", "0"], "expected a positive radiance (e.g. 10), found \"0\""),
+        (&["--preview-every", "0s"], "must be positive"),
+        (&["--preview-every", "1s", "--shard", "0/2"], "cannot be used with"),
     ] {
         expect_render_error(&scene, &out, args, &[], "error: ", needle);
     }

@@ -1,7 +1,7 @@
 //! Rendering for the denoiser: the auxiliary images against closed forms (a plane's albedo
 //! and normal, a sphere's analytic normal, the surface seen in a mirror), their determinism
-//! and checkpoints, the image unchanged bit for bit whether they are taken or not (and the
-//! same as before they existed), and `ember render --denoise` / `--aux` output: EXR layers
+//! and checkpoints, the image unchanged bit for bit whether they are taken or not (its hash
+//! pinned), and `ember render --denoise` / `--aux` output: EXR layers
 //! read back by name, PNG holding the denoised image.
 
 mod common;
@@ -161,11 +161,8 @@ fn the_image_is_the_same_with_or_without_aux_and_as_before_them() {
 }
 
 /// [`bits_hash`] of spheres.toml at 48x30, 8 spp through the naive loop, with Sobol and with
-/// independent samples, as rendered since paths draw only the random numbers a bounce uses
-/// (the commit that made that change re-pinned them; the images before it were pinned by the
-/// commit that added this test). (The Embree images this test pinned before equalled those of
-/// 9d4ce8d and b9cc65e, before the auxiliary images existed, on an AMD EPYC; they differ on an
-/// AVX-512 Xeon, hence the naive loop.)
+/// independent samples. (The naive loop, because Embree's hits differ in the last bits
+/// between its AVX2 and AVX-512 kernels.)
 const SOBOL_HASH: u64 = 5624218644621796052;
 const INDEPENDENT_HASH: u64 = 13033282595410608449;
 

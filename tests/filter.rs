@@ -1,4 +1,4 @@
-//! The pixel filter: box images are the images ember made before it had filters, bit for bit;
+//! The pixel filter: box images are pinned bit for bit (a box film position is exactly x + u);
 //! the Gaussian spreads an edge over the pixels near it as its distribution says, and its
 //! images are as deterministic as the box's.
 
@@ -25,14 +25,10 @@ fn pixel_hash(film: &Film) -> u64 {
 
 /// Images of the sample scenes (40 × 30, 8 spp, each scene's own `[render]` otherwise) with
 /// the default settings, whose filter is the box, and independent samples, through the naive
-/// loop (whose bits do not depend on the CPU, unlike Embree's). The hashes were recorded by
-/// the commit that made paths draw only the random numbers a bounce uses (which changed every
-/// image), before it by the commit that moved this test to the naive loop; the Embree images it
-/// pinned before were those of main before filters existed (b9cc65e), on an AMD EPYC, and a box
-/// render still draws its film positions exactly as that code did. (The Sobol sampler's first
-/// two numbers of a sample are the same whether drawn as one pair or one by one, so its box
-/// renders are main's too.) Light vertices, which the Cornell box's lamp turns on since, are
-/// off here: they change the image's noise, not the filter.
+/// loop (whose bits do not depend on the CPU, unlike Embree's). A box render draws its film
+/// positions as `x + u` exactly. (The Sobol sampler's first two numbers of a sample are the
+/// same whether drawn as one pair or one by one.) Light vertices, which the Cornell box's lamp
+/// turns on, are off here: they change the image's noise, not the filter.
 #[test]
 fn box_renders_are_bit_identical_to_before_filters() {
     let recorded = [

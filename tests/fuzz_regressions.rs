@@ -1,4 +1,4 @@
-//! Inputs the fuzzers (`fuzz/`) found crashing the loaders, reduced by hand; each must now give
+//! Inputs the fuzzers (`fuzz/`) found crashing the loaders, reduced by hand; each must give
 //! an error that names the file and line, never a panic.
 
 use ember::material::{DiffuseMaterial, MaterialKind};
@@ -45,7 +45,7 @@ fn a_bad_mtl_line_is_a_located_error() {
 
 /// Profiling the OBJ fuzzer showed most of its time going to inputs that repeat `mtllib`:
 /// every repetition read and parsed the library again, and tobj appended its materials again.
-/// A library is now read once.
+/// A library must be read once.
 #[test]
 fn repeated_mtllib_reads_the_library_once() {
     let reads = std::cell::Cell::new(0);

@@ -1,4 +1,4 @@
-//! Data flows one way (README, "Architecture"): the renderer never uses the tools around it.
+//! Data flows one way (docs/architecture.md): the renderer never uses the tools around it.
 //! No file outside `src/tools/` names `crate::tools` (or `ember::tools`), and only the
 //! binary's `main.rs` calls into them.
 

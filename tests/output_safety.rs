@@ -31,8 +31,8 @@ fn is_file(p: &Path) -> bool {
 const PRECIOUS: &str = "precious: must survive every render";
 
 /// The names an attacker who can write `dir` would plant links at for a render of `out` by
-/// process `pid`: the temporary and probe names ember used to choose (for a few pids around
-/// it), the checkpoint, the lock and the output itself.
+/// process `pid`: predictable temporary and probe names (`.PID.tmp.NAME`, for a few pids
+/// around it), the checkpoint, the lock and the output itself.
 fn planted_names(out: &str, pid: u32) -> Vec<String> {
     let mut names = vec![out.to_string(), format!("{out}.checkpoint"), format!("{out}.lock")];
     for p in pid.saturating_sub(3)..=pid + 3 {
@@ -472,5 +472,56 @@ fn closed_standard_streams_lose_only_the_text() {
         .unwrap();
     drop(info.stdout.take());
     assert_eq!(info.wait().unwrap().code(), Some(0));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `--preview-every`: while a render runs, the output is a whole image of the render so far
+/// (an image viewer that reloads it shows the render converging); the final image is the one
+/// a render without previews writes, byte for byte; a render interrupted after a preview
+/// leaves that preview, a whole image, and its checkpoint, and no temporary file.
+#[test]
+fn previews_are_whole_images_and_change_nothing() {
+    let dir = common::fresh_dir("safety", "preview");
+    let scene = common::scene_path("cornell-area.toml");
+    let render = |out: &Path, extra: &[&str]| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_ember"));
+        c.arg("render").arg(&scene).arg("-o").arg(out);
+        c.args(["--width", "32", "--height", "24", "--spp", "1500", "--seed", "3"]).args(extra);
+        c
+    };
+    // Waits for the first preview while `running` renders; returns it, decoded.
+    let first_preview = |out: &Path| {
+        let lock = out.with_extension("png.lock");
+        let start = Instant::now();
+        while !out.exists() {
+            assert!(start.elapsed() < Duration::from_secs(20), "no preview");
+            assert!(lock.exists(), "the render ended before its first preview: make it longer");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        image::open(out).expect("a preview is a whole PNG").to_rgb8()
+    };
+    let reference = dir.join("reference.png");
+    let o = render(&reference, &[]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    let out = dir.join("out.png");
+    let running = Running::start_rendering(&mut render(&out, &["--preview-every", "0.05s"]));
+    let preview = first_preview(&out);
+    assert_eq!(preview.dimensions(), (32, 24));
+    let (status, seen) = running.finish();
+    assert!(status.success(), "{seen}");
+    assert!(std::fs::read(&out).unwrap() == std::fs::read(&reference).unwrap(), "the final image changed");
+    assert_ne!(preview, image::open(&out).unwrap().to_rgb8(), "the preview was the final image");
+
+    let out = dir.join("stopped.png");
+    let running = Running::start_rendering(&mut render(&out, &["--preview-every", "0.05s"]));
+    first_preview(&out);
+    running.signal("INT");
+    let (status, seen) = running.finish();
+    assert_eq!(status.code(), Some(130), "{seen}");
+    assert_eq!(image::open(&out).expect("the last preview is a whole PNG").to_rgb8().dimensions(), (32, 24));
+    let left: Vec<String> = listing(&dir).into_iter().filter(|n| n.starts_with("stopped")).collect();
+    assert_eq!(left, ["stopped.png", "stopped.png.checkpoint"], "{:?}", listing(&dir));
+    assert!(listing(&dir).iter().all(|n| !n.starts_with('.')), "temporary files left: {:?}", listing(&dir));
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -121,7 +121,7 @@ fn white_furnace_sphere_under_a_constant_environment_image_is_that_value_everywh
 fn hdr_environment_images_are_linear_and_unclamped() {
     // A Radiance RGBE file (written by the image crate) and an OpenEXR file of values above 1
     // are seen as they are (times the strength; `scale` is the older name of `strength`); a
-    // PNG environment is sRGB as before; an EXR is refused as a surface's texture.
+    // PNG environment is sRGB; an EXR is refused as a surface's texture.
     let dir = common::fresh_dir("render", "env-hdr");
     let hdr = image::Rgb32FImage::from_pixel(8, 4, image::Rgb([3.0, 1.5, 0.25]));
     image::DynamicImage::ImageRgb32F(hdr).save(dir.join("sky.hdr")).unwrap();
@@ -583,4 +583,78 @@ fn the_same_image_gives_the_same_exr_bytes() {
         .collect();
     assert!(bytes.iter().all(|b| *b == bytes[0]), "EXR files of one image differ");
     assert_eq!(ember::film::Film::load_exr(&d.join("0.exr")).unwrap(), film);
+}
+
+/// Two emitting 1 × 1 squares, one 5 units nearer the camera than the other, seen by an
+/// orthographic camera 4 units wide at 64 × 32 pixels (a pixel is 1/16 unit): each square
+/// covers exactly the 16 × 16 pixels whose edges are its own, whatever its distance, and
+/// nothing else is lit (a perspective camera would show the nearer one larger).
+const ORTHO_SQUARES: &str = r#"
+[camera]
+type = "orthographic"
+position = [0.0, 0.0, 10.0]
+look_at = [0.0, 0.0, 0.0]
+width = 4.0
+
+[materials.glow]
+type = "emissive"
+emission = [4.0, 2.0, 1.0]
+
+[[quads]]
+corner = [-1.5, -0.5, 0.0]
+edge1 = [1.0, 0.0, 0.0]
+edge2 = [0.0, 1.0, 0.0]
+material = "glow"
+
+[[quads]]
+corner = [0.5, -0.5, 5.0]
+edge1 = [1.0, 0.0, 0.0]
+edge2 = [0.0, 1.0, 0.0]
+material = "glow"
+"#;
+
+/// The pixels (x, y) [`ORTHO_SQUARES`] lights: x in 8..24 or 40..56, y in 8..24.
+fn in_ortho_squares(x: u32, y: u32) -> bool {
+    ((8..24).contains(&x) || (40..56).contains(&x)) && (8..24).contains(&y)
+}
+
+#[test]
+fn an_orthographic_camera_sees_a_square_at_its_size_whatever_its_distance() {
+    let scene = Scene::load(&common::write_scene("render", "ortho.toml", ORTHO_SQUARES)).unwrap();
+    assert!(scene.camera(2.0).is_orthographic());
+    let s = RenderSettings { max_depth: 0, ..settings(64, 32, 4) };
+    let film = embree_render(&scene, &s);
+    for y in 0..32 {
+        for x in 0..64 {
+            let expected = if in_ortho_squares(x, y) { Vec3::new(4.0, 2.0, 1.0) } else { Vec3::ZERO };
+            assert_eq!(film.get(x, y), expected, "pixel ({x}, {y})");
+        }
+    }
+    // The camera stage traces a pixel's samples as one packet of eight origins: the general
+    // kernel (one ray at a time through `Camera::ray`) gives the same bits, and so does the
+    // naive accelerator.
+    let general = embree_render(&scene, &RenderSettings { specialize: false, ..s.clone() });
+    assert_eq!(general, film);
+    assert_eq!(common::render_naive(&scene, &s).0, film);
+}
+
+#[test]
+fn a_sample_clamp_scales_bright_samples_down_to_it_keeping_their_hue() {
+    // The squares' radiance (4, 2, 1), clamped at 2: (2, 1, 0.5), exactly; darker samples
+    // are untouched.
+    let scene = Scene::load(&common::write_scene("render", "ortho.toml", ORTHO_SQUARES)).unwrap();
+    let s = RenderSettings { max_depth: 0, ..settings(64, 32, 4) };
+    let (film, stats) = common::render_embree(&scene, &RenderSettings { clamp: Some(2.0), ..s.clone() });
+    let lit = (0..32).flat_map(|y| (0..64).map(move |x| (x, y))).filter(|&(x, y)| in_ortho_squares(x, y)).count();
+    assert_eq!(stats.clamped, lit as u64 * 4, "every sample of a lit pixel is clamped, no other");
+    for y in 0..32 {
+        for x in 0..64 {
+            let expected = if in_ortho_squares(x, y) { Vec3::new(2.0, 1.0, 0.5) } else { Vec3::ZERO };
+            assert_eq!(film.get(x, y), expected, "pixel ({x}, {y})");
+        }
+    }
+    // Above the brightest sample, a clamp changes nothing.
+    let (above, stats) = common::render_embree(&scene, &RenderSettings { clamp: Some(4.0), ..s.clone() });
+    assert_eq!(stats.clamped, 0);
+    assert_eq!(above, embree_render(&scene, &s));
 }

@@ -91,6 +91,8 @@ fn interrupted_and_resumed_renders_equal_the_uninterrupted_one() {
     let msg = String::from_utf8_lossy(&run.stderr);
     assert_eq!(run.status.code(), Some(143), "{msg}");
     assert!(msg.contains("checkpoint written to") && msg.contains("--resume"), "{msg}");
+    // It says how far the render got as the progress bar does, and in spp.
+    assert!(msg.contains("% of the render done (") && msg.contains(" spp on average so far, --spp 10000)"), "{msg}");
     assert!(ckpt.exists() && !out.exists());
     let partial = Checkpoint::load(&ckpt, &args_key()).unwrap();
     let (min, _, max) = partial.accum.spp_range();
@@ -156,10 +158,21 @@ fn resume_refuses_other_settings_and_other_scenes() {
         }
         other => panic!("expected a settings mismatch, got {:?}", other.map(|r| r.complete)),
     }
+    // A sample clamp changes the image: a render without one does not resume with one.
+    match resume_with(&scene, &RenderSettings { clamp: Some(10.0), ..settings.clone() }) {
+        Err(RenderError::Checkpoint(e @ CheckpointError::OtherSettings(..))) => {
+            assert!(e.to_string().contains("(absent) in the checkpoint, clamp=10 now"), "{e}")
+        }
+        other => panic!("expected a settings mismatch, got {:?}", other.map(|r| r.complete)),
+    }
     let mut moved = scene.clone();
     let fov = ember::scene::CameraOverride { fov: Some(30.0), ..Default::default() };
     moved.override_camera(&fov, 16.0 / 12.0).unwrap();
     assert!(matches!(resume_with(&moved, &settings), Err(RenderError::Checkpoint(CheckpointError::OtherScene(_)))));
+    let mut flat = scene.clone();
+    flat.override_camera(&ember::scene::CameraOverride { ortho: Some(600.0), ..Default::default() }, 16.0 / 12.0)
+        .unwrap();
+    assert!(matches!(resume_with(&flat, &settings), Err(RenderError::Checkpoint(CheckpointError::OtherScene(_)))));
     // The right scene and settings resume and give the uninterrupted image.
     let r = resume_with(&scene, &settings).unwrap();
     assert!(r.complete);

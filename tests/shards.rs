@@ -290,8 +290,8 @@ fn adaptive_shards_render_in_two_stages_and_merge_to_the_whole_render() {
         let o = render(&[mode, &["-o", s(&whole)]].concat());
         ok(&o);
         let said = String::from_utf8_lossy(&o.stderr);
-        // The default is adaptive: pixels take different counts at the cost of 32 spp.
-        assert_eq!(said.contains("adaptive, at the cost of 32 spp"), mode.is_empty(), "{said}");
+        // The default is adaptive: pixels take different counts for the budget of 32 spp.
+        assert_eq!(said.contains(" spp on average (adaptive: "), mode.is_empty(), "{said}");
         let parts = stages(mode, n);
         let merged = d.join("merged.exr");
         ok(&merge(&parts, &merged));

@@ -7,9 +7,7 @@ measures each image's relMSE against the renderer's own 1,024-spp reference. Its
 configurations are the defaults (adaptive sampling) and --no-robust. This driver loads it
 from PEERS_DIR (../shared/peers by default; it is not part of this repository) and adds:
   ember_uniform       ember --uniform (every pixel takes 64 samples)
-  ember_adaptive      ember --adaptive (the default since adaptive sampling became it)
   ember_old           another build of ember (the binary EMBER_OLD), defaults
-  ember_old_adaptive  the same with --adaptive
 Its warm-up and reference phases keep to CONFIGS (compare_all.py's own also run Cycles and the
 tutorial), and `rounds` prints the efficiency of every ember configuration against Mitsuba
 (llvm_ad_rgb, Russian roulette off) round by round: 1 / (relMSE x time), each round's times,
@@ -43,9 +41,7 @@ spec.loader.exec_module(ca)
 # name: (ember flags, the variable naming its binary or None for EMBER, label)
 EXTRA = {
     "ember_uniform": (["--uniform"], None, "ember --uniform"),
-    "ember_adaptive": (["--adaptive"], None, "ember --adaptive"),
     "ember_old": ([], "EMBER_OLD", "ember (EMBER_OLD), defaults"),
-    "ember_old_adaptive": (["--adaptive"], "EMBER_OLD", "ember (EMBER_OLD) --adaptive"),
 }
 ca.LABEL.update({cfg: label for cfg, (_, _, label) in EXTRA.items()})
 ca.SELF_REF.update({cfg: "ember" for cfg in EXTRA})

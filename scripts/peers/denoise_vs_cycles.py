@@ -356,7 +356,7 @@ def run(phase, renderer, scene, spp, denoise, seed=SEED, rnd=None, keep=True, ti
     if res:
         r = json.loads(res[-1][7:])
         rec.update(render_s=r["render_s"], render_cpu_s=r["render_cpu_s"], child=r)
-    m = re.search(r"rendered \d+x\d+ at \d+ spp in ([\d.]+) s", text)
+    m = re.search(r"rendered \d+x\d+ at .*? in ([\d.]+) s", text)
     if m:
         rec["ember_render_s"] = float(m.group(1))
     m = re.search(r"denoised in ([\d.]+) s \(([^;)]*)", text)

@@ -5,8 +5,8 @@
 //! image stays bit-identical for any thread count, tile order or interruption, and the
 //! per-pixel error estimate stays that of independent samples.
 //!
-//! - `box`: uniform over the pixel (what ember always did, and the default): the position is
-//!   `x + u`, computed exactly as before, so box images are bit-identical to earlier ones;
+//! - `box`: uniform over the pixel (the default): the position is exactly `x + u`, the same
+//!   bits as a film position drawn without any filter;
 //! - `gaussian`: a Gaussian of standard deviation 0.5 pixel truncated at radius 1.5 (3σ, the
 //!   defaults of pbrt-v4's Gaussian filter), sampled exactly by inverting its distribution
 //!   function in each axis (the filter is separable): `σ√2 · erf⁻¹((2u - 1) · erf(r / σ√2))`.

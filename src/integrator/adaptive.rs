@@ -1,5 +1,6 @@
-//! Adaptive sample allocation at a fixed budget (`--adaptive`): `spp` becomes the mean number
-//! of samples per pixel, and the render spends them where the image is noisy.
+//! Adaptive sample allocation at a fixed budget (`ember render`'s default above 8 spp): `spp`
+//! becomes the budget, the time of `spp` samples in every pixel, and the render spends it
+//! where the image is noisy.
 //!
 //! The render takes two rounds. In the first every pixel takes [`first_round_spp`] samples
 //! (a quarter of the budget). Then [`allocate`] shares out the rest: pixel `i` gets a number
@@ -28,17 +29,16 @@ use glam::DVec3;
 
 /// The cost of a sample besides the rays after its camera ray, in units of such a ray: its
 /// camera ray (traced in a packet of [`LANES`], coherent), its random numbers and its film
-/// update. A fit of render time against samples and rays (the peers' teapot at 512² with and
-/// without `--adaptive`) gives 0.015; 0.1 keeps some samples in pixels that trace nothing more.
+/// update. A fit of render time against samples and rays (the peers' teapot at 512², adaptive
+/// and `--uniform`) gives 0.015; 0.1 keeps some samples in pixels that trace nothing more.
 const SAMPLE_COST: f64 = 0.1;
 
 /// How far a pixel's neighbourhood reaches: the (2 · REACH + 1)² pixels around it, less
 /// itself (24). Noise is spread over a few pixels wherever it is (a soft shadow, an indirectly
 /// lit crease), and one pixel's first round is a few samples: more neighbours estimate it
-/// better. Against 3×3, on the peers' scenes at 512² (docs/performance.md, "Adaptive
-/// sampling"): teapot relMSE 7.475e-5 → 6.385e-5, Cornell box 0.007781 → 0.007709; at 256²
-/// −8.7% and −0.8%. At 64×64 it does not pay (teapot 3.04e-5 → 3.31e-5): a 5×5 block is
-/// then a large part of a feature.
+/// better. Against 3×3, on the peers' scenes at 512²: teapot relMSE 7.475e-5 → 6.385e-5,
+/// Cornell box 0.007781 → 0.007709; at 256² −8.7% and −0.8%. At 64×64 it does not pay
+/// (teapot 3.04e-5 → 3.31e-5): a 5×5 block is then a large part of a feature.
 const REACH: usize = 2;
 
 /// The most samples one pixel may take, as a multiple of the mean `spp`.
@@ -59,6 +59,51 @@ pub fn by_default(spp: u32) -> bool {
 /// The most samples a pixel may take in an adaptive render of mean `spp`.
 pub fn max_spp(spp: u32) -> u32 {
     spp.saturating_mul(MAX_FACTOR)
+}
+
+/// The cost of a sample of a pixel whose `count` first-round samples traced `rays`, as the
+/// budget counts it: the rays it traced after its camera ray, plus [`SAMPLE_COST`].
+fn budget_cost(count: u32, rays: u32) -> f64 {
+    SAMPLE_COST + (rays as f64 / count.max(1) as f64 - 1.0).max(0.0)
+}
+
+/// The cost of one sample of each pixel after the first round of an adaptive render, in
+/// units of the mean first-round sample of the pixels `owned` (all, or a shard's): the pixel's
+/// first-round rays per sample over their mean (1 where nothing was traced). A sample's time
+/// follows the rays it traces, so this is how a progress report weighs the second round's
+/// samples ([`work`]); a first-round sample counts 1 (the first round is the same everywhere
+/// and taken in a shuffled order of tiles, so its samples take the mean time).
+pub fn sample_costs(plan: &[AdaptivePixel], first_round: u32, owned: impl Fn(usize) -> bool) -> Vec<f64> {
+    let per_sample = |a: &AdaptivePixel| a.rays as f64 / first_round.max(1) as f64;
+    let (sum, n) = plan
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| owned(i))
+        .fold((0.0, 0usize), |(s, n), (_, a)| (s + per_sample(a), n + 1));
+    let mean = sum / n.max(1) as f64;
+    plan.iter().map(|a| if mean > 0.0 { per_sample(a) / mean } else { 1.0 }).collect()
+}
+
+/// The work of a pixel holding `count` samples in an adaptive render whose first round is
+/// `first_round` samples, when a later sample of it costs `cost` ([`sample_costs`]): one per
+/// first-round sample, `cost` per later one.
+pub fn work(count: u32, first_round: u32, cost: f64) -> f64 {
+    count.min(first_round) as f64 + count.saturating_sub(first_round) as f64 * cost
+}
+
+/// The mean cost of the samples the plan added after the first round, over the mean cost of a
+/// sample of the pixels `owned`, as the budget counts costs: above 1 when they went to pixels
+/// whose samples cost more than the mean (more bounces), so that fewer of them fit in the
+/// budget and the mean spp falls below `spp`. `None` when the plan added none.
+pub fn added_sample_cost(plan: &[AdaptivePixel], first_round: u32, owned: impl Fn(usize) -> bool) -> Option<f64> {
+    let (mut pixels, mut mean, mut samples, mut added_cost) = (0usize, 0.0, 0u64, 0.0);
+    for a in plan.iter().enumerate().filter(|&(i, _)| owned(i)).map(|(_, a)| a) {
+        let cost = budget_cost(first_round, a.rays);
+        let added = a.target.saturating_sub(first_round) as u64;
+        (pixels, mean) = (pixels + 1, mean + cost);
+        (samples, added_cost) = (samples + added, added_cost + added as f64 * cost);
+    }
+    (samples > 0 && mean > 0.0).then(|| added_cost / samples as f64 / (mean / pixels as f64))
 }
 
 /// Estimated relative variance of one sample of pixel state `p`, whose samples' squares sum to
@@ -96,7 +141,7 @@ fn ring_mean(i: usize, of: &[f64], w: usize, h: usize) -> f64 {
 /// traced after its camera ray, plus [`SAMPLE_COST`].
 fn near_costs(counts: &[u32], plan: &[AdaptivePixel], w: usize, h: usize) -> Vec<f64> {
     let cost: Vec<f64> =
-        counts.iter().zip(plan).map(|(&n, a)| SAMPLE_COST + (a.rays as f64 / n.max(1) as f64 - 1.0).max(0.0)).collect();
+        counts.iter().zip(plan).map(|(&n, a)| budget_cost(n, a.rays)).collect();
     (0..w * h).map(|i| if w * h == 1 { cost[i] } else { ring_mean(i, &cost, w, h) }).collect()
 }
 
@@ -348,12 +393,29 @@ mod tests {
     #[test]
     fn a_quiet_image_still_spends_its_budget() {
         // Weights so small that no pixel gets a sample at scales 1 or 2: the search for the
-        // scale must go on (it once stopped there, leaving every pixel at its first round).
+        // scale must go on (stopping there would leave every pixel at its first round).
         let first = image(|x, _| 0.001 * (1 + x) as f32);
         let t = allocate(&first.0, &first.1, 6, 5, 64);
         let total: u32 = t.iter().sum();
         assert!(total.abs_diff(64 * 30) <= 4 * 30, "total {total}: {t:?}");
         assert!(t[5] > t[0], "{t:?}");
+    }
+
+    #[test]
+    fn later_samples_weigh_as_their_pixels_rays() {
+        // Pixel 0 traced 3 rays a sample in its first round of 8, pixel 1 one: the mean is 2.
+        let mut plan = vec![AdaptivePixel { rays: 24, ..AdaptivePixel::default() }; 2];
+        plan[1].rays = 8;
+        assert_eq!(sample_costs(&plan, 8, |_| true), vec![1.5, 0.5]);
+        assert_eq!(work(20, 8, 1.5), 8.0 + 12.0 * 1.5);
+        assert_eq!(work(5, 8, 1.5), 5.0);
+        // The plan adds 16 samples to pixel 0 and none to pixel 1. The budget counts the rays
+        // after the camera ray, plus 0.1: 2.1 and 0.1, mean 1.1.
+        (plan[0].target, plan[1].target) = (24, 8);
+        let c = added_sample_cost(&plan, 8, |_| true).unwrap();
+        assert!((c - 2.1 / 1.1).abs() < 1e-12, "{c}");
+        // Of pixel 1 alone (a shard), nothing was added.
+        assert_eq!(added_sample_cost(&plan, 8, |i| i == 1), None);
     }
 
     #[test]

@@ -18,8 +18,9 @@
 //!   densities are computed.
 //!
 //! Every kernel takes the samples of a pixel in groups of [`LANES`] (8): their camera rays
-//! share an origin and nearly a direction, so they are traced as one Embree packet
-//! (`rtcIntersect8`, hinted coherent); each path then continues on its own.
+//! share an origin and nearly a direction (an orthographic camera's: a direction, and origins
+//! within the pixel), so they are traced as one Embree packet (`rtcIntersect8`, hinted
+//! coherent); each path then continues on its own.
 //!
 //! 2⁵ = 32 instances are compiled; one is chosen per render. Geometry types a scene lacks are
 //! not a dimension: they are simply not registered with the accelerator. The general kernel
@@ -154,12 +155,15 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
         (fx[i], fy[i]) = (p.x / w as f32, p.y / h as f32);
     }
     let cam = ctx.camera;
-    let mut camera_rays = RayPacket::splat(&Ray::new(cam.position, Vec3::Z));
+    let mut camera_rays = RayPacket::splat(&Ray::new(cam.position, cam.forward()));
     camera_rays.coherent = true;
     if LENS {
         for (i, u) in numbers.iter().enumerate() {
             camera_rays.set(i, &cam.ray(Vec2::new(fx[i], fy[i]), Vec2::new(u[2], u[3])));
         }
+    } else if cam.is_orthographic() {
+        // Parallel rays from points across the view plane: one direction, eight origins.
+        camera_rays.o = cam.ortho_origins(&fx, &fy);
     } else {
         camera_rays.d = cam.pinhole_dirs(&fx, &fy);
     }

@@ -28,9 +28,8 @@
 //! the pool's size, at least the spp), and the vertices of one path connect to different
 //! ones; pixels that share vertices have correlated errors, at random places. The pool is
 //! the same for any kernel, thread count, tile order and shard. A connection costs one shadow
-//! ray. On Embree's Cornell box (512², 64 spp, 2 threads) a sample traces 1.21× the rays of
-//! a render without light vertices, for 0.57× the relMSE (docs/performance.md, "Light
-//! vertices").
+//! ray. On Embree's Cornell box a sample traces about 1.2× the rays of a render without light
+//! vertices, for about half the relMSE (the figures: docs/performance.md, "Light vertices").
 
 use super::path::PathContext;
 use super::surface::surface_point;
@@ -71,7 +70,7 @@ pub(super) struct LightVertex {
 /// directions around the lamp, as a pixel's own Sobol samples were), and the vertices of one
 /// path take different entries: with one entry per path (the same at every depth) a path's
 /// connections gained or lost together when its light vertex lay near or far from the lamp,
-/// and the Cornell box's relMSE was 1.08× what it is now, at the same rays. Samples from B
+/// which left the Cornell box's relMSE 1.08× higher at the same rays. Samples from B
 /// on take the next blocks.
 pub(crate) struct LightVertexPool {
     vertices: Vec<Option<LightVertex>>,

@@ -15,7 +15,7 @@ mod surface;
 pub use aux::AuxSample;
 pub use kernel::KernelChoice;
 pub use plan::RenderPlan;
-pub use progressive::{FirstRounds, Progress, RenderControl, RenderResult, tile_order};
+pub use progressive::{FirstRounds, PreviewFn, Progress, RenderControl, RenderResult, tile_order};
 pub use surface::{FaceNormals, SurfacePoint, surface_point};
 
 use crate::accel::{Accel, AccelError};
@@ -35,6 +35,12 @@ pub struct RenderStats {
     pub samples: u64,
     /// Samples whose value was NaN or infinite; dropped from the image.
     pub nonfinite: u64,
+    /// Samples of this call scaled down by the sample clamp ([`RenderSettings::clamp`]).
+    pub clamped: u64,
+    /// In an adaptive render, the mean cost of the samples its plan added
+    /// ([`adaptive::added_sample_cost`]): above 1 when they went to pixels that trace more rays
+    /// per sample than the mean, so that fewer than `spp` per pixel fit in the budget.
+    pub added_sample_cost: Option<f64>,
     /// What ran: the kernel, the path depth and the roulette start, and why.
     pub plan: RenderPlan,
     /// (min, mean, max) samples per pixel.

@@ -116,6 +116,7 @@ impl RenderPlan {
             s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator, s.sampler, s.filter
         ) + if s.adaptive { " adaptive=relmse-5x5" } else { "" }
             + if self.light_vertices { " light-vertices=pool-by-depth" } else { "" }
+            + &s.clamp.map_or(String::new(), |c| format!(" clamp={c}"))
     }
 
     /// The most rays one sample traces: its camera ray, and at each of its at most
@@ -264,5 +265,9 @@ mod tests {
         let gaussian = RenderSettings { filter: crate::film::PixelFilter::Gaussian, ..RenderSettings::default() };
         let other = RenderPlan::for_effects(scattering(0.75), &gaussian).checkpoint_key(7, "accel=naive");
         assert!(other.settings.contains(" filter=gaussian "), "{}", other.settings);
+        // So does a sample clamp.
+        let clamped = RenderSettings { clamp: Some(10.0), ..RenderSettings::default() };
+        let other = RenderPlan::for_effects(scattering(0.75), &clamped).checkpoint_key(7, "accel=naive");
+        assert!(other.settings.ends_with(" clamp=10"), "{}", other.settings);
     }
 }

@@ -27,7 +27,7 @@ use crate::accel::{Accel, LANES};
 use crate::film::{Accumulator, Checkpoint, PixelState};
 use crate::sampler::{PixelSampler, mix64};
 use crate::scene::Scene;
-use crate::settings::TILE;
+use crate::settings::{TILE, clamp_sample};
 use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Mutex;
@@ -48,6 +48,10 @@ pub struct RenderControl<'a> {
     pub resume: Option<(&'a Path, Checkpoint)>,
     /// Called from the worker threads as tiles finish (see [`Progress`]).
     pub progress: Option<&'a (dyn Fn(Progress) + Sync)>,
+    /// Every `Duration`, hand the image as it stands (each pixel's mean so far; black where no
+    /// sample has landed yet) to this function, from a worker thread with no lock held; an
+    /// `Err` is a preview that could not be shown (reported once at the end, with the count).
+    pub preview: Option<(Duration, &'a PreviewFn<'a>)>,
     /// Stage 1 of a two-stage shard: render only what needs no other shard (an adaptive
     /// render's first round; all of a uniform render).
     pub first_round_only: bool,
@@ -55,6 +59,9 @@ pub struct RenderControl<'a> {
     /// stage 1, put together), planned as a whole render plans it; unless resumed.
     pub first_rounds: Option<FirstRounds>,
 }
+
+/// What [`RenderControl::preview`] calls with the image so far.
+pub type PreviewFn<'a> = dyn Fn(&crate::film::Film) -> Result<(), String> + Sync + 'a;
 
 /// The whole image's first round, for stage 2 of a two-stage shard ([`RenderControl`]).
 pub struct FirstRounds {
@@ -67,17 +74,24 @@ pub struct FirstRounds {
 
 /// How far a render has got, reported to [`RenderControl::progress`] each time a tile
 /// finishes a round.
+///
+/// Work is counted in samples, each weighed by what it costs: 1 for a sample of a uniform
+/// render or of an adaptive render's first round; in the second round, the pixel's cost
+/// ([`adaptive::sample_costs`]: its first-round rays per sample over the image's mean), since
+/// the plan sends samples to pixels that cost more (or less) than the mean. Until the plan is
+/// made, an adaptive render's work is planned as its budget, `spp` samples in every pixel; so
+/// the share of the work done follows the time spent through both rounds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Progress {
-    /// Samples taken so far, earlier sessions of a resumed render included.
-    pub samples_done: u64,
-    /// Of those, the samples taken by earlier sessions (read from the checkpoint resumed):
-    /// `samples_done - samples_before` were taken in `elapsed`.
-    pub samples_before: u64,
-    /// Samples the render will have taken when the current round ends: the total, without a
-    /// target error; with one, later rounds may add more (only pixels still above the target
-    /// take part in them).
-    pub samples_planned: u64,
+    /// Work done so far, earlier sessions of a resumed render included.
+    pub work_done: f64,
+    /// Of that, the work of earlier sessions (read from the checkpoint resumed):
+    /// `work_done - work_before` was done in `elapsed`.
+    pub work_before: f64,
+    /// The work of the whole render, as planned now. With a target error, only to the end of
+    /// the current round: later rounds may add more (only pixels still above the target take
+    /// part in them).
+    pub work_planned: f64,
     /// Rays traced in this session.
     pub rays: u64,
     /// Time spent in this session.
@@ -98,8 +112,11 @@ pub struct RenderResult {
     pub warnings: Vec<String>,
 }
 
-/// The periodic checkpoints of a render: when the last was written, and the failures.
+/// Something a render writes periodically (checkpoints, previews): when the last was
+/// written, and the failures.
 struct Periodic {
+    /// What is written, plural: `periodic checkpoints`.
+    what: &'static str,
     last: Instant,
     attempts: u32,
     failures: u32,
@@ -107,11 +124,25 @@ struct Periodic {
 }
 
 impl Periodic {
+    fn new(what: &'static str) -> Mutex<Periodic> {
+        Mutex::new(Periodic { what, last: Instant::now(), attempts: 0, failures: 0, first_failure: None })
+    }
+
+    /// Runs `write` now; a failure is counted, not returned.
+    fn attempt<E: std::fmt::Display>(&mut self, write: impl FnOnce() -> Result<(), E>) {
+        self.attempts += 1;
+        if let Err(e) = write() {
+            self.failures += 1;
+            self.first_failure.get_or_insert_with(|| e.to_string());
+        }
+        self.last = Instant::now();
+    }
+
     fn warning(&self) -> Option<String> {
         let first = self.first_failure.as_ref()?;
         Some(format!(
-            "{} of {} periodic checkpoints could not be written; the render went on without them (first failure: {first})",
-            self.failures, self.attempts
+            "{} of {} {} could not be written; the render went on without them (first failure: {first})",
+            self.failures, self.attempts, self.what
         ))
     }
 }
@@ -205,13 +236,18 @@ pub(super) fn run(
     let lights = scene.light_set();
     // The pixels this render takes: a shard's, or all.
     let owned = |i: usize| settings.shard.is_none_or(|s| s.owns_pixel(i as u32 % w, i as u32 / w));
-    let finish = |accum: Accumulator, rays: u64, nonfinite: u64, complete: bool, warnings: Vec<String>| {
+    let finish = |accum: Accumulator, rays: u64, (nonfinite, clamped): (u64, u64), complete, warnings| {
         let stats = RenderStats {
             elapsed: start.elapsed(),
             earlier_sessions: prior_elapsed,
             rays,
             samples: accum.samples_of(owned),
             nonfinite: prior_nonfinite + nonfinite,
+            clamped,
+            added_sample_cost: accum
+                .adaptive
+                .as_ref()
+                .and_then(|p| adaptive::added_sample_cost(p, adaptive::first_round_spp(settings.spp), owned)),
             plan: plan.clone(),
             spp: accum.spp_range_of(owned),
             error_estimate: accum.error_estimate_of(owned),
@@ -231,7 +267,7 @@ pub(super) fn run(
                 p.count = p.count.max(t);
             }
         }
-        return Ok(finish(accum, 0, 0, true, Vec::new()));
+        return Ok(finish(accum, 0, (0, 0), true, Vec::new()));
     }
     let sample = plan.kernel.sample_fn();
     let normals = FaceNormals::of(scene);
@@ -256,12 +292,28 @@ pub(super) fn run(
     // shard, and stage 1 is all of it.
     let n_rounds = if control.first_round_only && settings.adaptive { 1 } else { rounds(settings) };
     let rays_total = AtomicU64::new(pool.as_ref().map_or(0, |p| p.rays));
-    let samples_before = accum.samples_of(owned);
-    let samples_done = AtomicU64::new(samples_before);
+    // Progress is counted in work ([`Progress`]): a sample of pixel `i` beyond an adaptive
+    // render's first round weighs `costs[i]` once the plan is made.
+    let first_round = adaptive::first_round_spp(settings.spp);
+    let costs_of = |a: &Accumulator| -> Option<Vec<f64>> {
+        let plan = a.adaptive.as_ref()?;
+        plan.iter().all(|p| p.target > 0).then(|| adaptive::sample_costs(plan, first_round, owned))
+    };
+    let work_of = |costs: &Option<Vec<f64>>, i: usize, count: u32| match costs {
+        Some(c) => adaptive::work(count, first_round, c[i]),
+        None => count as f64,
+    };
+    let work_before = {
+        let costs = costs_of(&accum);
+        accum.pixels.iter().enumerate().filter(|&(i, _)| owned(i)).map(|(i, p)| work_of(&costs, i, p.count)).sum()
+    };
+    let work_done = Mutex::new(work_before);
     let nonfinite = AtomicU64::new(0);
+    let clamped = AtomicU64::new(0);
     let stopped = AtomicBool::new(false);
     let shared = Mutex::new(accum);
-    let periodic = Mutex::new(Periodic { last: Instant::now(), attempts: 0, failures: 0, first_failure: None });
+    let periodic = Periodic::new("periodic checkpoints");
+    let previews = Periodic::new("previews");
     let stop_requested = || control.stop.is_some_and(|s| s.load(Ordering::Relaxed));
     let save_checkpoint = |accum: &Accumulator, nonfinite: u64| -> Result<(), RenderError> {
         if let Some((path, _)) = control.checkpoint {
@@ -295,17 +347,22 @@ pub(super) fn run(
         }
         // Pixel `i`'s planned total in an adaptive render (0 before the plan).
         let allocated = |a: &Accumulator, i: usize| a.adaptive.as_ref().map(|plan| plan[i].target);
-        let planned = {
+        let (costs, planned) = {
             let a = shared.lock().unwrap_or_else(|e| e.into_inner());
-            a.samples_of(owned)
-                + a.pixels
-                    .iter()
-                    .enumerate()
-                    .filter(|&(i, _)| owned(i))
+            let costs = costs_of(&a);
+            let planned: f64 = if settings.adaptive && costs.is_none() && n_rounds > 1 {
+                // Before the plan, its budget: the cost of `spp` samples in every pixel.
+                (0..a.pixels.len()).filter(|&i| owned(i)).count() as f64 * settings.spp as f64
+            } else {
+                let pixels = a.pixels.iter().enumerate().filter(|&(i, _)| owned(i));
+                pixels
                     .map(|(i, p)| {
-                        round_target(settings, round, p, allocated(&a, i)).map_or(0, |t| (t - p.count) as u64)
+                        let end = round_target(settings, round, p, allocated(&a, i)).unwrap_or(p.count);
+                        work_of(&costs, i, end)
                     })
-                    .sum::<u64>()
+                    .sum()
+            };
+            (costs, planned)
         };
         tiles.par_iter().try_for_each(|&(tx, ty)| -> Result<(), RenderError> {
             if stop_requested() {
@@ -315,7 +372,7 @@ pub(super) fn run(
             let (x0, y0) = (tx * TILE, ty * TILE);
             let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
             let mut rays = 0u64;
-            let mut taken = 0u64;
+            let mut taken = 0.0f64;
             let mut values = [glam::Vec3::ZERO; LANES];
             let mut aux_values = [AuxSample::default(); LANES];
             'pixels: for y in y0..y1 {
@@ -335,6 +392,7 @@ pub(super) fn run(
                     };
                     let Some(target) = round_target(settings, round, &p, planned_total) else { continue };
                     let mut pixel_bad = 0;
+                    let mut pixel_clamped = 0;
                     let (first, mut s) = (p.count, p.count);
                     let streams = PixelSampler::new(settings.sampler, settings.seed, y as u64 * w as u64 + x as u64);
                     let rays_before = rays;
@@ -353,6 +411,16 @@ pub(super) fn run(
                             .map_err(RenderError::from)?;
                         for &v in &values[..(end - s) as usize] {
                             if v.is_finite() {
+                                // The sample clamp acts on what the film receives: the path
+                                // and its numbers are those of an unclamped render.
+                                let v = match settings.clamp {
+                                    Some(limit) => {
+                                        let (v, scaled) = clamp_sample(v, limit);
+                                        pixel_clamped += scaled as u64;
+                                        v
+                                    }
+                                    None => v,
+                                };
                                 p.add(v);
                                 let v = v.as_dvec3();
                                 sum_sq += v * v;
@@ -370,7 +438,7 @@ pub(super) fn run(
                         }
                         s = end;
                     }
-                    taken += (s - first) as u64;
+                    taken += work_of(&costs, i, s) - work_of(&costs, i, first);
                     let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
                     a.pixels[i] = p;
                     if round == 0
@@ -384,28 +452,37 @@ pub(super) fn run(
                     }
                     // Counted under the lock, so a checkpoint's count matches its pixels.
                     let total_bad = nonfinite.fetch_add(pixel_bad, Ordering::Relaxed) + pixel_bad;
+                    clamped.fetch_add(pixel_clamped, Ordering::Relaxed);
                     // A periodic checkpoint that cannot be written (a full disk) does not stop
                     // the render: it is reported at the end, and tried again after `every`.
                     if let Some((_, Some(every))) = control.checkpoint
                         && let Ok(mut p) = periodic.try_lock()
                         && p.last.elapsed() >= every
                     {
-                        p.attempts += 1;
-                        if let Err(e) = save_checkpoint(&a, total_bad) {
-                            p.failures += 1;
-                            p.first_failure.get_or_insert_with(|| e.to_string());
-                        }
-                        p.last = Instant::now();
+                        p.attempt(|| save_checkpoint(&a, total_bad));
+                    }
+                    // A preview reads the pixels under the lock and is written without it.
+                    if let Some((every, show)) = control.preview
+                        && let Ok(mut p) = previews.try_lock()
+                        && p.last.elapsed() >= every
+                    {
+                        let film = a.film();
+                        drop(a);
+                        p.attempt(|| show(&film));
                     }
                 }
             }
             let rays = rays_total.fetch_add(rays, Ordering::Relaxed) + rays;
-            let done = samples_done.fetch_add(taken, Ordering::Relaxed) + taken;
+            let done = {
+                let mut done = work_done.lock().unwrap_or_else(|e| e.into_inner());
+                *done += taken;
+                *done
+            };
             if let Some(report) = control.progress {
                 report(Progress {
-                    samples_done: done,
-                    samples_before,
-                    samples_planned: planned,
+                    work_done: done,
+                    work_before,
+                    work_planned: planned,
                     rays,
                     elapsed: start.elapsed(),
                     round: round + 1,
@@ -424,7 +501,10 @@ pub(super) fn run(
     if !complete {
         save_checkpoint(&accum, bad)?;
     }
-    let periodic = periodic.into_inner().unwrap_or_else(|e| e.into_inner());
-    let warnings = periodic.warning().into_iter().collect();
-    Ok(finish(accum, rays_total.load(Ordering::Relaxed), bad, complete, warnings))
+    let warnings = [periodic, previews]
+        .into_iter()
+        .filter_map(|p| p.into_inner().unwrap_or_else(|e| e.into_inner()).warning())
+        .collect();
+    let counts = (bad, clamped.load(Ordering::Relaxed));
+    Ok(finish(accum, rays_total.load(Ordering::Relaxed), counts, complete, warnings))
 }

@@ -9,8 +9,8 @@
 //! materials the scene uses ([`crate::scene::Effects::albedo`], each material's at normal
 //! incidence). The automatic start is the first depth k ≥ 1 at which a^k ≤
 //! [`RR_THROUGHPUT`] = ½: from there on every roulette ends at least half of the paths that
-//! reach it. So a dark scene (a ≤ ½) starts at depth 1, a typical one (a ≈ 0.75) at 3 (the
-//! former fixed default), a bright one later (a = 0.8: 4; 0.95: 14), and one with a white
+//! reach it. So a dark scene (a ≤ ½) starts at depth 1, a typical one (a ≈ 0.75) at 3, a
+//! bright one later (a = 0.8: 4; 0.95: 14), and one with a white
 //! surface or clear glass (a = 1) never.
 //!
 //! The start must come before the path depth the scene uses; if it does not, roulette could

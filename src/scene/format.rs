@@ -264,14 +264,37 @@ pub struct RenderSection {
 #[derive(Debug, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct CameraSection {
+    /// `"perspective"` (the default) or `"orthographic"`.
+    #[serde(rename = "type")]
+    pub kind: Option<Spanned<Named<Projection>>>,
     pub position: Spanned<Point>,
     pub look_at: Point,
     pub up: Option<V3>,
-    /// Vertical field of view, degrees.
+    /// Vertical field of view, degrees (perspective).
     pub fov: Option<Spanned<Positive>>,
-    /// Lens radius (0 = pinhole).
-    pub aperture: Option<Aperture>,
-    pub focus_distance: Option<Length>,
+    /// Lens radius (0 = pinhole; perspective).
+    pub aperture: Option<Spanned<Aperture>>,
+    pub focus_distance: Option<Spanned<Length>>,
+    /// The view's width in world units (orthographic).
+    pub width: Option<Spanned<Length>>,
+}
+
+/// A camera's projection (`[camera] type`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Projection {
+    Perspective,
+    Orthographic,
+}
+
+impl std::str::FromStr for Projection {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "perspective" => Ok(Projection::Perspective),
+            "orthographic" => Ok(Projection::Orthographic),
+            _ => Err(format!("unknown camera type {s:?} (expected \"perspective\" or \"orthographic\")")),
+        }
+    }
 }
 
 #[derive(Debug, Deserialize)]

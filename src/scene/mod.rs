@@ -14,7 +14,7 @@ pub use effects::{DepthLimit, Effects};
 pub use error::SceneError;
 pub use mesh_file::{FileMesh, MeshFile};
 
-use crate::camera::Camera;
+use crate::camera::{Camera, model_view_dir, orbit_dir};
 use crate::geometry::{Aabb, Geometry, Shape, bounds_of};
 use crate::light::{Background, Light, LightSet};
 use crate::material::Material;
@@ -50,9 +50,41 @@ pub struct CameraSpec {
     pub position: Vec3,
     pub look_at: Vec3,
     pub up: Vec3,
+    /// Vertical field of view in degrees (perspective).
     pub fov: f32,
     pub aperture: f32,
     pub focus_distance: Option<f32>,
+    /// An orthographic camera's view width, in world units; `None`: perspective.
+    pub ortho_width: Option<f32>,
+}
+
+impl CameraSpec {
+    /// A pinhole camera at `position` looking at `look_at`, vertical field of view `fov`
+    /// degrees.
+    pub fn pinhole(position: Vec3, look_at: Vec3, up: Vec3, fov: f32) -> CameraSpec {
+        CameraSpec { position, look_at, up, fov, aperture: 0.0, focus_distance: None, ortho_width: None }
+    }
+
+    /// The `[camera]` table of a scene file that describes this camera, numbers written so
+    /// that they read back the same.
+    pub fn to_toml(&self) -> String {
+        let v = |v: Vec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
+        let mut s =
+            format!("[camera]\nposition = {}\nlook_at = {}\nup = {}\n", v(self.position), v(self.look_at), v(self.up));
+        match self.ortho_width {
+            Some(w) => s += &format!("type = \"orthographic\"\nwidth = {w}\n"),
+            None => {
+                s += &format!("fov = {}\n", self.fov);
+                if self.aperture > 0.0 {
+                    s += &format!("aperture = {}\n", self.aperture);
+                }
+                if let Some(f) = self.focus_distance {
+                    s += &format!("focus_distance = {f}\n");
+                }
+            }
+        }
+        s
+    }
 }
 
 /// The vertical field of view, in degrees, of a camera that does not say (and of the camera
@@ -60,7 +92,8 @@ pub struct CameraSpec {
 pub const DEFAULT_FOV: f32 = 40.0;
 
 /// Parts of a camera given over a scene's (`ember render --camera-position`, `--look-at`,
-/// `--up`, `--fov`): each part given replaces the scene's; see [`Scene::override_camera`].
+/// `--up`, `--fov`, `--orbit`, `--ortho`): each part given replaces the scene's; see
+/// [`Scene::override_camera`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CameraOverride {
     pub position: Option<Vec3>,
@@ -68,6 +101,20 @@ pub struct CameraOverride {
     pub up: Option<Vec3>,
     /// Vertical field of view, degrees.
     pub fov: Option<f32>,
+    /// A camera orbiting the centre of the scene's bounds and looking at it (instead of a
+    /// position and a point looked at).
+    pub orbit: Option<Orbit>,
+    /// An orthographic camera of this view width (world units).
+    pub ortho: Option<f32>,
+}
+
+/// Where an orbiting camera is: [`crate::camera::orbit_dir`] of the angles (degrees), at
+/// `distance` from the centre, or where it frames the scene as the automatic camera does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Orbit {
+    pub azimuth: f32,
+    pub elevation: f32,
+    pub distance: Option<f32>,
 }
 
 impl CameraOverride {
@@ -207,6 +254,9 @@ impl Scene {
     /// The camera for an image of aspect `width / height`.
     pub fn camera(&self, aspect: f32) -> Camera {
         match self.camera {
+            Some(c) if let Some(width) = c.ortho_width => {
+                Camera::orthographic(c.position, c.look_at, c.up, width, aspect)
+            }
             Some(c) => {
                 let focus = c.focus_distance.unwrap_or_else(|| (c.look_at - c.position).length());
                 Camera::look_at(c.position, c.look_at, c.up, c.fov, aspect, c.aperture, focus)
@@ -215,38 +265,53 @@ impl Scene {
         }
     }
 
+    /// The scene's camera, or for a scene without one the camera that frames it in an image
+    /// of aspect `aspect` ([`Camera::fitting`]): it looks at the centre of the bounds, up +Y.
+    pub fn camera_spec(&self, aspect: f32) -> CameraSpec {
+        self.camera.unwrap_or_else(|| self.framing(model_view_dir(), DEFAULT_FOV, aspect))
+    }
+
+    /// The camera that frames the scene from direction `dir` (from the centre of the bounds),
+    /// as the automatic camera does ([`Camera::fitting_from`]).
+    fn framing(&self, dir: Vec3, fov: f32, aspect: f32) -> CameraSpec {
+        let framing = Camera::fitting_from(dir, self.outline_points(), &self.bounds(), fov, aspect);
+        CameraSpec::pinhole(framing.position, self.bounds().center(), Vec3::Y, fov)
+    }
+
     /// Puts the parts of `o` over the scene's camera. A scene without a camera first gets the
     /// one that would frame it in an image of aspect `aspect` (with `o`'s field of view, if
-    /// given): it looks at the centre of the bounds, up is +Y. The result is the scene's camera
-    /// (so it is part of the fingerprint). Refused: a position equal to the point looked at.
-    /// The parts' ranges (coordinates within ±[`format::MAX_COORDINATE`], 0 < fov < 180) are
-    /// checked where they are read.
+    /// given): it looks at the centre of the bounds, up is +Y. An orbit places the camera
+    /// around the centre of the bounds, looking at it, at its distance or at the one that
+    /// frames the scene from there; `ortho` makes the camera orthographic (no lens). The
+    /// result is the scene's camera (so it is part of the fingerprint). Refused: a position
+    /// equal to the point looked at. The parts' ranges (coordinates within
+    /// ±[`format::MAX_COORDINATE`], 0 < fov < 180) are checked where they are read.
     pub fn override_camera(&mut self, o: &CameraOverride, aspect: f32) -> Result<(), String> {
         if o.is_empty() {
             return Ok(());
         }
-        let base = match self.camera {
-            Some(c) => c,
-            None => {
-                let fov = o.fov.unwrap_or(DEFAULT_FOV);
-                let framing = Camera::fitting(self.outline_points(), &self.bounds(), fov, aspect);
-                CameraSpec {
-                    position: framing.position,
-                    look_at: self.bounds().center(),
-                    up: Vec3::Y,
-                    fov,
-                    aperture: 0.0,
-                    focus_distance: None,
-                }
+        let fov = o.fov.or(self.camera.map(|c| c.fov)).unwrap_or(DEFAULT_FOV);
+        let base = match (o.orbit, self.camera) {
+            (Some(orbit), _) => {
+                let dir = orbit_dir(orbit.azimuth, orbit.elevation);
+                let framed = self.framing(dir, fov, aspect);
+                let centre = self.bounds().center();
+                let position = orbit.distance.map_or(framed.position, |d| centre + dir * d);
+                CameraSpec { position, ..framed }
             }
+            (None, Some(c)) => c,
+            (None, None) => self.framing(model_view_dir(), fov, aspect),
         };
-        let c = CameraSpec {
+        let mut c = CameraSpec {
             position: o.position.unwrap_or(base.position),
             look_at: o.look_at.unwrap_or(base.look_at),
             up: o.up.unwrap_or(base.up),
             fov: o.fov.unwrap_or(base.fov),
             ..base
         };
+        if let Some(width) = o.ortho {
+            (c.ortho_width, c.aperture, c.focus_distance) = (Some(width), 0.0, None);
+        }
         if c.position == c.look_at {
             return Err(format!(
                 "the camera position and the point it looks at are the same point ({}, {}, {})",
@@ -298,5 +363,102 @@ impl Scene {
     #[inline]
     pub fn material(&self, geom: u32, prim: u32) -> &Material {
         &self.materials[self.bindings[geom as usize].material(prim) as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scene of two spheres, bounds (-1, 0, -2)..(3, 2, 0), centre (1, 1, -1), and a camera
+    /// given by `camera` (TOML lines, or none).
+    fn spheres(camera: &str) -> Scene {
+        let text = format!(
+            "{camera}\n[materials.m]\ntype = \"diffuse\"\n\
+             [[spheres]]\ncenter = [0.0, 1.0, -1.0]\nradius = 1.0\nmaterial = \"m\"\n\
+             [[spheres]]\ncenter = [2.0, 1.0, -1.0]\nradius = 1.0\nmaterial = \"m\"\n"
+        );
+        Scene::from_toml_str(&text, Path::new("spheres.toml")).unwrap()
+    }
+
+    #[test]
+    fn an_orbit_puts_the_camera_at_its_angles_and_distance_around_the_centre() {
+        let centre = Vec3::new(1.0, 1.0, -1.0);
+        for (azimuth, elevation, expected_dir) in [
+            (0.0f32, 0.0f32, Vec3::Z),
+            (90.0, 0.0, Vec3::X),
+            (180.0, 0.0, Vec3::NEG_Z),
+            (-90.0, 0.0, Vec3::NEG_X),
+            (0.0, 90.0, Vec3::Y),
+            (0.0, -90.0, Vec3::NEG_Y),
+            // cos 60° = 1/2: half the distance across, √3/2 up; split evenly between +X and +Z.
+            (45.0, 60.0, Vec3::new(0.25 * 2f32.sqrt(), 0.75f32.sqrt(), 0.25 * 2f32.sqrt())),
+        ] {
+            let mut scene = spheres("");
+            let orbit = Orbit { azimuth, elevation, distance: Some(5.0) };
+            scene.override_camera(&CameraOverride { orbit: Some(orbit), ..Default::default() }, 1.5).unwrap();
+            let c = scene.camera.unwrap();
+            let expected = centre + 5.0 * expected_dir;
+            assert!((c.position - expected).length() < 1e-5, "{azimuth},{elevation}: {} vs {expected}", c.position);
+            assert_eq!(c.look_at, centre);
+            let (a, e) = crate::camera::orbit_angles(c.position - centre);
+            assert!((e - elevation).abs() < 1e-3, "{e} vs {elevation}");
+            if elevation.abs() < 89.0 {
+                assert!(((a - azimuth).rem_euclid(360.0) + 1e-3) % 360.0 < 2e-3, "{a} vs {azimuth}");
+            }
+        }
+    }
+
+    #[test]
+    fn an_orbit_without_a_distance_frames_the_scene_as_the_automatic_camera_does() {
+        // From the automatic camera's own angles, the automatic camera.
+        let (azimuth, elevation) = crate::camera::orbit_angles(model_view_dir());
+        assert!((azimuth - 28.81).abs() < 0.01 && (elevation - 21.52).abs() < 0.01, "{azimuth} {elevation}");
+        let automatic = spheres("").camera_spec(1.5);
+        let mut scene = spheres("");
+        let orbit = Orbit { azimuth, elevation, distance: None };
+        scene.override_camera(&CameraOverride { orbit: Some(orbit), ..Default::default() }, 1.5).unwrap();
+        let orbited = scene.camera.unwrap();
+        assert!((orbited.position - automatic.position).length() < 1e-4, "{orbited:?} vs {automatic:?}");
+        // From elsewhere, as close as keeps the scene in frame: nearer from above (its
+        // footprint, 4 × 2, is smaller than its side, 4 × 2 too but seen at an angle) than
+        // the bounding sphere's distance.
+        let mut top = spheres("");
+        let orbit = Orbit { azimuth: 0.0, elevation: 90.0, distance: None };
+        top.override_camera(&CameraOverride { orbit: Some(orbit), ..Default::default() }, 1.5).unwrap();
+        let d = (top.camera.unwrap().position - Vec3::new(1.0, 1.0, -1.0)).length();
+        let sphere = top.bounds().diagonal().length() / 2.0 / (20f32.to_radians()).sin() * 1.05;
+        assert!(d > 0.0 && d < sphere, "{d} vs {sphere}");
+    }
+
+    #[test]
+    fn a_camera_printed_as_toml_reads_back_the_same() {
+        let automatic = spheres("").camera_spec(4.0 / 3.0);
+        for spec in [
+            automatic,
+            CameraSpec { aperture: 0.05, focus_distance: Some(3.25), ..automatic },
+            CameraSpec { ortho_width: Some(6.5), ..automatic },
+        ] {
+            let back = spheres(&spec.to_toml()).camera.unwrap();
+            assert_eq!(back, spec, "{}", spec.to_toml());
+        }
+        // The automatic camera, written out, renders as the scene without a camera does.
+        let given = spheres(&automatic.to_toml());
+        let (a, b) = (given.camera(4.0 / 3.0), spheres("").camera(4.0 / 3.0));
+        let ray = |c: &Camera| c.ray(glam::Vec2::new(0.3, 0.7), glam::Vec2::ZERO);
+        assert!((ray(&a).o - ray(&b).o).length() < 1e-6 && (ray(&a).d - ray(&b).d).length() < 1e-6);
+    }
+
+    #[test]
+    fn ortho_keeps_the_position_and_drops_the_lens() {
+        let mut scene = spheres("[camera]\nposition = [1.0, 1.0, 9.0]\nlook_at = [1.0, 1.0, -1.0]\naperture = 0.2\n");
+        scene.override_camera(&CameraOverride { ortho: Some(3.0), ..Default::default() }, 2.0).unwrap();
+        let c = scene.camera.unwrap();
+        assert_eq!((c.position, c.ortho_width, c.aperture), (Vec3::new(1.0, 1.0, 9.0), Some(3.0), 0.0));
+        let cam = scene.camera(2.0);
+        assert!(cam.is_orthographic());
+        // The image's corners are 1.5 across and 0.75 up from the view's centre.
+        let corner = cam.ray(glam::Vec2::new(1.0, 0.0), glam::Vec2::ZERO);
+        assert_eq!((corner.o, corner.d), (Vec3::new(2.5, 1.75, 9.0), Vec3::NEG_Z));
     }
 }

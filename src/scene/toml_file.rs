@@ -237,28 +237,56 @@ pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<S
         scene.set_background(b);
     }
     if let Some(c) = file.camera {
-        let fov = c.fov.as_ref().map_or(super::DEFAULT_FOV, |f| f.get_ref().0);
-        if fov >= 180.0 {
-            return Err(ctx.err_at(c.fov.unwrap().span(), format!("fov must be below 180 degrees, found {fov}")));
-        }
-        let aperture = c.aperture.map_or(0.0, |a| a.0);
-        if c.position.get_ref().0 == c.look_at.0 {
-            return Err(ctx.err_at(c.position.span(), "camera position and look_at are the same point"));
-        }
-        scene.camera = Some(CameraSpec {
-            position: c.position.get_ref().0,
-            look_at: c.look_at.0,
-            up: c.up.map_or(Vec3::Y, |u| u.0),
-            fov,
-            aperture,
-            focus_distance: c.focus_distance.map(|f| f.0),
-        });
+        scene.camera = Some(camera(&ctx, c)?);
     }
     if scene.geometry.is_empty() {
         return Err(SceneError::new(path, None, "the scene has no geometry (meshes, quads, spheres or cylinders)"));
     }
     scene.inputs.extend(ctx.inputs);
     Ok(scene)
+}
+
+/// The camera a `[camera]` table describes.
+fn camera(ctx: &SceneFileReader, c: format::CameraSection) -> Result<CameraSpec, SceneError> {
+    let fov = c.fov.as_ref().map_or(super::DEFAULT_FOV, |f| f.get_ref().0);
+    if fov >= 180.0 {
+        return Err(ctx.err_at(c.fov.unwrap().span(), format!("fov must be below 180 degrees, found {fov}")));
+    }
+    if c.position.get_ref().0 == c.look_at.0 {
+        return Err(ctx.err_at(c.position.span(), "camera position and look_at are the same point"));
+    }
+    let orthographic = c.kind.as_ref().is_some_and(|k| k.get_ref().0 == format::Projection::Orthographic);
+    let ortho_width = if orthographic {
+        // What belongs to a perspective camera is refused rather than ignored.
+        let lens = [
+            ("fov", c.fov.as_ref().map(|f| f.span())),
+            ("aperture", c.aperture.as_ref().map(|a| a.span())),
+            ("focus_distance", c.focus_distance.as_ref().map(|f| f.span())),
+        ];
+        if let Some((key, span)) = lens.into_iter().find_map(|(key, span)| Some((key, span?))) {
+            return Err(ctx.err_at(span, format!("an orthographic camera has no {key} (its view is `width` wide)")));
+        }
+        let span = c.kind.as_ref().map(|k| k.span()).unwrap_or_default();
+        let width = c
+            .width
+            .as_ref()
+            .ok_or_else(|| ctx.err_at(span, "an orthographic camera needs `width`, the view's width in world units"))?;
+        Some(width.get_ref().0)
+    } else {
+        if let Some(w) = &c.width {
+            return Err(ctx.err_at(w.span(), "`width` is an orthographic camera's (type = \"orthographic\")"));
+        }
+        None
+    };
+    Ok(CameraSpec {
+        position: c.position.get_ref().0,
+        look_at: c.look_at.0,
+        up: c.up.map_or(Vec3::Y, |u| u.0),
+        fov,
+        aperture: c.aperture.map_or(0.0, |a| a.get_ref().0),
+        focus_distance: c.focus_distance.map(|f| f.get_ref().0),
+        ortho_width,
+    })
 }
 
 fn render_defaults(r: &format::RenderSection) -> RenderDefaults {

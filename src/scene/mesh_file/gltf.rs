@@ -369,7 +369,7 @@ impl<'a> Loader<'a> {
             ));
             return Ok(None);
         }
-        Ok(Some(CameraSpec { position, look_at: position + forward, up, fov, aperture: 0.0, focus_distance: None }))
+        Ok(Some(CameraSpec::pinhole(position, position + forward, up, fov)))
     }
 
     /// The bytes of every buffer, by index: no more than its byteLength (what was counted),

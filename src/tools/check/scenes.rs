@@ -77,7 +77,7 @@ impl CaseSceneBuilder {
 
     /// A pinhole camera.
     pub fn camera(&mut self, position: Vec3, look_at: Vec3, up: Vec3, fov: f32) {
-        self.scene.camera = Some(CameraSpec { position, look_at, up, fov, aperture: 0.0, focus_distance: None });
+        self.scene.camera = Some(CameraSpec::pinhole(position, look_at, up, fov));
     }
 
     pub fn build(self) -> Scene {

@@ -59,5 +59,29 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         accel.build_time().as_secs_f64() * 1e3,
         options.quality
     );
+    let settings = RenderSettings::from_scene(&scene.render);
+    print!("{}", camera_lines(&scene, settings.width as f32 / settings.height as f32, None));
     Ok(())
+}
+
+/// What camera renders `scene` in an image of aspect `aspect`, ending with the `[camera]` table
+/// of a scene file that gives the same: the scene's, the automatic one that frames it, or
+/// (`given`: the flags that changed it) one made on the command line.
+pub(super) fn camera_lines(scene: &Scene, aspect: f32, given: Option<&str>) -> String {
+    let spec = scene.camera_spec(aspect);
+    let centre = scene.bounds().center();
+    // Where it is seen from, as --orbit would say, when it looks at the scene's centre.
+    let orbit = (spec.look_at == centre).then(|| {
+        let (azimuth, elevation) = crate::camera::orbit_angles(spec.position - centre);
+        let d = (spec.position - centre).length();
+        format!(" (--orbit {azimuth:.1},{elevation:.1},{d:.4} around the scene's centre)")
+    });
+    let whose = match (given, scene.camera.is_some()) {
+        (Some(flags), _) => format!("camera: set by {flags}{}", orbit.unwrap_or_default()),
+        (None, true) => "camera: the scene's".to_string(),
+        (None, false) => {
+            format!("camera: automatic, framing the scene for a {aspect:.3}:1 image{}", orbit.unwrap_or_default())
+        }
+    };
+    format!("{whose}; as a scene file's lines:\n{}", spec.to_toml())
 }

@@ -135,6 +135,7 @@ impl Study {
             sampler: variant.sampler.unwrap_or_default(),
             adaptive: variant.adaptive,
             light_vertices: variant.light_vertices.unwrap_or_default(),
+            clamp: variant.clamp.map(|c| c.0),
             ..RenderSettings::default()
         }
     }
@@ -260,9 +261,9 @@ fn render_reporting(
     let report = |p: Progress| {
         if let Some((report, done)) = progress {
             report(Progress {
-                samples_done: done.samples + p.samples_done,
-                samples_before: 0,
-                samples_planned: done.planned,
+                work_done: done.samples as f64 + p.work_done,
+                work_before: 0.0,
+                work_planned: done.planned as f64,
                 rays: done.rays + p.rays,
                 elapsed: done.since.elapsed(),
                 round: 1,

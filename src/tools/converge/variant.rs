@@ -1,6 +1,6 @@
 //! The estimator variants a study compares, and the syntax that names them
 //! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/adaptive][/light-vertices=on|off]`
-//! `[/denoise[=MODE]]` and the groups `estimators`, `no-rr`, `depth`, `samplers`, `adaptive`,
+//! `[/clamp=X][/denoise[=MODE]]` and the groups `estimators`, `no-rr`, `depth`, `samplers`, `adaptive`,
 //! `light-vertices`, `denoise`, `all`).
 
 use crate::film::AuxMode;
@@ -23,16 +23,31 @@ pub struct Variant {
     /// Next-event estimation samples an environment image uniformly over the sphere instead
     /// of by luminance (no effect on other backgrounds): what importance sampling gains.
     pub uniform_environment: bool,
-    /// `--adaptive`: the spp of a rung is the mean, spent where the image is noisy.
+    /// Adaptive sampling (`ember render`'s default): the spp of a rung is the mean, spent
+    /// where the image is noisy; off: every pixel takes the rung's spp (`--uniform`).
     pub adaptive: bool,
     /// Where samples get their numbers; `None`: the default sampler.
     pub sampler: Option<SamplerKind>,
     /// Light vertices on or off; `None`: as the scene analysis decides (`auto`).
     pub light_vertices: Option<LightVertices>,
+    /// `--clamp X`: samples scaled down to a largest channel of X (biased); `None`: no clamp.
+    pub clamp: Option<Clamp>,
     /// Denoised with Open Image Denoise, given the auxiliary images as this says; `None`: the
     /// render's own (noisy) estimate.
     pub denoise: Option<AuxMode>,
 }
+
+/// A sample clamp's limit (a positive, finite radiance), comparable for equality.
+#[derive(Clone, Copy, Debug)]
+pub struct Clamp(pub f32);
+
+impl PartialEq for Clamp {
+    fn eq(&self, other: &Clamp) -> bool {
+        self.0.to_bits() == other.0.to_bits()
+    }
+}
+
+impl Eq for Clamp {}
 
 impl Variant {
     pub const fn new(estimator: Estimator) -> Variant {
@@ -44,6 +59,7 @@ impl Variant {
             light_vertices: None,
             uniform_environment: false,
             adaptive: false,
+            clamp: None,
             denoise: None,
         }
     }
@@ -72,6 +88,9 @@ impl Variant {
         if let Some(lv) = self.light_vertices {
             s.push_str(&format!("/light-vertices={lv}"));
         }
+        if let Some(Clamp(c)) = self.clamp {
+            s.push_str(&format!("/clamp={c}"));
+        }
         if let Some(m) = self.denoise {
             s.push_str(&format!("/denoise={m}"));
         }
@@ -79,14 +98,18 @@ impl Variant {
     }
 
     /// Why its images do not converge to the reference, if they do not: a depth limit cuts
-    /// light off, a denoiser smooths (its error stops falling as 1/spp and keeps a bias).
-    pub fn bias(&self) -> Option<&'static str> {
-        match (self.max_depth, self.denoise) {
-            (Some(_), Some(_)) => Some("biased: depth limit, denoised"),
-            (Some(_), None) => Some("biased: depth limit"),
-            (None, Some(_)) => Some("biased: denoised"),
-            (None, None) => None,
-        }
+    /// light off, a clamp scales bright samples down, a denoiser smooths (its error stops
+    /// falling as 1/spp and keeps a bias).
+    pub fn bias(&self) -> Option<String> {
+        let why: Vec<String> = [
+            self.max_depth.map(|_| "depth limit".to_string()),
+            self.clamp.map(|Clamp(c)| format!("clamped at {c}")),
+            self.denoise.map(|_| "denoised".to_string()),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        (!why.is_empty()).then(|| format!("biased: {}", why.join(", ")))
     }
 }
 
@@ -105,6 +128,11 @@ impl std::str::FromStr for Variant {
                 v.adaptive = true;
             } else if let Some(lv) = part.strip_prefix("light-vertices=") {
                 v.light_vertices = Some(lv.parse().map_err(|e| format!("variant {s:?}: light-vertices: {e}"))?);
+            } else if let Some(c) = part.strip_prefix("clamp=") {
+                match c.parse::<f32>() {
+                    Ok(c) if c > 0.0 && c.is_finite() => v.clamp = Some(Clamp(c)),
+                    _ => return Err(format!("variant {s:?}: clamp {c:?} is not a positive number")),
+                }
             } else if let Some(d) = part.strip_prefix("depth=") {
                 v.max_depth = Some(d.parse().map_err(|_| format!("variant {s:?}: depth {d:?} is not a whole number"))?);
             } else if let Ok(k) = part.parse::<SamplerKind>() {
@@ -115,7 +143,7 @@ impl std::str::FromStr for Variant {
                 v.denoise = Some(m.parse().map_err(|e| format!("variant {s:?}: {e}"))?);
             } else {
                 return Err(format!(
-                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, env-uniform, adaptive, light-vertices=on|off, denoise or denoise=MODE)"
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, env-uniform, adaptive, light-vertices=on|off, clamp=X, denoise or denoise=MODE)"
                 ));
             }
         }
@@ -134,7 +162,8 @@ impl std::str::FromStr for Variant {
 /// - `denoise`: NEE+MIS, and NEE+MIS denoised in each [`AuxMode`] (colour only; albedo and
 ///   normal noisy, prefiltered, clean);
 /// - `all`: `estimators`, `no-rr`, `depth` and `denoise`;
-/// - or one variant, `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform][/adaptive][/denoise[=MODE]]`
+/// - or one variant,
+///   `ESTIMATOR[/no-rr][/depth=D][/SAMPLER][/env-uniform][/adaptive][/clamp=X][/denoise[=MODE]]`
 ///   (see [`Variant::name`]).
 ///
 /// Duplicates are dropped; the order is kept.
@@ -199,6 +228,7 @@ mod tests {
                 light_vertices: None,
                 uniform_environment: false,
                 adaptive: false,
+                clamp: None,
                 denoise: None
             }
         );
@@ -217,7 +247,13 @@ mod tests {
         assert_eq!(parse_variants("samplers", 64).unwrap().len(), 2);
         let v: Variant = "nee-mis/denoise".parse().unwrap();
         assert_eq!(v.name(), "nee-mis/denoise=prefilter");
-        assert_eq!(v.bias(), Some("biased: denoised"));
+        assert_eq!(v.bias().as_deref(), Some("biased: denoised"));
+        let v: Variant = "nee/depth=3/clamp=10/denoise".parse().unwrap();
+        assert_eq!(v.clamp, Some(Clamp(10.0)));
+        assert_eq!(v.name(), "nee/depth=3/clamp=10/denoise=prefilter");
+        assert_eq!(v.bias().as_deref(), Some("biased: depth limit, clamped at 10, denoised"));
+        assert_eq!(v.name().parse::<Variant>().unwrap(), v);
+        assert!("nee/clamp=-1".parse::<Variant>().unwrap_err().contains("not a positive number"));
         assert_eq!("nee-mis/denoise=color".parse::<Variant>().unwrap().denoise, Some(AuxMode::ColorOnly));
         assert!("nee-mis/denoise=fast".parse::<Variant>().unwrap_err().contains("unknown auxiliary mode"));
         let v: Variant = "nee-mis/independent/denoise=clean".parse().unwrap();

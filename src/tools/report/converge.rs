@@ -204,7 +204,7 @@ pub fn time_to_reach_table(
             last.error.flip,
             time_to_reach_cell(&time_to_reach_by(points, target, |e| e.rel_mse)),
             time_to_reach_cell(&time_to_reach_by(points, flip_target, |e| e.flip)),
-            last.variant.bias().unwrap_or("unbiased")
+            last.variant.bias().as_deref().unwrap_or("unbiased")
         ));
     }
     s

@@ -5,7 +5,7 @@ use crate::embree::BuildQuality;
 use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
 use crate::integrator::adaptive;
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
-use crate::scene::{CameraOverride, Scene};
+use crate::scene::{CameraOverride, Orbit, Scene};
 use crate::settings::{Estimator, LightVertices, RenderSettings, RrDepth, SamplerKind, Shard};
 use clap::Args;
 use glam::Vec3;
@@ -19,8 +19,9 @@ pub struct RenderArgs {
     /// Output image: .png (8-bit sRGB) or .exr (linear float); with --shard, a .shard file.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Samples per pixel: their mean over the image when sampling adaptively (the default
-    /// above 8) [scene's render.spp, else 64].
+    /// Samples per pixel [scene's render.spp, else 64]. Above 8 the render is adaptive: it
+    /// takes about the time of N samples in every pixel, and spends them where the image is
+    /// noisy (see --uniform).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: Option<u32>,
     /// Image width in pixels [scene's render.width, else 640].
@@ -68,14 +69,18 @@ pub struct RenderArgs {
     /// bound of its own (it is usually closer, but biased).
     #[arg(long, value_parser = parse_target_error)]
     pub target_error: Option<f32>,
-    /// Adaptive sampling at a fixed budget, the default: --spp is the mean samples per pixel; a
-    /// quarter is taken everywhere, the rest goes where the first samples of each pixel's
-    /// neighbours are noisy, for about the time --spp would take everywhere (at most 16× --spp
-    /// in one pixel). Unbiased: no pixel decides from its own samples. A shard renders it in
-    /// two stages (--first-round, then --plan-from). Up to 8 spp every pixel takes --spp.
-    #[arg(long, conflicts_with_all = ["target_error", "uniform"])]
-    pub adaptive: bool,
-    /// Every pixel takes --spp samples (no adaptive sampling).
+    /// Sample clamp, as Cycles': a sample whose largest channel is above X is scaled down to
+    /// X, its hue kept. It removes fireflies (rare, very bright samples) at the price of
+    /// bias: the image is darker where light is concentrated (caustics, small bright lights
+    /// seen through a bounce). The summary says how many samples it scaled. Try 10–100 times
+    /// the image's brightest ordinary pixel [no clamp].
+    #[arg(long, value_name = "X", value_parser = parse_clamp)]
+    pub clamp: Option<f32>,
+    /// Every pixel takes --spp samples. Without it (above 8 spp) sampling is adaptive: a
+    /// quarter of --spp in every pixel, the rest where the first samples of each pixel's
+    /// neighbours are noisy, for about the time --spp everywhere would take (at most 16×
+    /// --spp in one pixel); unbiased, as no pixel decides from its own samples. A shard
+    /// renders it in two stages (--first-round, then --plan-from).
     #[arg(long, conflicts_with = "target_error")]
     pub uniform: bool,
     /// Denoise the image with Intel Open Image Denoise, given the albedo and normal of the first
@@ -101,6 +106,12 @@ pub struct RenderArgs {
     /// render is interrupted by Ctrl-C or SIGTERM).
     #[arg(long)]
     pub checkpoint_every: Option<CliDuration>,
+    /// Rewrite the output image every DURATION (e.g. 5s) with the render so far (black where
+    /// no sample has landed yet; not denoised), so an image viewer that reloads shows it
+    /// converging. Each preview replaces the file atomically, as the final image does; an
+    /// interrupted render leaves its last preview there. The final image is the same.
+    #[arg(long, value_name = "DURATION", conflicts_with = "shard")]
+    pub preview_every: Option<CliDuration>,
     /// Run the general kernel instead of the one specialised to the scene's effects.
     #[arg(long)]
     pub no_specialize: bool,
@@ -147,6 +158,18 @@ pub struct RenderArgs {
     /// /proc, /sys and /dev never are.
     #[arg(long)]
     pub allow_external_files: bool,
+    /// Orbit the centre of the scene's bounds, looking at it: azimuth in degrees about +Y
+    /// (0 looks along −Z, 90 along −X), elevation in degrees above the horizontal (90 looks
+    /// straight down), and the distance from the centre [as far as frames the scene, as the
+    /// automatic camera does].
+    #[arg(long, value_name = "AZIMUTH,ELEVATION[,DISTANCE]", allow_hyphen_values = true, value_parser = parse_orbit,
+          conflicts_with_all = ["camera_position", "look_at"])]
+    pub orbit: Option<Orbit>,
+    /// An orthographic camera whose view is WIDTH wide (world units; the height follows the
+    /// image's aspect), from the scene's camera position and direction (or --orbit's, or the
+    /// automatic camera's).
+    #[arg(long, value_name = "WIDTH", value_parser = parse_ortho, conflicts_with = "fov")]
+    pub ortho: Option<f32>,
     /// Render only shard K of N (0-based) of the image, to a shard file (-o NAME.shard) that
     /// `ember merge` puts together with the others; "auto" takes K and N from Slurm
     /// (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT), "auto/N" K from Slurm or a Kubernetes
@@ -201,9 +224,43 @@ fn parse_fov(s: &str) -> Result<f32, String> {
     }
 }
 
+/// `AZIMUTH,ELEVATION[,DISTANCE]`: finite angles in degrees, the elevation within ±90, and a
+/// positive distance.
+fn parse_orbit(s: &str) -> Result<Orbit, String> {
+    let numbers: Option<Vec<f32>> =
+        s.split(',').map(|p| p.trim().parse::<f32>().ok().filter(|v| v.is_finite())).collect();
+    let bad = || format!("expected AZIMUTH,ELEVATION[,DISTANCE] in degrees (e.g. 30,20 or 30,20,5), found {s:?}");
+    let v = numbers.filter(|v| (2..=3).contains(&v.len())).ok_or_else(bad)?;
+    if v[1].abs() > 90.0 {
+        return Err(format!("the elevation must be between -90 and 90 degrees, found {}", v[1]));
+    }
+    let distance = v.get(2).copied();
+    if let Some(d) = distance
+        && !(d > 0.0 && d <= MAX_COORDINATE)
+    {
+        return Err(format!("the distance must be positive and at most {MAX_COORDINATE:e}, found {d}"));
+    }
+    Ok(Orbit { azimuth: v[0], elevation: v[1], distance })
+}
+
+/// An orthographic view's width: a positive length.
+fn parse_ortho(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v <= MAX_COORDINATE => Ok(v),
+        _ => Err(format!("expected the view's width in world units, a positive number, found {s:?}")),
+    }
+}
+
 /// The camera parts given on the command line.
 pub(super) fn camera_override(args: &RenderArgs) -> CameraOverride {
-    CameraOverride { position: args.camera_position, look_at: args.look_at, up: args.up, fov: args.fov }
+    CameraOverride {
+        position: args.camera_position,
+        look_at: args.look_at,
+        up: args.up,
+        fov: args.fov,
+        orbit: args.orbit,
+        ortho: args.ortho,
+    }
 }
 
 /// `--exposure` of `ember render` and `ember merge`: a number of stops in the allowed range.
@@ -249,6 +306,13 @@ pub(super) fn shard(arg: &str, env: &dyn Fn(&str) -> Option<String>) -> anyhow::
     format!("{index}/{count}").parse::<Shard>().map_err(|e| anyhow::anyhow!("--shard {arg}: {e}"))
 }
 
+fn parse_clamp(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("expected a positive radiance (e.g. 10), found {s:?}")),
+    }
+}
+
 fn parse_target_error(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(e) if e > 0.0 && e < 1.0 => Ok(e),
@@ -286,6 +350,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         sampler: args.sampler.unwrap_or(s.sampler),
         light_vertices: args.light_vertices.unwrap_or(s.light_vertices),
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
+        clamp: args.clamp,
     })
 }
 
@@ -327,6 +392,26 @@ mod tests {
 
     fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
         move |name| vars.iter().find(|(n, _)| *n == name).map(|(_, v)| v.to_string())
+    }
+
+    #[test]
+    fn orbits_parse_with_or_without_a_distance() {
+        assert_eq!(parse_orbit("30,-20").unwrap(), Orbit { azimuth: 30.0, elevation: -20.0, distance: None });
+        assert_eq!(
+            parse_orbit(" -45, 90, 2.5").unwrap(),
+            Orbit { azimuth: -45.0, elevation: 90.0, distance: Some(2.5) }
+        );
+        for (bad, why) in [
+            ("30", "expected AZIMUTH,ELEVATION"),
+            ("1,2,3,4", "expected AZIMUTH,ELEVATION"),
+            ("a,b", "expected AZIMUTH,ELEVATION"),
+            ("0,91", "between -90 and 90"),
+            ("0,0,0", "positive"),
+            ("0,0,-1", "positive"),
+        ] {
+            let e = parse_orbit(bad).unwrap_err();
+            assert!(e.contains(why), "{bad}: {e}");
+        }
     }
 
     #[test]

@@ -88,9 +88,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
+    let aspect = settings.width as f32 / settings.height as f32;
+    let camera = args::camera_override(&args);
+    let automatic = scene.camera.is_none();
     scene
-        .override_camera(&args::camera_override(&args), settings.width as f32 / settings.height as f32)
+        .override_camera(&camera, aspect)
         .map_err(|e| anyhow::anyhow!("{}: {e} (--camera-position, --look-at)", args.scene.display()))?;
+    // Said when the camera is not the scene file's: a scene file can then take it.
+    let given = (!camera.is_empty()).then_some("the command line");
+    let camera_text = (automatic || given.is_some()).then(|| super::info::camera_lines(&scene, aspect, given));
     let look = args::look(&args, &scene);
     if format != Some(ImageFormat::Png) && !look.is_default() {
         say!(
@@ -131,7 +137,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         let key = plan.checkpoint_key(scene.fingerprint(), &args.accel.image_key(bvh));
         let c = Checkpoint::load(&checkpoint, &key)?;
         let (_, mean, _) = c.accum.spp_range();
-        say!("resuming from {} ({mean:.1} of {} spp done)", checkpoint.display(), settings.spp);
+        say!("resuming from {} ({mean:.1} spp on average done, --spp {})", checkpoint.display(), settings.spp);
         Some((checkpoint.as_path(), c))
     } else {
         if is_file(&checkpoint) {
@@ -169,16 +175,25 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let accel = args.accel.build_with(&scene.geometry, bvh)?;
     say!("{}", plan.effects);
     say!("{plan}");
+    if let Some(text) = &camera_text {
+        say!("{}", text.trim_end());
+    }
     interrupt::set_phase(Phase::Rendering);
     if interrupt::stop_requested() {
         return Err(Interrupted::by_signal("interrupted before rendering started; nothing was written".into()).into());
     }
     let bar = ProgressBar::new("");
+    // Through the final image's own writer: the same format, look and atomic replacement.
+    let preview = |film: &Film| -> Result<(), String> {
+        let images = RenderImages { image: film, denoised: None, albedo: None, normal: None, sample_count: None };
+        images.save_with(&args.output, &look).map_err(|e| e.to_string())
+    };
     let control = RenderControl {
         stop: Some(&interrupt::STOP),
         checkpoint: Some((checkpoint.as_path(), args.checkpoint_every.map(|d| d.0))),
         resume,
         progress: Some(&|p| bar.update(p)),
+        preview: args.preview_every.map(|d| (d.0, &preview as &crate::integrator::PreviewFn)),
         first_round_only: args.first_round,
         first_rounds,
     };
@@ -193,8 +208,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let resume_with = || format!("resume with: {}", interrupt::resume_command());
     if !result.complete {
         let (_, mean, _) = stats.spp;
+        // What the bar showed, in the same words.
+        let share = bar.fraction().map_or(String::new(), |f| format!(", {:.0}% of the render done", 100.0 * f));
         return Err(Interrupted::by_signal(format!(
-            "interrupted after {:.1} s with {mean:.1} of {} spp done; checkpoint written to {}\n{}",
+            "interrupted after {:.1} s{share} ({mean:.1} spp on average so far, --spp {}); checkpoint written to {}\n{}",
             elapsed.as_secs_f64(),
             settings.spp,
             checkpoint.display(),
@@ -266,6 +283,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         crate::accel::AccelKind::Naive => "naive accel".to_string(),
     };
     say!("{}", summary::rendered(&stats, &accel_text, &args.output));
+    for line in summary::adaptive(&stats).into_iter().chain(summary::clamped(&stats)) {
+        say!("{line}");
+    }
     if let (Some((_, took)), Some(d), Some(format)) = (&denoised, &denoiser, format) {
         say!("{}", summary::denoised(*took, d, args.denoise_aux, format));
     }

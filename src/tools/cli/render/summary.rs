@@ -3,16 +3,18 @@
 use crate::integrator::RenderStats;
 use std::path::Path;
 
-/// `rendered WxH at N spp in T s: R Mrays/s (…, ACCEL), K non-finite samples dropped -> OUT`
+/// `rendered WxH at N spp in T s: R Mrays/s (…, ACCEL), K non-finite samples dropped -> OUT`;
+/// an adaptive render says `at M spp on average (adaptive: MIN..MAX per pixel)`, a target
+/// error `at MIN..MAX spp per pixel (M on average)`.
 pub(super) fn rendered(stats: &RenderStats, accel: &str, output: &Path) -> String {
     let settings = &stats.plan.settings;
     let (min_spp, mean_spp, max_spp) = stats.spp;
     let spp = if min_spp == max_spp {
         format!("{max_spp} spp")
     } else if settings.adaptive {
-        format!("{min_spp}..{max_spp} spp (mean {mean_spp:.1}; adaptive, at the cost of {} spp)", settings.spp)
+        format!("{} spp on average (adaptive: {min_spp}..{max_spp} per pixel)", mean(mean_spp))
     } else {
-        format!("{min_spp}..{max_spp} spp (mean {mean_spp:.1})")
+        format!("{min_spp}..{max_spp} spp per pixel ({} on average)", mean(mean_spp))
     };
     let earlier = if stats.earlier_sessions.is_zero() {
         String::new()
@@ -30,6 +32,52 @@ pub(super) fn rendered(stats: &RenderStats, accel: &str, output: &Path) -> Strin
         stats.nonfinite,
         output.display()
     )
+}
+
+/// A mean spp: `64` when it is a whole number to the first decimal, else `63.7`.
+fn mean(spp: f64) -> String {
+    if (spp - spp.round()).abs() < 0.05 { format!("{}", spp.round()) } else { format!("{spp:.1}") }
+}
+
+/// Where an adaptive render's mean spp is more than 5% from the `--spp` asked, why: the line
+/// `adaptive: 16.3 spp on average for --spp 32: …`.
+pub(super) fn adaptive(stats: &RenderStats) -> Option<String> {
+    let settings = &stats.plan.settings;
+    let (_, mean_spp, _) = stats.spp;
+    let asked = settings.spp as f64;
+    if !settings.adaptive || (mean_spp / asked - 1.0).abs() <= 0.05 {
+        return None;
+    }
+    let why = match stats.added_sample_cost {
+        Some(c) if (c - 1.0).abs() > 0.05 => format!(
+            "the noisy pixels it went to cost {c:.2}× the image's mean sample ({} bounces), so {} samples fit",
+            if c > 1.0 { "more" } else { "fewer" },
+            if c > 1.0 { "fewer" } else { "more" }
+        ),
+        _ => "its cap of 16× --spp per pixel and its rounding to packets of 8 samples left part of it unspent"
+            .to_string(),
+    };
+    let spp = settings.spp;
+    Some(format!(
+        "adaptive: {} spp on average for --spp {spp}: the render takes about the time of {spp} samples in every pixel and spends it where the image is noisy; {why} (--uniform: {spp} in every pixel)",
+        mean(mean_spp),
+    ))
+}
+
+/// With a sample clamp, the line that says so and how many samples it scaled down: `clamp 10
+/// (biased): 1234 of 1966080 samples (0.063%) scaled down to it`.
+pub(super) fn clamped(stats: &RenderStats) -> Option<String> {
+    let limit = stats.plan.settings.clamp?;
+    let samples = if stats.earlier_sessions.is_zero() {
+        let percent = 100.0 * stats.clamped as f64 / stats.samples.max(1) as f64;
+        let percent = if percent > 0.0 && percent < 0.001 { "< 0.001".to_string() } else { format!("{percent:.3}") };
+        format!("{} of {} samples ({percent}%)", stats.clamped, stats.samples)
+    } else {
+        format!("{} samples of this session", stats.clamped)
+    };
+    Some(format!(
+        "clamp {limit} (biased: darker where light is concentrated): {samples} had a channel above it and were scaled down to it"
+    ))
 }
 
 /// `denoised in T s (Open Image Denoise 2.5.1, albedo + normal, prefiltered; the EXR's main
