@@ -126,13 +126,18 @@ fn temporary_beside(path: &Path, dir: &Path, kind: &str) -> std::io::Result<(tem
     suffix.truncate(floor_char_boundary(&suffix, NAME_MAX / 4));
     let room = NAME_MAX - 2 - TEMPORARY_RANDOM_CHARS - suffix.len();
     name.truncate(floor_char_boundary(&name, room));
+    // Created and registered under the registry's lock: a process that exits meanwhile (see
+    // `remove_live_files`) either finds the file registered or stops this before it exists.
+    let mut live = live();
     let file = tempfile::Builder::new()
         .prefix(&format!(".{name}."))
         .suffix(&suffix)
         .rand_bytes(TEMPORARY_RANDOM_CHARS)
         .permissions(std::fs::Permissions::from_mode(0o666))
         .tempfile_in(dir)?;
-    let guard = register_live(file.path());
+    live.push(file.path().to_path_buf());
+    drop(live);
+    let guard = LiveFile(file.path().to_path_buf());
     Ok((file, guard))
 }
 
