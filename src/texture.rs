@@ -144,22 +144,17 @@ impl Image {
     /// (negative values, which some tools write for colours out of gamut, are read as 0; NaN
     /// and infinite ones are refused).
     pub fn load_environment(path: &Path, budget: &LoadBudget) -> Result<Image, TextureError> {
-        Image::decode(&read_image_file(path, budget)?, budget, true)
-    }
-
-    /// Decodes an 8-bit image (PNG, JPEG) held in memory, as [`Image::load`] does.
-    pub fn from_memory(bytes: &[u8], budget: &LoadBudget) -> Result<Image, TextureError> {
-        Image::decode(bytes, budget, false)
+        Image::decode(&read_image_file(path, budget)?, budget)
     }
 
     /// Decodes an environment image held in memory, as [`Image::load_environment`] does.
     pub fn environment_from_memory(bytes: &[u8], budget: &LoadBudget) -> Result<Image, TextureError> {
-        Image::decode(bytes, budget, true)
+        Image::decode(bytes, budget)
     }
 
-    /// Decodes an 8-bit image from sRGB to linear, or, if `hdr` allows, an HDR image as it is.
-    fn decode(bytes: &[u8], budget: &LoadBudget, hdr: bool) -> Result<Image, TextureError> {
-        let (decoded, is_hdr) = decode_checked(bytes, budget, hdr, memory::texture_bytes)?;
+    /// Decodes an 8-bit image from sRGB to linear, or an HDR image as it is.
+    fn decode(bytes: &[u8], budget: &LoadBudget) -> Result<Image, TextureError> {
+        let (decoded, is_hdr) = decode_checked(bytes, budget, true, memory::texture_bytes)?;
         let (width, height) = (decoded.width(), decoded.height());
         let pixels = if is_hdr { linear_pixels(decoded)? } else { srgb_pixels(decoded) };
         budget.keep(pixels_bytes(width, height));

@@ -4,7 +4,7 @@
 use ember::material::{DiffuseMaterial, MaterialKind};
 use ember::memory::LoadBudget;
 use ember::scene::mesh_file::obj::parse_obj;
-use ember::texture::{Image, Texture};
+use ember::texture::{Encoding, Image, MipImage, Texture};
 use std::path::Path;
 
 const TRIANGLE: &str = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n";
@@ -151,9 +151,12 @@ fn empty_and_damaged_images_are_errors() {
     for (what, bytes) in [("cut", cut), ("zeroed", zeroed)] {
         let p = d.join(format!("{what}.jpg"));
         std::fs::write(&p, bytes).unwrap();
-        let e = Image::load(&p, &budget).expect_err(what).to_string();
+        let e = MipImage::load(&p, &budget, Encoding::Srgb).expect_err(what).to_string();
         assert!(e.starts_with("truncated or damaged JPEG: "), "{what}: {e}");
     }
-    assert!(Image::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/earthmap.jpg")), &budget).is_ok());
+    assert!(
+        MipImage::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/earthmap.jpg")), &budget, Encoding::Srgb)
+            .is_ok()
+    );
     std::fs::remove_dir_all(&d).unwrap();
 }

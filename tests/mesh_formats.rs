@@ -533,7 +533,8 @@ fn gltf_lights_and_cameras_must_be_at_finite_places() {
             "far-light.gltf",
             light(r#""translation": [1e39, 0, 0]"#),
             lights,
-            "nodes[1].extensions.KHR_lights_punctual: the light is at [inf",
+            // (inf or NaN, depending on how the node's matrix is multiplied out)
+            "nodes[1].extensions.KHR_lights_punctual: the light is at [",
         ),
         (
             "far-camera.gltf",

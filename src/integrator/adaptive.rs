@@ -140,8 +140,7 @@ fn ring_mean(i: usize, of: &[f64], w: usize, h: usize) -> f64 {
 /// first round's sample counts and the rays recorded in `plan`: a sample's cost is the rays it
 /// traced after its camera ray, plus [`SAMPLE_COST`].
 fn near_costs(counts: &[u32], plan: &[AdaptivePixel], w: usize, h: usize) -> Vec<f64> {
-    let cost: Vec<f64> =
-        counts.iter().zip(plan).map(|(&n, a)| budget_cost(n, a.rays)).collect();
+    let cost: Vec<f64> = counts.iter().zip(plan).map(|(&n, a)| budget_cost(n, a.rays)).collect();
     (0..w * h).map(|i| if w * h == 1 { cost[i] } else { ring_mean(i, &cost, w, h) }).collect()
 }
 

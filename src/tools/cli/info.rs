@@ -60,7 +60,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         options.quality
     );
     let settings = RenderSettings::from_scene(&scene.render);
-    print!("{}", camera_lines(&scene, settings.width as f32 / settings.height as f32, None));
+    out!("{}", camera_lines(&scene, settings.width as f32 / settings.height as f32, None).trim_end());
     Ok(())
 }
 
