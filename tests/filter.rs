@@ -34,7 +34,7 @@ fn box_renders_are_bit_identical_to_before_filters() {
     let recorded = [
         ("cornell.toml", 0xffa5_cb84_b812_949eu64),
         ("dof.toml", 0x64b3_a6da_7687_92a6),
-        ("spheres.toml", 0xcce3_90e8_4b0f_4ea0),
+        ("spheres.toml", 0xd03e_628c_bc17_455e),
         ("teapot.toml", 0x779b_79b1_0cb7_f72a),
         ("teapot.obj", 0x4c88_5b89_addf_4c98),
     ];

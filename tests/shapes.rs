@@ -58,14 +58,15 @@ fn sphere_small_and_far_is_precise() {
 }
 
 #[test]
-fn sphere_texture_coordinates_follow_the_seed_mapping() {
-    // u = atan2(dy, dx), v = asin(dz), rescaled to [0, 1].
-    assert_eq!(Sphere::uv(Vec3::new(-1.0, 0.0, 0.0)).0, 1.0);
-    assert!((Sphere::uv(Vec3::X).0 - 0.5).abs() < 1e-6);
-    assert!((Sphere::uv(Vec3::Y).0 - 0.75).abs() < 1e-6);
-    assert!((Sphere::uv(Vec3::Z).1 - 1.0).abs() < 1e-6);
-    assert!((Sphere::uv(-Vec3::Z).1 - 0.0).abs() < 1e-6);
-    assert!((Sphere::uv(Vec3::X).1 - 0.5).abs() < 1e-6);
+fn sphere_texture_coordinates_are_latitude_and_longitude_about_y() {
+    // Y up: the poles at ±Y, longitude ½ toward +Z, growing toward +X (east, seen from +Z).
+    assert!((Sphere::uv(Vec3::Z).0 - 0.5).abs() < 1e-6);
+    assert!((Sphere::uv(Vec3::X).0 - 0.75).abs() < 1e-6);
+    assert!((Sphere::uv(-Vec3::X).0 - 0.25).abs() < 1e-6);
+    assert!(Sphere::uv(Vec3::new(-1e-7, 0.0, -1.0)).0 < 1e-6);
+    assert!((Sphere::uv(Vec3::Y).1 - 1.0).abs() < 1e-6);
+    assert!((Sphere::uv(-Vec3::Y).1 - 0.0).abs() < 1e-6);
+    assert!((Sphere::uv(Vec3::Z).1 - 0.5).abs() < 1e-6);
 }
 
 #[test]

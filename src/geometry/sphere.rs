@@ -41,10 +41,13 @@ impl Sphere {
         Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
     }
 
-    /// Texture coordinates of the unit outward direction `n`.
+    /// Texture coordinates of the unit outward direction `n`, +Y up (the scenes' up): v is
+    /// the latitude, 0 at the south pole (−Y) to 1 at the north pole (+Y); u the longitude,
+    /// ½ toward +Z and growing eastward (toward +X from there), so that a world map's centre
+    /// faces a camera on +Z, right side up and not mirrored.
     pub fn uv(n: Vec3) -> (f32, f32) {
-        let u = (n.y.atan2(n.x) + PI) / (2.0 * PI);
-        let v = (n.z.clamp(-1.0, 1.0).asin() + 0.5 * PI) / PI;
+        let u = 0.5 + n.x.atan2(n.z) / (2.0 * PI);
+        let v = (n.y.clamp(-1.0, 1.0).asin() + 0.5 * PI) / PI;
         (u, v)
     }
 

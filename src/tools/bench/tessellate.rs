@@ -37,7 +37,7 @@ fn sphere_grid(segments: u32) -> (u32, u32) {
     (s, (s / 2).max(2))
 }
 
-/// Latitude-longitude spheres about the z axis (the axis of [`Sphere::uv`]): `segments`
+/// Latitude-longitude spheres about the z axis: `segments`
 /// meridians (at least 3) and `segments / 2` bands (at least 2); the polar bands are fans.
 pub fn tessellate_spheres(spheres: &[Sphere], segments: u32) -> Tessellation {
     let (s, r) = sphere_grid(segments);
