@@ -148,3 +148,17 @@ fn an_emission_texture_is_seen_and_lights_as_its_texels_say() {
     println!("floor: next-event estimation {nee:.5}, BSDF sampling {bsdf:.5}");
     assert!((nee - bsdf).abs() < 0.02 * bsdf, "NEE {nee} vs BSDF {bsdf}");
 }
+
+/// A Draco-compressed file (Blender's exporter with Draco): refused naming the extension and
+/// what to do, not with the validator's "accessors[0].bufferView: missing data"; the same
+/// torus uncompressed loads.
+#[test]
+fn a_compressed_mesh_is_refused_naming_its_extension() {
+    let e = mesh_file::load(&asset("draco_torus.glb"), &LoadBudget::unlimited()).unwrap_err();
+    let m = e.to_string();
+    assert!(m.contains("extensionsRequired: KHR_draco_mesh_compression is not supported"), "{m}");
+    assert!(m.contains("export the file without mesh compression"), "{m}");
+    assert!(!m.contains("missing data"), "{m}");
+    let plain = load("draco_torus_uncompressed.glb");
+    assert_eq!(plain.meshes.iter().map(|m| m.mesh.triangle_count()).sum::<usize>(), 48 * 16 * 2);
+}

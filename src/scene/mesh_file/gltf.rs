@@ -101,6 +101,11 @@ fn parse_unguarded(bytes: Vec<u8>, path: &Path, budget: &LoadBudget) -> Result<M
 fn check_before_crate(json: &gltf::json::Root) -> Result<(), String> {
     use gltf::json::camera::Type;
     use gltf::json::validation::Checked;
+    // Before the crate validates: a compressed mesh's accessors have no data of their own, and
+    // its message ("accessors[0].bufferView: missing data") would not say why.
+    if let Some(ext) = json.extensions_required.iter().find(|e| !SUPPORTED.contains(&e.as_str())) {
+        return Err(unsupported_required(ext));
+    }
     for (i, image) in json.images.iter().enumerate() {
         match (&image.uri, &image.buffer_view, &image.mime_type) {
             (None, None, _) => return Err(format!("images[{i}]: has neither a uri nor a bufferView")),
@@ -130,6 +135,17 @@ fn check_before_crate(json: &gltf::json::Root) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Why a file that requires extension `ext` is refused.
+fn unsupported_required(ext: &str) -> String {
+    let why = match ext {
+        "KHR_draco_mesh_compression" | "EXT_meshopt_compression" | "KHR_meshopt_compression" => {
+            " (its meshes are compressed and ember does not decompress them: export the file without mesh compression)"
+        }
+        _ => "",
+    };
+    format!("extensionsRequired: {ext} is not supported{why}; supported: {}", SUPPORTED.join(", "))
 }
 
 /// A `gltf` crate error as a located [`SceneError`].
@@ -183,15 +199,6 @@ impl<'a> Loader<'a> {
     fn load(&self, blob: Option<Vec<u8>>) -> Result<MeshFile, SceneError> {
         let mut warnings = Vec::new();
         let file = self.path.display();
-        for ext in self.doc.extensions_required() {
-            if !SUPPORTED.contains(&ext) {
-                return Err(SceneError::new(
-                    self.path,
-                    None,
-                    format!("extensionsRequired: {ext} is not supported (supported: {})", SUPPORTED.join(", ")),
-                ));
-            }
-        }
         for ext in self.doc.extensions_used() {
             if !SUPPORTED.contains(&ext) {
                 warnings.push(format!("{file}: glTF extension {ext} is not supported; its data is ignored"));
