@@ -212,6 +212,7 @@ fn scene_with(test: &str, mesh: &Path, camera: &str, lights: &str) -> Scene {
         [[meshes]]
         file = "{}"
         material = "grey"
+        override = "all"
         [[quads]]
         corner = [-20.0, -1.0, -20.0]
         edge1 = [0.0, 0.0, 40.0]

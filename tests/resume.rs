@@ -536,7 +536,10 @@ fn signals_while_denoising_or_writing_say_what_happened() {
         .unwrap();
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{e}");
-    assert!(e.contains("(1.0 spp on average done, --spp 1)") && e.lines().any(|l| l.starts_with("denoised in ")), "{e}");
+    assert!(
+        e.contains("(1.0 spp on average done, --spp 1)") && e.lines().any(|l| l.starts_with("denoised in ")),
+        "{e}"
+    );
     assert_eq!(rays_traced(&o.stderr), 0, "the resumed render rendered again");
     assert!(out.exists() && !ckpt.exists());
 

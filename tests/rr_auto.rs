@@ -67,10 +67,11 @@ fn sample_scenes_start_roulette_where_their_albedo_says() {
         ("dof.toml", 0.95, None),
         // The glTF gold's base colour has red 1: a metal of albedo 1.
         ("gltf-sky.toml", 1.0, None),
-        // The default material (0.8): 0.8³ = 0.512, 0.8⁴ = 0.41.
-        ("teapot.obj", 0.8, Some(4)),
+        // A bare mesh's clay (largest channel 0.75) on the studio ground (0.5): 0.75² = 0.56,
+        // 0.75³ = 0.42.
+        ("teapot.obj", 0.75, Some(3)),
         ("cornell_box.obj", 1.0, None),
-        ("bunny.obj", 0.8, Some(4)),
+        ("bunny.obj", 0.75, Some(3)),
     ];
     for (name, albedo, start) in cases {
         let scene = Scene::load(&common::scene_path(name)).unwrap();

@@ -300,6 +300,11 @@ impl Material {
         self.emission.max().max_element() > 0.0
     }
 
+    /// Whether an image maps any of its properties (colour, roughness, emission, normals).
+    pub fn has_texture_map(&self) -> bool {
+        self.kind.has_normal_map() || self.textures().iter().any(|t| matches!(t, Texture::Map { .. }))
+    }
+
     /// Its textures that vary over the surface, its emission's included.
     pub fn textures(&self) -> Vec<&Texture> {
         let mut t = self.kind.textures();

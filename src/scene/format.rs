@@ -370,7 +370,11 @@ pub enum MaterialSection {
 #[serde(deny_unknown_fields)]
 pub struct MeshSection {
     pub file: Spanned<String>,
+    /// A material of the scene for the file's meshes: see [`Override`].
     pub material: Option<Spanned<String>>,
+    /// Which of the file's meshes `material` replaces the material of.
+    #[serde(default, rename = "override")]
+    pub scope: Override,
     pub scale: Option<Spanned<ScaleSpec>>,
     /// Rotation in degrees about x, then y, then z.
     pub rotate: Option<V3>,
@@ -378,6 +382,18 @@ pub struct MeshSection {
     /// Compute smooth vertex normals when the file has none.
     #[serde(default)]
     pub smooth: bool,
+}
+
+/// Which meshes of a file a `[[meshes]]` `material` replaces the material of.
+#[derive(Debug, Deserialize, Clone, Copy, Default, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Override {
+    /// Those whose material in the file has no texture map: a textured asset keeps the look
+    /// its author painted, and the rest takes the scene's material.
+    #[default]
+    Untextured,
+    /// Every mesh, textured or not.
+    All,
 }
 
 #[derive(Debug, Deserialize, Clone, Copy)]

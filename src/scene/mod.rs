@@ -144,6 +144,10 @@ pub struct Scene {
     /// that an output that would overwrite one can be refused. (A mesh's MTL files are not
     /// listed yet.)
     pub inputs: Vec<PathBuf>,
+    /// The geometry id of the studio ground a bare mesh stands on ([`mesh_file::scene_of`]):
+    /// the automatic camera and `--orbit` frame the rest, and an environment given on the
+    /// command line ([`Scene::set_environment`]) takes it away.
+    pub ground: Option<usize>,
 }
 
 impl Scene {
@@ -159,6 +163,7 @@ impl Scene {
             render: RenderDefaults::default(),
             warnings: Vec::new(),
             inputs: Vec::new(),
+            ground: None,
         }
     }
 
@@ -195,10 +200,29 @@ impl Scene {
         bounds_of(&self.geometry)
     }
 
-    /// Points whose convex hull holds every surface: mesh vertices, and the corners of each
-    /// sphere's and cylinder's box.
+    /// The geometry a camera frames: all of it but the studio [`Scene::ground`].
+    fn subject(&self) -> impl Iterator<Item = &Geometry> + '_ {
+        self.geometry.iter().enumerate().filter(|(i, _)| Some(*i) != self.ground).map(|(_, g)| g)
+    }
+
+    /// The geometry but a bare mesh's studio [`Scene::ground`]: the model alone, as the
+    /// intersection benchmarks take it.
+    pub fn into_subject_geometry(mut self) -> Vec<Geometry> {
+        if let Some(g) = self.ground {
+            self.geometry.remove(g);
+        }
+        self.geometry
+    }
+
+    /// The bounds of what a camera frames: the whole scene, but a bare mesh's studio ground.
+    pub fn subject_bounds(&self) -> Aabb {
+        self.subject().fold(Aabb::EMPTY, |b, g| b.union(&g.bounds()))
+    }
+
+    /// Points whose convex hull holds every surface a camera frames: mesh vertices, and the
+    /// corners of each sphere's and cylinder's box.
     fn outline_points(&self) -> impl Iterator<Item = Vec3> + '_ {
-        self.geometry.iter().flat_map(move |g| -> Box<dyn Iterator<Item = Vec3> + '_> {
+        self.subject().flat_map(move |g| -> Box<dyn Iterator<Item = Vec3> + '_> {
             match g {
                 Geometry::Mesh(m) => Box::new(m.positions.iter().copied()),
                 Geometry::Spheres(s) => Box::new(s.iter().flat_map(|p| p.bounds().corners())),
@@ -261,7 +285,7 @@ impl Scene {
                 let focus = c.focus_distance.unwrap_or_else(|| (c.look_at - c.position).length());
                 Camera::look_at(c.position, c.look_at, c.up, c.fov, aspect, c.aperture, focus)
             }
-            None => Camera::fitting(self.outline_points(), &self.bounds(), DEFAULT_FOV, aspect),
+            None => Camera::fitting(self.outline_points(), &self.subject_bounds(), DEFAULT_FOV, aspect),
         }
     }
 
@@ -274,8 +298,9 @@ impl Scene {
     /// The camera that frames the scene from direction `dir` (from the centre of the bounds),
     /// as the automatic camera does ([`Camera::fitting_from`]).
     fn framing(&self, dir: Vec3, fov: f32, aspect: f32) -> CameraSpec {
-        let framing = Camera::fitting_from(dir, self.outline_points(), &self.bounds(), fov, aspect);
-        CameraSpec::pinhole(framing.position, self.bounds().center(), Vec3::Y, fov)
+        let bounds = self.subject_bounds();
+        let framing = Camera::fitting_from(dir, self.outline_points(), &bounds, fov, aspect);
+        CameraSpec::pinhole(framing.position, bounds.center(), Vec3::Y, fov)
     }
 
     /// Puts the parts of `o` over the scene's camera. A scene without a camera first gets the
@@ -295,7 +320,7 @@ impl Scene {
             (Some(orbit), _) => {
                 let dir = orbit_dir(orbit.azimuth, orbit.elevation);
                 let framed = self.framing(dir, fov, aspect);
-                let centre = self.bounds().center();
+                let centre = self.subject_bounds().center();
                 let position = orbit.distance.map_or(framed.position, |d| centre + dir * d);
                 CameraSpec { position, ..framed }
             }
@@ -338,6 +363,34 @@ impl Scene {
     pub fn set_background(&mut self, background: Background) {
         self.lights.retain(|l| !matches!(l, Light::Background(_)));
         self.lights.push(Light::Background(background));
+    }
+
+    /// Lights the scene with the equirectangular environment image `path` (8-bit or HDR, as
+    /// a scene file's `[background] type = "image"`), radiance times `strength`, turned
+    /// `rotate` degrees about +Y; it replaces the scene's background, and a bare mesh's
+    /// studio ground goes (the environment's own ground is what it stands on). Loaded and
+    /// counted within `budget`; an error is the message alone.
+    pub fn set_environment(
+        &mut self,
+        path: &Path,
+        strength: f32,
+        rotate: f32,
+        budget: &LoadBudget,
+    ) -> Result<(), String> {
+        let image = crate::texture::Image::load_environment(path, budget)
+            .map_err(|e| format!("environment image {}: {e}", path.display()))?;
+        let sampling = crate::memory::environment_sampling_bytes(image.width, image.height);
+        let what = format!("sampling distribution of the {}x{} environment image", image.width, image.height);
+        budget.admit(what, sampling).map_err(|e| format!("environment image {}: {e}", path.display()))?;
+        let env = crate::light::Environment::new(Arc::new(image), strength, rotate);
+        budget.keep(env.sampling_bytes());
+        self.set_background(Background::Image(Arc::new(env)));
+        self.inputs.push(path.to_path_buf());
+        if let Some(g) = self.ground.take() {
+            self.geometry.remove(g);
+            self.bindings.remove(g);
+        }
+        Ok(())
     }
 
     /// The scene's lights, ready for sampling.

@@ -147,7 +147,7 @@ pub(super) fn from_str(text: &str, path: &Path, budget: &LoadBudget) -> Result<S
             }
         })?;
         let transform = mesh_transform(&ctx, m)?;
-        let over = m.material.as_ref().map(|n| lookup(&ctx, n)).transpose()?;
+        let over = m.material.as_ref().map(|n| lookup(&ctx, n)).transpose()?.map(|id| (id, m.scope));
         mesh_file::add_to_scene(&mut scene, &mesh_path, loaded, Some(transform), over, m.smooth)
             .map_err(|e| ctx.err_at(m.file.span(), format!("mesh {}: {e}", mesh_path.display())))?;
     }

@@ -15,7 +15,7 @@ pub mod ply;
 mod scene;
 
 pub(in crate::scene) use scene::add_to_scene;
-pub use scene::{VERTEX_COLOURS_WARNING, scene_of};
+pub use scene::{CLAY, STUDIO_GROUND, STUDIO_SKY, VERTEX_COLOURS_WARNING, scene_of};
 
 use crate::geometry::{Geometry, TriMesh};
 use crate::light::PointLight;

@@ -1,14 +1,16 @@
-//! Mesh files in scenes: rendered on their own ([`scene_of`]: the file's materials or a light
-//! grey, its camera or one that frames it, a sky when nothing in it lights the scene), or as a
-//! TOML scene's `[[meshes]]` ([`add_to_scene`]).
+//! Mesh files in scenes: rendered on their own ([`scene_of`]: the file's materials or a clay
+//! colour, its camera or one that frames it, and a studio — a sky and a ground plane — when
+//! nothing in it lights the scene), or as a TOML scene's `[[meshes]]` ([`add_to_scene`]).
 
 use super::{MeshFile, load};
-use crate::geometry::Geometry;
+use crate::geometry::{Geometry, TriMesh};
 use crate::light::{Background, Light, PointLight};
+use crate::material::Material;
 use crate::memory::LoadBudget;
-use crate::scene::format::MAX_COORDINATE;
+use crate::scene::format::{MAX_COORDINATE, Override};
 use crate::scene::{MaterialBinding, Scene, SceneError};
 use crate::settings::RenderSettings;
+use crate::texture::Texture;
 use glam::{Affine3A, Vec3};
 use std::path::Path;
 use std::sync::Arc;
@@ -24,23 +26,70 @@ pub fn scene_of(path: &Path, budget: &LoadBudget) -> Result<Scene, SceneError> {
     let file = load(path, budget)?;
     let mut scene = Scene::empty(path);
     scene.camera = file.camera;
+    // Found by `Scene::default_material` for the meshes the file gives no material.
+    scene.materials.push(Material::diffuse("default", CLAY));
     add_to_scene(&mut scene, path, file, None, None, false).map_err(|message| SceneError::new(path, None, message))?;
-    // Only materials in use count: Embree's cornell_box.obj defines an emissive "light"
-    // material but its light face is commented out. Point lights light the scene too.
-    if !scene.effects().lit {
-        scene.set_background(Background::Gradient {
-            zenith: Vec3::new(0.9, 0.95, 1.0),
-            horizon: Vec3::splat(0.8),
-            ground: Vec3::splat(0.25),
-        });
+    if !lights_itself(&scene) {
+        add_studio(&mut scene);
     }
     Ok(scene)
 }
 
+/// The colour of a bare mesh's surfaces that the file gives no material: a light warm clay,
+/// which reads against the studio's blue-white sky and grey ground.
+pub const CLAY: Vec3 = Vec3::new(0.75, 0.68, 0.6);
+
+/// The studio's sky: white-blue above, light grey at the horizon.
+pub const STUDIO_SKY: Background =
+    Background::Gradient { zenith: Vec3::new(0.9, 0.95, 1.0), horizon: Vec3::splat(0.8), ground: Vec3::splat(0.25) };
+
+/// The reflectance of the studio's ground.
+pub const STUDIO_GROUND: Vec3 = Vec3::splat(0.5);
+
+/// Whether a mesh file lights itself: a point light, or a surface in use whose material
+/// emits a constant colour (a lamp). Only materials in use count: Embree's cornell_box.obj
+/// defines an emissive "light" material but its light face is commented out. A textured
+/// emitter (a helmet's lit visor, a screen) glows but is not what an author lights a model
+/// with: such a model gets the studio too.
+fn lights_itself(scene: &Scene) -> bool {
+    let lamp = |m: u32| matches!(scene.materials[m as usize].emission, Texture::Constant(c) if c.max_element() > 0.0);
+    scene.lights.iter().any(|l| matches!(l, Light::Point(_)))
+        || scene.bindings.iter().any(|b| match b {
+            MaterialBinding::Uniform(m) => lamp(*m),
+            MaterialBinding::PerPrim(ms) => ms.iter().any(|&m| lamp(m)),
+        })
+}
+
+/// Puts a bare mesh in a studio: [`STUDIO_SKY`] all round, and a ground of [`STUDIO_GROUND`]
+/// under its lowest point (+Y is up), a square 100 times the model's size across, so its
+/// edge lies at the horizon from any camera that frames the model. The automatic camera
+/// frames the model alone ([`Scene::ground`]).
+fn add_studio(scene: &mut Scene) {
+    scene.set_background(STUDIO_SKY);
+    let b = scene.bounds();
+    let size = b.diagonal().length();
+    if !(size.is_finite() && size > 0.0) {
+        return;
+    }
+    // A hair below the lowest point: a flat base does not coincide with the ground.
+    let (y, half, c) = (b.min.y - 1e-4 * size, 50.0 * size, b.center());
+    let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+    let positions = corners.iter().map(|&(dx, dz)| Vec3::new(c.x + dx * half, y, c.z + dz * half)).collect();
+    // Wound so that the geometric normal is +Y.
+    let ground = TriMesh::new("studio ground", positions, vec![[0, 2, 1], [0, 3, 2]], Vec::new(), Vec::new())
+        .expect("four corners, two triangles");
+    scene.materials.push(Material::diffuse("studio ground", STUDIO_GROUND));
+    let id = scene.materials.len() as u32 - 1;
+    scene.ground = Some(scene.geometry.len());
+    scene.geometry.push(Geometry::Mesh(Arc::new(ground)));
+    scene.bindings.push(MaterialBinding::Uniform(id));
+}
+
 /// Adds the meshes, materials and point lights of the mesh file `path` to `scene`, placed by
 /// `transform` (a scene file's scale/rotate/translate: applied even when it is the identity,
-/// which renormalises vertex normals; `None`: as in the file), with material `over` on every
-/// mesh, or else the file's own (a light grey where it has none); with `smooth`, meshes
+/// which renormalises vertex normals; `None`: as in the file), with material `over` on the
+/// meshes its [`Override`] says (the others keep the file's own), or else the file's own (the
+/// scene's default material where it has none); with `smooth`, meshes
 /// without normals get smooth vertex normals. The file's camera is not used. An error (a
 /// vertex placed out of range) is the message alone.
 pub(in crate::scene) fn add_to_scene(
@@ -48,7 +97,7 @@ pub(in crate::scene) fn add_to_scene(
     path: &Path,
     file: MeshFile,
     transform: Option<Affine3A>,
-    over: Option<u32>,
+    over: Option<(u32, Override)>,
     smooth: bool,
 ) -> Result<(), String> {
     scene.warnings.extend(file.warnings);
@@ -85,8 +134,14 @@ pub(in crate::scene) fn add_to_scene(
             mesh.compute_vertex_normals();
         }
         colours |= !fm.colors.is_empty();
-        let id =
-            over.unwrap_or_else(|| fm.material.map(|i| first + i as u32).unwrap_or_else(|| scene.default_material()));
+        let own = fm.material.map(|i| first + i as u32);
+        let textured = own.is_some_and(|m| scene.materials[m as usize].has_texture_map());
+        let id = match (over, own) {
+            (Some((m, Override::All)), _) => m,
+            (Some((m, Override::Untextured)), _) if !textured => m,
+            (_, Some(m)) => m,
+            (_, None) => scene.default_material(),
+        };
         scene.geometry.push(Geometry::Mesh(Arc::new(mesh)));
         scene.bindings.push(MaterialBinding::Uniform(id));
     }

@@ -41,7 +41,8 @@ pub const QUICK_SET: [&str; 4] = ["teapot", "blob-1k", "blob-10k", "shapes-100"]
 pub const TESSELLATION_SEGMENTS: u32 = 32;
 
 impl BenchScene {
-    /// A built-in scene by name, or a `.obj`/`.toml` file (its geometry only). OBJ models are
+    /// A built-in scene by name, or a `.obj`/`.toml` file (its geometry only, without a bare
+    /// mesh's studio ground). OBJ models are
     /// read from `scenes_dir`.
     pub fn load(name: &str, scenes_dir: &Path) -> Result<BenchScene, BenchError> {
         let procedural = |target: usize| BenchScene {
@@ -61,7 +62,7 @@ impl BenchScene {
             "teapot" | "bunny" => BenchScene {
                 name: name.to_string(),
                 family: Family::Model,
-                geometry: Scene::load(&scenes_dir.join(format!("{name}.obj")))?.geometry,
+                geometry: Scene::load(&scenes_dir.join(format!("{name}.obj")))?.into_subject_geometry(),
             },
             "blob-1k" => procedural(1_000),
             "blob-10k" => procedural(10_000),
@@ -74,7 +75,7 @@ impl BenchScene {
                 let scene = Scene::load(&path)?;
                 let family = if scene.primitive_counts().0 == 0 { Family::Shapes } else { Family::Model };
                 let name = path.file_stem().map_or(name.to_string(), |s| s.to_string_lossy().into_owned());
-                BenchScene { name, family, geometry: scene.geometry }
+                BenchScene { name, family, geometry: scene.into_subject_geometry() }
             }
             _ => {
                 return Err(BenchError::Invalid(format!(

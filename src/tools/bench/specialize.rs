@@ -64,7 +64,7 @@ pub fn config() -> RenderConfig {
 }
 
 /// The scene files in `dir` (`.toml`, and `.obj` meshes, which render with a default camera,
-/// sky and diffuse material: `teapot.obj` is the plain diffuse teapot), sorted by name.
+/// studio and clay material: `teapot.obj` is the plain diffuse teapot), sorted by name.
 pub fn scene_files(dir: &Path) -> Result<Vec<PathBuf>, BenchError> {
     let entries = std::fs::read_dir(dir).map_err(|e| BenchError::Invalid(format!("{}: {e}", dir.display())))?;
     let mut files: Vec<PathBuf> = entries

@@ -27,8 +27,11 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     for w in &scene.warnings {
         say!("warning: {w}");
     }
+    // The model's counts and bounds; a bare mesh's studio ground has a line of its own.
+    let ground_triangles = scene.ground.map_or(0, |g| scene.geometry[g].len());
     let (tris, spheres, cylinders) = scene.primitive_counts();
-    let b = scene.bounds();
+    let tris = tris - ground_triangles;
+    let b = scene.subject_bounds();
     let device = Device::new()?;
     // Warm-up: the first commit in a process also starts Embree's threads.
     drop(EmbreeAccel::new(&device, &[], BuildOptions::default())?);
@@ -36,7 +39,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let options = crate::accel::build_options_for(&scene.geometry);
     let accel = EmbreeAccel::new(&device, &scene.geometry, options)?;
     out!("scene:      {}", args.scene.display());
-    out!("geometries: {}", scene.geometry.len());
+    out!("geometries: {}", scene.geometry.len() - scene.ground.is_some() as usize);
     out!("triangles:  {tris}");
     out!("spheres:    {spheres}");
     out!("cylinders:  {cylinders}");
@@ -49,6 +52,11 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         b.max.y,
         b.max.z
     );
+    if scene.ground.is_some() {
+        out!(
+            "studio:     a sky and a ground plane under the model ({ground_triangles} triangles more): nothing in the file lights it"
+        );
+    }
     out!("embree:     {} ({} bindings, {})", device.version(), device.backend(), device.ray_hit_layout());
     let plan = RenderPlan::new(&scene, &RenderSettings::from_scene(&scene.render));
     out!("{}", plan.effects);
@@ -69,7 +77,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
 /// (`given`: the flags that changed it) one made on the command line.
 pub(super) fn camera_lines(scene: &Scene, aspect: f32, given: Option<&str>) -> String {
     let spec = scene.camera_spec(aspect);
-    let centre = scene.bounds().center();
+    let centre = scene.subject_bounds().center();
     // Where it is seen from, as --orbit would say, when it looks at the scene's centre.
     let orbit = (spec.look_at == centre).then(|| {
         let (azimuth, elevation) = crate::camera::orbit_angles(spec.position - centre);

@@ -170,6 +170,17 @@ pub struct RenderArgs {
     /// automatic camera's).
     #[arg(long, value_name = "WIDTH", value_parser = parse_ortho, conflicts_with = "fov")]
     pub ortho: Option<f32>,
+    /// Light the scene with an equirectangular (latitude-longitude) environment image: any
+    /// .hdr or .exr (linear radiance) or 8-bit .png or .jpg (sRGB), as from Poly Haven. It
+    /// replaces the scene's background; a bare mesh loses its studio ground.
+    #[arg(long, value_name = "FILE")]
+    pub env: Option<PathBuf>,
+    /// Turn the environment DEG degrees about the up axis (+Y).
+    #[arg(long, value_name = "DEG", requires = "env", allow_hyphen_values = true, value_parser = parse_env_rotate)]
+    pub env_rotate: Option<f32>,
+    /// Scale the environment's radiance by S [1].
+    #[arg(long, value_name = "S", requires = "env", value_parser = parse_env_strength)]
+    pub env_strength: Option<f32>,
     /// Render only shard K of N (0-based) of the image, to a shard file (-o NAME.shard) that
     /// `ember merge` puts together with the others; "auto" takes K and N from Slurm
     /// (SLURM_ARRAY_TASK_ID, SLURM_ARRAY_TASK_COUNT), "auto/N" K from Slurm or a Kubernetes
@@ -241,6 +252,22 @@ fn parse_orbit(s: &str) -> Result<Orbit, String> {
         return Err(format!("the distance must be positive and at most {MAX_COORDINATE:e}, found {d}"));
     }
     Ok(Orbit { azimuth: v[0], elevation: v[1], distance })
+}
+
+/// An environment's turn about +Y: finite degrees.
+fn parse_env_rotate(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!("expected an angle in degrees (e.g. 90 or -45), found {s:?}")),
+    }
+}
+
+/// An environment's radiance scale: positive and finite.
+fn parse_env_strength(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("expected a positive scale of the radiance (e.g. 0.5 or 2), found {s:?}")),
+    }
 }
 
 /// An orthographic view's width: a positive length.

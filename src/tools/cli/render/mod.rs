@@ -55,6 +55,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let budget =
         LoadBudget::for_render(limit, embree, args.width, args.height).with_external_files(args.allow_external_files);
     let mut scene = Scene::load_within(&args.scene, &budget)?;
+    if let Some(env) = &args.env {
+        let (strength, rotate) = (args.env_strength.unwrap_or(1.0), args.env_rotate.unwrap_or(0.0));
+        scene.set_environment(env, strength, rotate, &budget).map_err(|e| anyhow::anyhow!("--env: {e}"))?;
+    }
     for w in &scene.warnings {
         say!("warning: {w}");
     }
