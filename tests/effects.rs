@@ -70,7 +70,7 @@ fn the_report_line_names_what_is_on_and_off() {
     assert_eq!(
         e.to_string(),
         "effects: triangles, diffuse, point lights, indirect light — off: spheres, cylinders, glossy, mirror, glass, \
-         emissive, texture, area lights, sky, environment, depth of field"
+         emissive, texture, cut-outs, area lights, sky, environment, depth of field"
     );
     assert_eq!(
         KernelChoice::for_effects(&e),

@@ -18,7 +18,7 @@ impl EmbreeAccel {
         let mut b = SceneBuilder::new(device, options)?;
         for (i, g) in geometry.iter().enumerate() {
             let id = match g {
-                Geometry::Mesh(m) => b.add_triangles(&m.positions, &m.indices),
+                Geometry::Mesh(m) => b.add_mesh(m),
                 Geometry::Spheres(s) => b.add_shapes(s.clone()),
                 Geometry::Cylinders(c) => b.add_shapes(c.clone()),
             }

@@ -1,5 +1,5 @@
 use super::{Accel, AccelError};
-use crate::geometry::{Cylinder, Geometry, Hit, Ray, Shape, Sphere, WatertightRay};
+use crate::geometry::{Cylinder, Geometry, Hit, Ray, Shape, Sphere, TriMesh, WatertightRay};
 use glam::Vec3;
 use std::sync::Arc;
 
@@ -12,6 +12,8 @@ pub struct NaiveAccel {
 /// Primitives laid out for the loop: triangle corners contiguous (no index indirection).
 enum Prims {
     Triangles(Vec<[Vec3; 3]>),
+    /// A mesh with holes: each candidate hit is asked of its cut-out.
+    CutTriangles(Vec<[Vec3; 3]>, Arc<TriMesh>),
     Spheres(Arc<[Sphere]>),
     Cylinders(Arc<[Cylinder]>),
 }
@@ -21,7 +23,10 @@ impl NaiveAccel {
         let geometry = geometry
             .iter()
             .map(|g| match g {
-                Geometry::Mesh(m) => Prims::Triangles((0..m.triangle_count()).map(|i| m.triangle(i)).collect()),
+                Geometry::Mesh(m) => {
+                    let tris = (0..m.triangle_count()).map(|i| m.triangle(i)).collect();
+                    if m.cutout.is_some() { Prims::CutTriangles(tris, m.clone()) } else { Prims::Triangles(tris) }
+                }
                 Geometry::Spheres(s) => Prims::Spheres(s.clone()),
                 Geometry::Cylinders(c) => Prims::Cylinders(c.clone()),
             })
@@ -56,6 +61,18 @@ impl Accel for NaiveAccel {
                         }
                     }
                 }
+                Prims::CutTriangles(tris, mesh) => {
+                    let cutout = mesh.cutout.as_deref().expect("a cut mesh has its cut-out");
+                    for (pi, &[a, b, c]) in tris.iter().enumerate() {
+                        if let Some(h) = wt.intersect(a, b, c, tmin, tmax)
+                            && cutout.keeps(mesh, pi as u32, h.u, h.v, ray)
+                        {
+                            tmax = h.t;
+                            best =
+                                Some(Hit { t: h.t, geom, prim: pi as u32, u: h.u, v: h.v, ng: (b - a).cross(c - a) });
+                        }
+                    }
+                }
                 Prims::Spheres(s) => closest_shape(s, ray, tmin, &mut tmax, geom, &mut best),
                 Prims::Cylinders(c) => closest_shape(c, ray, tmin, &mut tmax, geom, &mut best),
             }
@@ -67,6 +84,12 @@ impl Accel for NaiveAccel {
         let wt = WatertightRay::new(ray);
         self.geometry.iter().any(|g| match g {
             Prims::Triangles(tris) => tris.iter().any(|&[a, b, c]| wt.intersect(a, b, c, tmin, tmax).is_some()),
+            Prims::CutTriangles(tris, mesh) => {
+                let cutout = mesh.cutout.as_deref().expect("a cut mesh has its cut-out");
+                tris.iter().enumerate().any(|(pi, &[a, b, c])| {
+                    wt.intersect(a, b, c, tmin, tmax).is_some_and(|h| cutout.keeps(mesh, pi as u32, h.u, h.v, ray))
+                })
+            }
             Prims::Spheres(s) => s.iter().any(|p| p.occludes(ray, tmin, tmax)),
             Prims::Cylinders(c) => c.iter().any(|p| p.occludes(ray, tmin, tmax)),
         })

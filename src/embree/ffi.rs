@@ -23,13 +23,14 @@ mod raw {
 use embree4_sys as raw;
 
 pub(super) use raw::{
-    RTCBounds, RTCBoundsFunctionArguments, RTCBufferType, RTCBuildQuality, RTCDevice, RTCDeviceProperty, RTCFormat,
-    RTCGeometry, RTCGeometryType, RTCIntersectFunctionNArguments, RTCOccludedFunctionNArguments, RTCRay, RTCRay8,
-    RTCScene, RTCSceneFlags, rtcAttachGeometryByID, rtcCommitGeometry, rtcCommitScene, rtcGetDeviceProperty,
-    rtcGetSceneBounds, rtcNewDevice, rtcNewGeometry, rtcNewScene, rtcReleaseDevice, rtcReleaseGeometry,
-    rtcReleaseScene, rtcSetGeometryBoundsFunction, rtcSetGeometryIntersectFunction, rtcSetGeometryOccludedFunction,
-    rtcSetGeometryUserData, rtcSetGeometryUserPrimitiveCount, rtcSetNewGeometryBuffer, rtcSetSceneBuildQuality,
-    rtcSetSceneFlags,
+    RTCBounds, RTCBoundsFunctionArguments, RTCBufferType, RTCBuildQuality, RTCDevice, RTCDeviceProperty,
+    RTCFilterFunctionNArguments, RTCFormat, RTCGeometry, RTCGeometryType, RTCIntersectFunctionNArguments,
+    RTCOccludedFunctionNArguments, RTCRay, RTCRay8, RTCScene, RTCSceneFlags, rtcAttachGeometryByID, rtcCommitGeometry,
+    rtcCommitScene, rtcGetDeviceProperty, rtcGetSceneBounds, rtcNewDevice, rtcNewGeometry, rtcNewScene,
+    rtcReleaseDevice, rtcReleaseGeometry, rtcReleaseScene, rtcSetGeometryBoundsFunction,
+    rtcSetGeometryIntersectFilterFunction, rtcSetGeometryIntersectFunction, rtcSetGeometryOccludedFilterFunction,
+    rtcSetGeometryOccludedFunction, rtcSetGeometryUserData, rtcSetGeometryUserPrimitiveCount, rtcSetNewGeometryBuffer,
+    rtcSetSceneBuildQuality, rtcSetSceneFlags,
 };
 
 /// `RTC_INVALID_GEOMETRY_ID`, a cast macro that bindgen drops.

@@ -3,8 +3,8 @@ use super::error::EmbreeError;
 use super::ffi;
 use super::layout::{RayHitLayout, RayHitMem, rtc_ray};
 use super::packet::{LANES, RayHit8Mem, ray8};
-use super::user::{self, CallbackFailure, UserData};
-use crate::geometry::{Aabb, Hit, Ray, RayPacket, Shape};
+use super::user::{self, CallbackFailure, CutoutData, UserData};
+use crate::geometry::{Aabb, Hit, Ray, RayPacket, Shape, TriMesh};
 use glam::Vec3;
 use std::any::Any;
 use std::sync::Arc;
@@ -182,6 +182,34 @@ impl SceneBuilder {
     /// Adds a triangle mesh; returns its geometry id. Vertices and indices are copied into
     /// buffers Embree allocates (and pads for its 16-byte loads).
     pub fn add_triangles(&mut self, vertices: &[Vec3], indices: &[[u32; 3]]) -> Result<u32, EmbreeError> {
+        let g = self.triangle_geometry(vertices, indices)?;
+        self.attach(g)
+    }
+
+    /// Adds a triangle mesh with holes ([`TriMesh::cutout`]; without one, as
+    /// [`SceneBuilder::add_triangles`]): Embree asks a filter callback of every candidate hit,
+    /// which asks the cut-out whether the surface is there.
+    pub fn add_mesh(&mut self, mesh: &Arc<TriMesh>) -> Result<u32, EmbreeError> {
+        let g = self.triangle_geometry(&mesh.positions, &mesh.indices)?;
+        if mesh.cutout.is_some() {
+            let data = Box::new(CutoutData { mesh: mesh.clone(), failure: self.scene.failure.clone() });
+            let ptr = &*data as *const CutoutData as *mut std::ffi::c_void;
+            // SAFETY: `g` is a valid triangle geometry. `ptr` points into a box the scene owns
+            // until after it is released (RawScene field order), so it outlives every callback,
+            // which reads it as the `CutoutData` it is.
+            unsafe {
+                ffi::rtcSetGeometryUserData(g.0, ptr);
+                ffi::rtcSetGeometryIntersectFilterFunction(g.0, Some(user::cutout_filter));
+                ffi::rtcSetGeometryOccludedFilterFunction(g.0, Some(user::cutout_filter));
+            }
+            self.scene._user_data.push(data);
+            self.device().take_error()?;
+        }
+        self.attach(g)
+    }
+
+    /// A new triangle geometry holding copies of `vertices` and `indices`, not yet attached.
+    fn triangle_geometry(&self, vertices: &[Vec3], indices: &[[u32; 3]]) -> Result<GeomHandle, EmbreeError> {
         if indices.is_empty() {
             return Err(EmbreeError::InvalidInput("a triangle mesh needs at least one triangle".into()));
         }
@@ -225,7 +253,7 @@ impl SceneBuilder {
                 dst.copy_from_slice(t);
             }
         }
-        self.attach(g)
+        Ok(g)
     }
 
     /// Adds an array of analytic shapes as one Embree user geometry (primitive id = index);

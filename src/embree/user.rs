@@ -4,7 +4,7 @@
 use super::error::EmbreeError;
 use super::ffi;
 use super::layout::{HIT_WORD, RayHitLayout, TFAR_WORD};
-use crate::geometry::{Ray, Shape};
+use crate::geometry::{Ray, Shape, TriMesh};
 use glam::Vec3;
 use std::any::Any;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -207,5 +207,47 @@ unsafe fn report_misses(valid: *mut std::ffi::c_int, n: usize) {
             // SAFETY: per the contract.
             unsafe { *valid.add(i) = 0 };
         }
+    }
+}
+
+/// What a cut-out mesh's user pointer points at (see `SceneBuilder::add_mesh`).
+pub(super) struct CutoutData {
+    pub(super) mesh: Arc<TriMesh>,
+    pub(super) failure: Arc<CallbackFailure>,
+}
+
+/// Embree's intersect and occluded filter for a mesh with holes: a candidate hit where the
+/// mesh's [`crate::geometry::Cutout`] says the surface is not there is rejected (`valid`
+/// cleared), and Embree goes on looking behind it.
+pub(super) unsafe extern "C" fn cutout_filter(args: *const ffi::RTCFilterFunctionNArguments) {
+    // SAFETY: Embree passes valid arguments: `valid` has N entries, `ray` is an RTCRayN and
+    // `hit` an RTCHitN of width N, and the user pointer is the `CutoutData` this function was
+    // registered with.
+    let args = unsafe { &*args };
+    let data = unsafe { &*(args.geometryUserPtr as *const CutoutData) };
+    let n = args.N as usize;
+    let (ray, hit) = (args.ray as *const f32, args.hit as *const f32);
+    let Some(cutout) = data.mesh.cutout.as_deref() else { return };
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        for i in 0..n {
+            // SAFETY: `valid` has n entries; only lanes marked -1 are candidates.
+            if unsafe { *args.valid.add(i) } != -1 {
+                continue;
+            }
+            // SAFETY: `ray` is an RTCRayN of width n (12·n words); `hit` an RTCHitN of width n
+            // whose words 3, 4 and 5 are u, v and primID.
+            let (r, u, v, prim) = unsafe {
+                let (r, _, _) = read_ray(ray, i, n);
+                (r, *hit.add(word(3, i, n)), *hit.add(word(4, i, n)), *(hit as *const u32).add(word(5, i, n)))
+            };
+            if (prim as usize) < data.mesh.indices.len() && !cutout.keeps(&data.mesh, prim, u, v, &r) {
+                // SAFETY: `valid` has n entries; 0 rejects the hit.
+                unsafe { *args.valid.add(i) = 0 };
+            }
+        }
+    }));
+    if let Err(payload) = r {
+        // The hits stand as Embree found them; the query is reported as failed anyway.
+        data.failure.record("cut-out filter", payload);
     }
 }

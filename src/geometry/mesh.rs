@@ -19,6 +19,8 @@ pub struct TriMesh {
     /// increasing u), w = ±1 such that w (n × tangent) is the bitangent (along increasing v,
     /// up the image). Empty when no normal map needs them.
     pub tangents: Vec<[Vec4; 3]>,
+    /// Where the surface has holes (its material's alpha), if it has any.
+    pub cutout: Option<std::sync::Arc<super::Cutout>>,
 }
 
 /// Why a mesh could not be built.

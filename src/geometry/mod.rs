@@ -2,6 +2,7 @@
 //! acceleration structures. Knows nothing of materials, lights or Embree.
 
 mod bounds;
+mod cutout;
 mod cylinder;
 mod frame;
 mod mesh;
@@ -12,6 +13,7 @@ mod sphere;
 mod triangle;
 
 pub use bounds::Aabb;
+pub use cutout::Cutout;
 pub use cylinder::{Cylinder, CylinderPart};
 pub use frame::Frame;
 pub use mesh::{MeshError, TriMesh};

@@ -300,6 +300,26 @@ impl Material {
         self.emission.max().max_element() > 0.0
     }
 
+    /// Where a surface of this material is not there: glTF's `alphaMode` `MASK` (below the
+    /// cutoff) and `BLEND` (with probability 1 − alpha), the alpha being the base colour
+    /// factor's times its map's. `None`: opaque everywhere.
+    pub fn cutout(&self) -> Option<crate::geometry::Cutout> {
+        let MaterialKind::Pbr(p) = &self.kind else { return None };
+        let cutoff = match p.alpha_mode {
+            AlphaMode::Opaque => return None,
+            AlphaMode::Mask(c) => Some(c),
+            AlphaMode::Blend => None,
+        };
+        let map = match &p.base {
+            Texture::Map { map, .. } => Some(map.clone()),
+            _ => None,
+        };
+        if map.is_none() && cutoff.map_or(p.alpha >= 1.0, |c| p.alpha >= c) {
+            return None;
+        }
+        Some(crate::geometry::Cutout { alpha: p.alpha, map, cutoff })
+    }
+
     /// Whether an image maps any of its properties (colour, roughness, emission, normals).
     pub fn has_texture_map(&self) -> bool {
         self.kind.has_normal_map() || self.textures().iter().any(|t| matches!(t, Texture::Map { .. }))

@@ -36,6 +36,8 @@ pub struct Effects {
     pub emissive: bool,
     /// Colours that vary over a surface (image or checker textures).
     pub textures: bool,
+    /// Surfaces with holes (glTF's alpha MASK and BLEND): rays test their alpha at each hit.
+    pub cutouts: bool,
     /// Emitting surfaces that next-event estimation samples (triangles, spheres).
     pub area_lights: bool,
     pub point_lights: bool,
@@ -97,7 +99,10 @@ impl Effects {
                 continue;
             }
             match g {
-                Geometry::Mesh(_) => e.triangles = true,
+                Geometry::Mesh(m) => {
+                    e.triangles = true;
+                    e.cutouts |= m.cutout.is_some();
+                }
                 Geometry::Spheres(_) => e.spheres = true,
                 Geometry::Cylinders(_) => e.cylinders = true,
             }
@@ -181,7 +186,7 @@ impl Effects {
     }
 
     /// (name, present) for every effect, in report order.
-    pub fn list(&self) -> [(&'static str, bool); 15] {
+    pub fn list(&self) -> [(&'static str, bool); 16] {
         [
             ("triangles", self.triangles),
             ("spheres", self.spheres),
@@ -192,6 +197,7 @@ impl Effects {
             ("glass", self.glass),
             ("emissive", self.emissive),
             ("texture", self.textures),
+            ("cut-outs", self.cutouts),
             ("area lights", self.area_lights),
             ("point lights", self.point_lights),
             ("sky", self.sky),

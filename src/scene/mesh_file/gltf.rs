@@ -569,9 +569,6 @@ impl<'a> Loader<'a> {
                 gltf::material::AlphaMode::Mask => AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5)),
                 gltf::material::AlphaMode::Blend => AlphaMode::Blend,
             };
-            if alpha_mode != AlphaMode::Opaque {
-                ignored.add("alphaMode MASK and BLEND (surfaces are opaque)", &at);
-            }
             let (specular, specular_color) = match m.specular() {
                 Some(s) => {
                     if s.specular_texture().is_some() || s.specular_color_texture().is_some() {

@@ -111,6 +111,7 @@ pub(in crate::scene) fn add_to_scene(
         let Some(transform) = transform else {
             colours |= !fm.colors.is_empty();
             let id = fm.material.map(|i| first + i as u32).unwrap_or_else(|| scene.default_material());
+            mesh.cutout = scene.materials[id as usize].cutout().map(Arc::new);
             scene.geometry.push(Geometry::Mesh(Arc::new(mesh)));
             scene.bindings.push(MaterialBinding::Uniform(id));
             continue;
@@ -142,6 +143,7 @@ pub(in crate::scene) fn add_to_scene(
             (_, Some(m)) => m,
             (_, None) => scene.default_material(),
         };
+        mesh.cutout = scene.materials[id as usize].cutout().map(Arc::new);
         scene.geometry.push(Geometry::Mesh(Arc::new(mesh)));
         scene.bindings.push(MaterialBinding::Uniform(id));
     }
