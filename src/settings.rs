@@ -114,6 +114,38 @@ impl fmt::Display for LightVertices {
     }
 }
 
+/// How next-event estimation chooses among many lights (`--light-tree`): by a light tree,
+/// the lights' importance at each shading point (`crate::light`'s `tree`), or by power.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightTreeMode {
+    /// A tree where there are more than a few groups of lights or an emitting mesh of many
+    /// triangles.
+    #[default]
+    Auto,
+    /// Never: such sets are chosen by power.
+    Off,
+}
+
+impl FromStr for LightTreeMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(LightTreeMode::Auto),
+            "off" => Ok(LightTreeMode::Off),
+            _ => Err(format!("expected \"auto\" or \"off\", found {s:?}")),
+        }
+    }
+}
+
+impl fmt::Display for LightTreeMode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            LightTreeMode::Auto => "auto",
+            LightTreeMode::Off => "off",
+        })
+    }
+}
+
 /// Side of the square tiles an image is rendered in (the last row and column may be cut).
 pub const TILE: u32 = 16;
 
@@ -240,6 +272,8 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     /// Whether paths connect to light vertices.
     pub light_vertices: LightVertices,
+    /// Whether many lights are chosen through a light tree.
+    pub light_tree: LightTreeMode,
     /// A sample clamp, as Cycles' (`--clamp`): a sample whose largest channel is above this is
     /// scaled down to it, its hue kept ([`clamp_sample`]). Biased: it removes fireflies by
     /// removing energy. `None`: no clamp.
@@ -301,6 +335,7 @@ impl Default for RenderSettings {
             shard: None,
             sampler: SamplerKind::default(),
             light_vertices: LightVertices::Auto,
+            light_tree: LightTreeMode::Auto,
             clamp: None,
         }
     }

@@ -117,6 +117,7 @@ impl RenderPlan {
         ) + if s.adaptive { " adaptive=relmse-5x5" } else { "" }
             + if self.light_vertices { " light-vertices=pool-by-depth" } else { "" }
             + &s.clamp.map_or(String::new(), |c| format!(" clamp={c}"))
+            + if s.light_tree == crate::settings::LightTreeMode::Off { " light-tree=off" } else { "" }
     }
 
     /// The most rays one sample traces: its camera ray, and at each of its at most

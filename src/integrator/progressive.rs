@@ -233,7 +233,7 @@ pub(super) fn run(
         (None, None) => (Accumulator::empty(w, h, settings.aux, settings.adaptive), Duration::ZERO, 0),
     };
     let camera = scene.camera(w as f32 / h as f32);
-    let lights = scene.light_set();
+    let lights = scene.light_set(settings.light_tree);
     // The pixels this render takes: a shard's, or all.
     let owned = |i: usize| settings.shard.is_none_or(|s| s.owns_pixel(i as u32 % w, i as u32 / w));
     let finish = |accum: Accumulator, rays: u64, (nonfinite, clamped): (u64, u64), complete, warnings| {

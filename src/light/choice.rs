@@ -33,7 +33,7 @@ use glam::Vec3;
 pub(super) const LOCAL_CHOICE_MAX: usize = 8;
 
 /// The largest f32 below 1.
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
+pub(super) const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// What the importance of one group of lights needs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -85,7 +85,7 @@ impl LightBounds {
 
     /// The light this emitter can bring to `p` (see the module documentation).
     #[inline]
-    fn importance(&self, p: Vec3) -> f32 {
+    pub(super) fn importance(&self, p: Vec3) -> f32 {
         if !(self.scale > 0.0) {
             return 0.0; // a black or zero-sized light (its normal may be NaN)
         }

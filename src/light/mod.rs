@@ -1,8 +1,9 @@
 //! Lights: what a scene describes ([`Light`]: point lights and the background), emitting
 //! triangles and spheres (area lights: surfaces whose material emits), and [`LightSet`], which
-//! chooses one (by its importance at the shading point for a few lights, by power for many:
-//! `choice`) and samples a direction toward it, for next-event estimation; its `pdf_*`
-//! methods give the matching densities for multiple importance sampling.
+//! chooses one (by its importance at the shading point: among a few groups in `choice`,
+//! through a light tree in `tree` for many lights; by power where told) and samples a
+//! direction toward it, for next-event estimation; its `pdf_*` methods give the matching
+//! densities for multiple importance sampling.
 //!
 //! Each kind is a file: `point.rs`, `background.rs` (sky and environment; an environment
 //! image and its sampling by luminance in `environment.rs`), `triangle.rs` and `sphere.rs`
@@ -16,6 +17,7 @@ mod choice;
 mod environment;
 mod point;
 mod sphere;
+mod tree;
 mod triangle;
 
 pub use background::Background;
@@ -24,11 +26,17 @@ pub use point::PointLight;
 
 use crate::geometry::{Geometry, bounds_of};
 use crate::hash::Fingerprint;
+use crate::settings::LightTreeMode;
 use crate::texture::Texture;
 use choice::{LOCAL_CHOICE_MAX, LightBounds, LocalChoice};
 use glam::{Vec2, Vec3};
 use sphere::EmissiveSphere;
+use tree::LightTree;
 use triangle::EmissiveTriangle;
+
+/// A set whose largest group (an emitting mesh) has more lights than this is chosen through
+/// a light tree (as is one of more than [`LOCAL_CHOICE_MAX`] groups).
+const TREE_GROUP_MIN: u32 = 16;
 
 /// A light a scene describes, as opposed to a surface whose material emits.
 #[derive(Clone, Debug, PartialEq)]
@@ -125,14 +133,24 @@ struct Group {
     prob: f32,
 }
 
-/// How a light is chosen at one shading point ([`LightSet::choice_at`]): by importance there,
-/// or (`None`) by power.
+/// How a light is chosen at one shading point ([`LightSet::choice_at`]).
 #[derive(Clone, Copy, Debug)]
-pub struct LightChoice(Option<LocalChoice>);
+pub struct LightChoice(How);
+
+#[derive(Clone, Copy, Debug)]
+enum How {
+    /// In proportion to power.
+    Power,
+    /// Among a few groups by their importance at the point.
+    Groups(LocalChoice),
+    /// Through the light tree at `p`; the background (if any) is chosen with probability
+    /// `1 - tree`.
+    Tree { p: Vec3, tree: f32 },
+}
 
 impl LightChoice {
     /// In proportion to power, wherever the point.
-    pub const BY_POWER: LightChoice = LightChoice(None);
+    pub const BY_POWER: LightChoice = LightChoice(How::Power);
 }
 
 /// All lights of a scene, and how one is chosen.
@@ -144,8 +162,12 @@ pub struct LightSet {
     groups: Vec<Group>,
     group_of: Vec<u32>,
     /// Per group, for the choice by importance at a point (2 to [`LOCAL_CHOICE_MAX`]
-    /// groups); empty otherwise.
+    /// groups, no tree); empty otherwise.
     bounds: Vec<LightBounds>,
+    /// The light tree over every light but the background, and the background's importance
+    /// (the same at every point) that the tree's root is weighed against.
+    tree: Option<LightTree>,
+    background_importance: f32,
     /// The power-proportional choice: larger sets, and the fallback where importances are
     /// unusable.
     cdf: Vec<f32>,
@@ -177,7 +199,15 @@ impl LightSet {
     /// (`emission(geom, prim)`, possibly a texture) is not black over it (triangles and
     /// spheres; cylinders are not sampled), then the described `lights` in their order, the
     /// background last (unless black).
-    pub fn new<'a>(geometry: &[Geometry], emission: &dyn Fn(u32, u32) -> &'a Texture, lights: &[Light]) -> LightSet {
+    ///
+    /// With [`LightTreeMode::Auto`], a set of more than [`LOCAL_CHOICE_MAX`] groups, or with
+    /// a group of more than [`TREE_GROUP_MIN`] lights, is chosen through a light tree.
+    pub fn new<'a>(
+        geometry: &[Geometry],
+        emission: &dyn Fn(u32, u32) -> &'a Texture,
+        lights: &[Light],
+        mode: LightTreeMode,
+    ) -> LightSet {
         let mut emitters = Vec::new();
         let mut primitive_lights = Vec::new();
         let mut spans: Vec<(u32, u32)> = Vec::new();
@@ -269,7 +299,26 @@ impl LightSet {
         for (g, &(start, end)) in spans.iter().enumerate() {
             group_of[start as usize..end as usize].fill(g as u32);
         }
-        let bounds = if (2..=LOCAL_CHOICE_MAX).contains(&groups.len()) {
+        let many = groups.len() > LOCAL_CHOICE_MAX || groups.iter().any(|g| g.end - g.start > TREE_GROUP_MIN);
+        let tree = if mode == LightTreeMode::Auto && many {
+            LightTree::build(
+                emitters.len(),
+                emitters.iter().enumerate().filter_map(|(i, e)| {
+                    let b = match e {
+                        Emitter::Point(l) => l.tree_bounds(),
+                        Emitter::Triangle(t) => t.tree_bounds(),
+                        Emitter::Sphere(s) => s.tree_bounds(),
+                        Emitter::Background => return None,
+                    };
+                    Some((i as u32, b))
+                }),
+            )
+        } else {
+            None
+        };
+        let background_importance =
+            if background.is_black() { 0.0 } else { background.bounds().importance(Vec3::ZERO) };
+        let bounds = if tree.is_none() && (2..=LOCAL_CHOICE_MAX).contains(&groups.len()) {
             groups.iter().map(|g| group_bounds(&emitters[g.start as usize..g.end as usize], &background)).collect()
         } else {
             Vec::new()
@@ -292,6 +341,8 @@ impl LightSet {
             groups,
             group_of,
             bounds,
+            tree,
+            background_importance,
             cdf,
             prob,
             primitive_lights,
@@ -327,6 +378,8 @@ impl LightSet {
         let (n, g) = (self.lights.len(), self.groups.len());
         let how = if n <= 1 {
             "nothing to choose".to_string()
+        } else if let Some(t) = &self.tree {
+            format!("chosen by importance at each shading point through a light tree of depth {}", t.depth())
         } else if !self.bounds.is_empty() {
             "a group chosen by importance at each shading point, a light within it by power".to_string()
         } else if g == 1 {
@@ -344,13 +397,52 @@ impl LightSet {
     /// [`LightSet::pdf_background`]).
     #[inline(always)]
     pub fn choice_at(&self, p: Vec3) -> LightChoice {
-        if !self.bounds.is_empty() { self.local_choice(p) } else { LightChoice::BY_POWER }
+        if !self.bounds.is_empty() {
+            self.local_choice(p)
+        } else if self.tree.is_some() {
+            self.tree_choice(p)
+        } else {
+            LightChoice::BY_POWER
+        }
     }
 
     /// Out of line, so that kernels for one light (or many) carry none of its code.
     #[inline(never)]
     fn local_choice(&self, p: Vec3) -> LightChoice {
-        LightChoice(LocalChoice::at(&self.bounds, p))
+        LightChoice(LocalChoice::at(&self.bounds, p).map_or(How::Power, How::Groups))
+    }
+
+    /// The tree against the background at `p` (by power where neither can bring light).
+    #[inline(never)]
+    fn tree_choice(&self, p: Vec3) -> LightChoice {
+        let t = self.tree.as_ref().map_or(0.0, |t| t.importance(p));
+        let total = t + self.background_importance;
+        if !(total > 0.0 && total.is_finite()) {
+            return LightChoice::BY_POWER;
+        }
+        LightChoice(How::Tree { p, tree: t / total })
+    }
+
+    /// A light of the tree (or the background) chosen at `p`, as [`LightSet::choose`].
+    #[inline(never)]
+    fn choose_in_tree(&self, p: Vec3, tree: f32, u: f32) -> (usize, f32) {
+        match (self.tree.as_ref(), self.background_index) {
+            (Some(t), bg) if u < tree || bg.is_none() => {
+                let u = if bg.is_some() { (u / tree).min(choice::ONE_BELOW) } else { u };
+                t.pick(p, u).map_or((0, 0.0), |(i, prob)| (i, prob * tree))
+            }
+            (_, Some(bg)) => (bg, 1.0 - tree),
+            _ => (0, 0.0),
+        }
+    }
+
+    /// The probability that [`LightSet::choose_in_tree`] picks light `i`.
+    #[inline(never)]
+    fn tree_probability(&self, p: Vec3, tree: f32, i: usize) -> f32 {
+        if Some(i) == self.background_index {
+            return 1.0 - tree;
+        }
+        self.tree.as_ref().map_or(0.0, |t| tree * t.probability(p, i))
     }
 
     /// The light that `u` picks, and the probability of that choice.
@@ -360,7 +452,10 @@ impl LightSet {
         if n == 1 {
             return (0, self.prob[0]); // what either choice below gives
         }
-        if let Some(c) = &choice.0 {
+        if let How::Tree { p, tree } = choice.0 {
+            return self.choose_in_tree(p, tree, u);
+        }
+        if let How::Groups(c) = &choice.0 {
             let (g, p_group, u) = c.pick(self.groups.len(), u);
             let group = &self.groups[g];
             let (start, end) = (group.start as usize, group.end as usize);
@@ -381,7 +476,8 @@ impl LightSet {
     #[inline]
     fn choice_probability(&self, choice: &LightChoice, i: usize) -> f32 {
         match &choice.0 {
-            Some(c) => {
+            How::Tree { p, tree } => self.tree_probability(*p, *tree, i),
+            How::Groups(c) => {
                 let g = self.group_of[i] as usize;
                 let group = &self.groups[g];
                 if group.end - group.start == 1 {
@@ -392,7 +488,7 @@ impl LightSet {
                     0.0 // a group of zero-area triangles: never chosen
                 }
             }
-            None => self.prob[i],
+            How::Power => self.prob[i],
         }
     }
 

@@ -25,6 +25,11 @@ impl PointLight {
         luminance(self.intensity) * 4.0 * PI
     }
 
+    pub(super) fn tree_bounds(&self) -> super::tree::Bounds {
+        let aabb = crate::geometry::Aabb::from_point(self.position);
+        super::tree::Bounds { aabb, phi: luminance(self.intensity), cone: super::tree::Cone::ALL }
+    }
+
     pub(super) fn bounds(&self) -> LightBounds {
         LightBounds::point(self.position, luminance(self.intensity))
     }

@@ -32,6 +32,12 @@ impl EmissiveSphere {
         luminance(self.emission) * 4.0 * PI * r * r * PI
     }
 
+    pub(super) fn tree_bounds(&self) -> super::tree::Bounds {
+        let (c, r) = (self.sphere.center, self.sphere.radius);
+        let aabb = crate::geometry::Aabb::new(c - Vec3::splat(r), c + Vec3::splat(r));
+        super::tree::Bounds { aabb, phi: luminance(self.emission) * PI * r * r, cone: super::tree::Cone::ALL }
+    }
+
     pub(super) fn bounds(&self) -> LightBounds {
         LightBounds::sphere(self.sphere.center, self.sphere.radius, luminance(self.emission))
     }

@@ -77,6 +77,13 @@ impl EmissiveTriangle {
         Some(t)
     }
 
+    /// Its box, luminance × area and normal, for the light tree.
+    pub(super) fn tree_bounds(&self) -> super::tree::Bounds {
+        let aabb = self.p.iter().fold(Aabb::EMPTY, |b, v| b.grow(*v));
+        let phi = if self.area > 0.0 { luminance(self.emission) * self.area } else { 0.0 };
+        super::tree::Bounds { aabb, phi, cone: super::tree::Cone::normal(self.normal) }
+    }
+
     /// Luminance of the power it emits (both faces).
     pub(super) fn power(&self) -> f32 {
         luminance(self.emission) * self.area * PI

@@ -393,9 +393,10 @@ impl Scene {
         Ok(())
     }
 
-    /// The scene's lights, ready for sampling.
-    pub fn light_set(&self) -> LightSet {
-        LightSet::new(&self.geometry, &|g, p| &self.material(g, p).emission, &self.lights)
+    /// The scene's lights, ready for sampling (a light tree where `mode` and their number
+    /// call for one).
+    pub fn light_set(&self, mode: crate::settings::LightTreeMode) -> LightSet {
+        LightSet::new(&self.geometry, &|g, p| &self.material(g, p).emission, &self.lights, mode)
     }
 
     /// The id of the material named "default" (a light grey diffuse), added if missing.

@@ -40,10 +40,11 @@ pub struct ConvergeArgs {
     pub reference_spp: Option<u32>,
     /// Comma-separated variants: groups estimators, no-rr, depth, samplers, adaptive (NEE+MIS
     /// with every pixel at the rung's spp, and adaptive), light-vertices (NEE+MIS as the
-    /// scene decides, with light vertices on, and off), denoise (NEE+MIS and its denoised variants: Open Image
+    /// scene decides, with light vertices on, and off), light-tree (NEE+MIS, and with many
+    /// lights chosen by power instead of through a light tree), denoise (NEE+MIS and its denoised variants: Open Image
     /// Denoise given colour only, or albedo and normal noisy, prefiltered or clean), all
     /// (estimators, no-rr, depth, denoise), or single variants
-    /// ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/adaptive][/light-vertices=on|off][/clamp=X][/denoise[=color|noisy|prefilter|clean]]
+    /// ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/adaptive][/light-vertices=on|off][/light-tree=off][/clamp=X][/denoise[=color|noisy|prefilter|clean]]
     /// with ESTIMATOR one of nee-mis, nee, bsdf, bsdf-uniform (/env-uniform: an environment
     /// image sampled uniformly, not by luminance; /adaptive: the rung's spp as a mean, spent
     /// where the image is noisy; /clamp=X: `ember render --clamp X`, biased).

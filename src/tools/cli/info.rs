@@ -61,7 +61,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let plan = RenderPlan::new(&scene, &RenderSettings::from_scene(&scene.render));
     out!("{}", plan.effects);
     out!("{plan}");
-    out!("lights:     {}", scene.light_set().describe());
+    out!("lights:     {}", scene.light_set(crate::settings::LightTreeMode::Auto).describe());
     out!(
         "bvh build:  {:.2} ms ({} quality, as ember render builds it)",
         accel.build_time().as_secs_f64() * 1e3,

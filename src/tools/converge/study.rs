@@ -135,6 +135,7 @@ impl Study {
             sampler: variant.sampler.unwrap_or_default(),
             adaptive: variant.adaptive,
             light_vertices: variant.light_vertices.unwrap_or_default(),
+            light_tree: variant.light_tree.unwrap_or_default(),
             clamp: variant.clamp.map(|c| c.0),
             ..RenderSettings::default()
         }

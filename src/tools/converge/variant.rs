@@ -1,12 +1,12 @@
 //! The estimator variants a study compares, and the syntax that names them
 //! (`ESTIMATOR[/no-rr][/depth=D][/sobol|/independent][/env-uniform][/adaptive][/light-vertices=on|off]`
-//! `[/clamp=X][/denoise[=MODE]]` and the groups `estimators`, `no-rr`, `depth`, `samplers`, `adaptive`,
-//! `light-vertices`, `denoise`, `all`).
+//! `[/light-tree=off][/clamp=X][/denoise[=MODE]]` and the groups `estimators`, `no-rr`, `depth`, `samplers`,
+//! `adaptive`, `light-vertices`, `light-tree`, `denoise`, `all`).
 
 use crate::film::AuxMode;
 use crate::integrator::Estimator;
 use crate::sampler::SamplerKind;
-use crate::settings::LightVertices;
+use crate::settings::{LightTreeMode, LightVertices};
 
 /// The depths of the `depth` variant group: each compared to the full-depth reference, so
 /// their curves flatten at the bias of cutting paths short.
@@ -30,6 +30,8 @@ pub struct Variant {
     pub sampler: Option<SamplerKind>,
     /// Light vertices on or off; `None`: as the scene analysis decides (`auto`).
     pub light_vertices: Option<LightVertices>,
+    /// `--light-tree`; `None`: the default (`auto`).
+    pub light_tree: Option<LightTreeMode>,
     /// `--clamp X`: samples scaled down to a largest channel of X (biased); `None`: no clamp.
     pub clamp: Option<Clamp>,
     /// Denoised with Open Image Denoise, given the auxiliary images as this says; `None`: the
@@ -57,6 +59,7 @@ impl Variant {
             max_depth: None,
             sampler: None,
             light_vertices: None,
+            light_tree: None,
             uniform_environment: false,
             adaptive: false,
             clamp: None,
@@ -87,6 +90,9 @@ impl Variant {
         }
         if let Some(lv) = self.light_vertices {
             s.push_str(&format!("/light-vertices={lv}"));
+        }
+        if let Some(t) = self.light_tree {
+            s.push_str(&format!("/light-tree={t}"));
         }
         if let Some(Clamp(c)) = self.clamp {
             s.push_str(&format!("/clamp={c}"));
@@ -128,6 +134,8 @@ impl std::str::FromStr for Variant {
                 v.adaptive = true;
             } else if let Some(lv) = part.strip_prefix("light-vertices=") {
                 v.light_vertices = Some(lv.parse().map_err(|e| format!("variant {s:?}: light-vertices: {e}"))?);
+            } else if let Some(t) = part.strip_prefix("light-tree=") {
+                v.light_tree = Some(t.parse().map_err(|e| format!("variant {s:?}: light-tree: {e}"))?);
             } else if let Some(c) = part.strip_prefix("clamp=") {
                 match c.parse::<f32>() {
                     Ok(c) if c > 0.0 && c.is_finite() => v.clamp = Some(Clamp(c)),
@@ -143,7 +151,7 @@ impl std::str::FromStr for Variant {
                 v.denoise = Some(m.parse().map_err(|e| format!("variant {s:?}: {e}"))?);
             } else {
                 return Err(format!(
-                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, env-uniform, adaptive, light-vertices=on|off, clamp=X, denoise or denoise=MODE)"
+                    "variant {s:?}: unknown option {part:?} (expected no-rr, depth=D, sobol, independent, env-uniform, adaptive, light-vertices=on|off, light-tree=auto|off, clamp=X, denoise or denoise=MODE)"
                 ));
             }
         }
@@ -159,6 +167,8 @@ impl std::str::FromStr for Variant {
 /// - `adaptive`: NEE+MIS with every pixel at the rung's spp, and `/adaptive` (the same cost,
 ///   spent where the image is noisy);
 /// - `light-vertices`: NEE+MIS as the scene analysis decides, with light vertices on, and off;
+/// - `light-tree`: NEE+MIS with many lights chosen through a light tree (the default), and by
+///   power (`/light-tree=off`);
 /// - `denoise`: NEE+MIS, and NEE+MIS denoised in each [`AuxMode`] (colour only; albedo and
 ///   normal noisy, prefiltered, clean);
 /// - `all`: `estimators`, `no-rr`, `depth` and `denoise`;
@@ -190,6 +200,10 @@ pub fn parse_variants(list: &str, full_depth: u32) -> Result<Vec<Variant>, Strin
             "light-vertices" => [None, Some(LightVertices::On), Some(LightVertices::Off)]
                 .into_iter()
                 .map(|light_vertices| Variant { light_vertices, ..Variant::new(Estimator::NeeMis) })
+                .collect(),
+            "light-tree" => [None, Some(LightTreeMode::Off)]
+                .into_iter()
+                .map(|light_tree| Variant { light_tree, ..Variant::new(Estimator::NeeMis) })
                 .collect(),
             "denoise" => std::iter::once(None)
                 .chain(AuxMode::ALL.into_iter().map(Some))
@@ -226,6 +240,7 @@ mod tests {
                 max_depth: Some(3),
                 sampler: None,
                 light_vertices: None,
+                light_tree: None,
                 uniform_environment: false,
                 adaptive: false,
                 clamp: None,
@@ -235,6 +250,10 @@ mod tests {
         let v: Variant = "nee-mis/light-vertices=off".parse().unwrap();
         assert_eq!(v.light_vertices, Some(LightVertices::Off));
         assert_eq!(v.name(), "nee-mis/light-vertices=off");
+        let v: Variant = "nee-mis/light-tree=off".parse().unwrap();
+        assert_eq!((v.light_tree, v.name().as_str()), (Some(LightTreeMode::Off), "nee-mis/light-tree=off"));
+        assert!("nee-mis/light-tree=on".parse::<Variant>().is_err());
+        assert_eq!(parse_variants("light-tree", 64).unwrap().len(), 2);
         assert_eq!(parse_variants("light-vertices", 64).unwrap().len(), 3);
         assert!("nee-mis/light-vertices=maybe".parse::<Variant>().unwrap_err().contains("light-vertices"));
         let v: Variant = "nee-mis/adaptive".parse().unwrap();

@@ -6,7 +6,7 @@ use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
 use crate::integrator::adaptive;
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
 use crate::scene::{CameraOverride, Orbit, Scene};
-use crate::settings::{Estimator, LightVertices, RenderSettings, RrDepth, SamplerKind, Shard};
+use crate::settings::{Estimator, LightTreeMode, LightVertices, RenderSettings, RrDepth, SamplerKind, Shard};
 use clap::Args;
 use glam::Vec3;
 use std::path::PathBuf;
@@ -44,6 +44,11 @@ pub struct RenderArgs {
     /// the lamp; unbiased either way [scene's render.light_vertices, else auto].
     #[arg(long)]
     pub light_vertices: Option<LightVertices>,
+    /// How next-event estimation chooses among many lights: auto (a light tree, by each
+    /// light's importance at the shading point, where there are more than a few groups of
+    /// lights or an emitting mesh of many triangles) or off (by power); unbiased either way.
+    #[arg(long, default_value = "auto")]
+    pub light_tree: LightTreeMode,
     /// Worker threads [all cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub threads: Option<u32>,
@@ -376,6 +381,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         filter: args.filter.unwrap_or(s.filter),
         sampler: args.sampler.unwrap_or(s.sampler),
         light_vertices: args.light_vertices.unwrap_or(s.light_vertices),
+        light_tree: args.light_tree,
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
         clamp: args.clamp,
     })
