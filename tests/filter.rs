@@ -35,7 +35,7 @@ fn box_renders_are_bit_identical_to_before_filters() {
         ("cornell.toml", 0xffa5_cb84_b812_949eu64),
         ("dof.toml", 0x64b3_a6da_7687_92a6),
         ("spheres.toml", 0xd03e_628c_bc17_455e),
-        ("teapot.toml", 0x779b_79b1_0cb7_f72a),
+        ("teapot.toml", 0x1281_44d6_2af5_e119),
         ("teapot.obj", 0x4457_f56e_56d3_3b1c),
     ];
     for (name, hash) in recorded {

@@ -3,7 +3,7 @@
 //! sampling, and Russian roulette.
 
 use super::light_vertex::{self, LightVertexPool, PathVertex, SampleLightVertices};
-use super::surface::{FaceNormals, surface_point};
+use super::surface::{FaceNormals, facing_shading_normal, surface_point};
 use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::geometry::{Frame, Hit, Ray, offset_ray_origin, offset_toward};
@@ -114,10 +114,13 @@ pub(crate) fn radiance<
         };
         let transmissive = GLASS && bsdf.is_transmissive();
         let (mut ng, mut ns) = (sp.ng, sp.ns);
-        if !transmissive && wo.dot(ng) < 0.0 {
-            // Opaque surfaces are shaded on the side they are seen from.
-            ng = -ng;
-            ns = -ns;
+        if !transmissive {
+            if wo.dot(ng) < 0.0 {
+                // Opaque surfaces are shaded on the side they are seen from.
+                ng = -ng;
+                ns = -ns;
+            }
+            ns = facing_shading_normal(wo, ng, ns);
         }
         let frame = Frame::from_normal(ns);
         // Without glossy or glass materials every BSDF is Lambertian: evaluated and sampled

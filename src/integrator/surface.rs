@@ -37,6 +37,31 @@ fn normal_mapped(ns: Vec3, ng: Vec3, tangent: glam::Vec4, local: Vec3) -> Vec3 {
     }
 }
 
+/// A shading normal from which `wo` is seen: `ns` itself where the mirror reflection of `wo`
+/// about it leaves above the surface (at least `min(0.01, 0.9 cos θg)` along `ng`), and
+/// otherwise `ns` bent toward `ng` until it does: the half vector between `wo` and that
+/// reflection turned up to the least height. `ng` is the geometric normal on `wo`'s side.
+/// A normal map (or interpolated normals at a silhouette) can tilt `ns` away from the viewer,
+/// where every BSDF is zero: a black rim along the edges of a normal-mapped sphere, which
+/// Cycles avoids the same way.
+#[inline]
+pub fn facing_shading_normal(wo: Vec3, ng: Vec3, ns: Vec3) -> Vec3 {
+    let cos_g = wo.dot(ng);
+    let least = (0.9 * cos_g).min(0.01);
+    let r = 2.0 * wo.dot(ns) * ns - wo;
+    let height = r.dot(ng);
+    if height >= least || !(cos_g > 0.0) {
+        return ns;
+    }
+    // The reflection turned up to `least` in its own vertical plane (or wo's, where it
+    // points straight down).
+    let Some(across) = (r - ng * height).try_normalize().or_else(|| (wo - ng * cos_g).try_normalize()) else {
+        return ng;
+    };
+    let r = across * (1.0 - least * least).sqrt() + ng * least;
+    (wo + r).try_normalize().unwrap_or(ng)
+}
+
 /// The unit geometric normal of every mesh triangle, (p1 − p0) × (p2 − p0) normalised (the
 /// orientation of both accelerators' `Hit::ng`), computed once per render: a hit on a triangle
 /// reads it instead of normalising the hit's, which put a square root and a division at the
@@ -125,5 +150,30 @@ pub fn surface_point<'a, const TEX: bool>(
             let (p, _) = c[hit.prim as usize].project(ray.at(hit.t), ng);
             SurfacePoint { p, ng, ns: ng, tex: TexCoords::new(Vec2::new(hit.u, hit.v)), material }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_shading_normal_seen_from_wo_is_kept_and_one_turned_away_is_bent_until_seen() {
+        let ng = Vec3::Z;
+        let wo = Vec3::new(0.8, 0.0, 0.6);
+        // Facing the viewer: unchanged, whether or not it equals ng.
+        assert_eq!(facing_shading_normal(wo, ng, ng), ng);
+        let tilted = Vec3::new(0.3, 0.1, 1.0).normalize();
+        assert_eq!(facing_shading_normal(wo, ng, tilted), tilted);
+        // Tilted away (a normal map at a grazing view): wo would reflect below the surface.
+        for ns in [Vec3::new(-0.7, 0.0, 0.7).normalize(), Vec3::new(-0.5, 0.4, 0.3).normalize()] {
+            let n = facing_shading_normal(wo, ng, ns);
+            assert!((n.length() - 1.0).abs() < 1e-5 && n.dot(wo) > 0.0, "{n}");
+            let r = 2.0 * wo.dot(n) * n - wo;
+            assert!((r.dot(ng) - 0.01).abs() < 1e-4, "reflection height {}", r.dot(ng));
+        }
+        // Straight down along ng, a normal far from it: bent within wo's vertical plane.
+        let n = facing_shading_normal(Vec3::Z, ng, Vec3::X);
+        assert!(n.dot(Vec3::Z) > 0.0 && n.is_finite());
     }
 }
