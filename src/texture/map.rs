@@ -54,15 +54,24 @@ impl Wrap {
     }
 }
 
-/// How a map's coordinates wrap, per axis (u, v).
+/// How a map's coordinates wrap, per axis (u, v), and how it is magnified.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Sampler {
     pub wrap: [Wrap; 2],
+    /// Magnified (a footprint within a texel), the nearest texel rather than a bilinear blend
+    /// (glTF's `magFilter` NEAREST: pixel art, normal maps with hard edges). Minified, the
+    /// pyramid is read either way.
+    pub nearest: bool,
 }
 
 impl Sampler {
     /// u wraps around, v is clamped: an image spread over a sphere or a surface once.
-    pub const WRAP_U_CLAMP_V: Sampler = Sampler { wrap: [Wrap::Repeat, Wrap::ClampToEdge] };
+    pub const WRAP_U_CLAMP_V: Sampler = Sampler { wrap: [Wrap::Repeat, Wrap::ClampToEdge], nearest: false };
+
+    /// Wrapping as `wrap`, bilinear.
+    pub const fn wrapping(wrap: [Wrap; 2]) -> Sampler {
+        Sampler { wrap, nearest: false }
+    }
 }
 
 /// An affine map of texture coordinates applied before the lookup.
@@ -238,13 +247,26 @@ impl MipImage {
         top.lerp(bottom, fy)
     }
 
-    /// Trilinear lookup for a footprint `width` (in units of the image's side): the two
-    /// levels bracketing it, blended; level 0 bilinearly for footprints within a texel.
+    /// The texel of level 0 that (u, v) falls in.
     #[inline]
-    fn lookup(&self, uv: Vec2, width: f32, wrap: [Wrap; 2]) -> Vec4 {
+    fn nearest(&self, uv: Vec2, wrap: [Wrap; 2]) -> Vec4 {
+        let l = &self.levels[0];
+        let (x, y) = ((uv.x * l.width as f32).floor(), (uv.y * l.height as f32).floor());
+        if !x.is_finite() || !y.is_finite() {
+            return Vec4::ZERO;
+        }
+        self.texel(l, x as i64, y as i64, wrap)
+    }
+
+    /// Trilinear lookup for a footprint `width` (in units of the image's side): the two
+    /// levels bracketing it, blended; level 0 bilinearly (or its nearest texel, as `sampler`
+    /// says) for footprints within a texel.
+    #[inline]
+    fn lookup(&self, uv: Vec2, width: f32, sampler: Sampler) -> Vec4 {
+        let wrap = sampler.wrap;
         let texels = width * self.width().max(self.height()) as f32;
         if !(texels > 1.0) {
-            return self.bilinear(0, uv, wrap);
+            return if sampler.nearest { self.nearest(uv, wrap) } else { self.bilinear(0, uv, wrap) };
         }
         let last = self.levels.len() - 1;
         let lod = texels.log2().min(last as f32);
@@ -318,7 +340,7 @@ impl TextureMap {
             None => (uv, at.width),
             Some(t) => (t.apply(uv), at.width * t.scale()),
         };
-        self.image.lookup(uv, width, self.sampler.wrap)
+        self.image.lookup(uv, width, self.sampler)
     }
 
     /// Feeds the image, sampler, transform and set to a fingerprint.
@@ -326,6 +348,9 @@ impl TextureMap {
         self.image.fingerprint(h);
         h.u32(self.sampler.wrap[0].code());
         h.u32(self.sampler.wrap[1].code());
+        if self.sampler.nearest {
+            h.u32(1);
+        }
         if let Some(t) = &self.transform {
             h.f32s(&t.0.to_cols_array());
         }
@@ -345,7 +370,7 @@ mod tests {
     }
 
     fn at(u: f32) -> f32 {
-        TextureMap::new(ramp(), Sampler { wrap: [Wrap::Repeat, Wrap::Repeat] })
+        TextureMap::new(ramp(), Sampler::wrapping([Wrap::Repeat, Wrap::Repeat]))
             .sample(&TexCoords::new(Vec2::new(u, 0.5)))
             .x
     }
@@ -361,7 +386,7 @@ mod tests {
     #[test]
     fn lookups_repeat_mirror_and_clamp_outside_the_unit_square() {
         let look = |wrap: Wrap, u: f32| {
-            TextureMap::new(ramp(), Sampler { wrap: [wrap, wrap] }).sample(&TexCoords::new(Vec2::new(u, 0.5))).x
+            TextureMap::new(ramp(), Sampler::wrapping([wrap, wrap])).sample(&TexCoords::new(Vec2::new(u, 0.5))).x
         };
         // Texel centres: exact values.
         assert_eq!(at(0.125), 0.0);
@@ -378,6 +403,26 @@ mod tests {
         assert_eq!(look(Wrap::ClampToEdge, -3.0), 0.0);
         // Between centres: linear.
         assert!((at(0.25) - 85.0 / 255.0 / 2.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_nearest_sampler_reads_whole_texels_when_magnified_and_the_pyramid_when_not() {
+        let map = TextureMap::new(ramp(), Sampler { nearest: true, ..Sampler::wrapping([Wrap::Repeat; 2]) });
+        let look = |u: f32, width: f32| map.sample(&TexCoords { uv: [Vec2::new(u, 0.5); 2], width }).x;
+        // Between texel centres: one texel or the next, never a blend.
+        assert_eq!(look(0.249, 0.0), 0.0);
+        assert_eq!(look(0.251, 0.0), 85.0 / 255.0);
+        assert_eq!(look(0.99, 0.0), 1.0);
+        assert_eq!(look(1.01, 0.0), 0.0); // wrapped
+        // Minified: the pyramid's mean, as a bilinear sampler gives.
+        let bilinear = TextureMap::new(ramp(), Sampler::wrapping([Wrap::Repeat; 2]));
+        let wide = TexCoords { uv: [Vec2::new(0.3, 0.5); 2], width: 2.0 };
+        assert_eq!(map.sample(&wide), bilinear.sample(&wide));
+        // Part of what a render is keyed by.
+        let (mut a, mut b) = (Fingerprint::default(), Fingerprint::default());
+        map.fingerprint(&mut a);
+        bilinear.fingerprint(&mut b);
+        assert_ne!(a.finish(), b.finish());
     }
 
     #[test]

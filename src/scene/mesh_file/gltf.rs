@@ -1087,7 +1087,8 @@ fn texture_transform(
     Ok(Some(UvTransform::offset_rotation_scale(pair("offset", [0.0, 0.0])?, rotation, pair("scale", [1.0, 1.0])?)))
 }
 
-/// A texture map of `image` through a glTF sampler (its wrap modes), at coordinate set
+/// A texture map of `image` through a glTF sampler (its wrap modes and magnification
+/// filter), at coordinate set
 /// `set`, with `transform` (`KHR_texture_transform`) applied after flipping the coordinates
 /// back to glTF's (v down from the image's top: meshes keep v up, as OBJ's).
 fn texture_map(
@@ -1101,7 +1102,10 @@ fn texture_map(
         gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
         gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
     };
-    let sampler = Sampler { wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())] };
+    let sampler = Sampler {
+        wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
+        nearest: sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
+    };
     let flip = UvTransform::FLIP_V;
     let transform = match transform {
         Some(t) => UvTransform(t.0 * flip.0),
