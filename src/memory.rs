@@ -319,7 +319,7 @@ pub const CHECKPOINT_BYTES_PER_PIXEL: u64 = 60;
 
 /// Memory to render a `width` x `height` image, including writing a checkpoint.
 pub fn film_bytes(width: u32, height: u32) -> u64 {
-    width as u64 * height as u64 * (FILM_BYTES_PER_PIXEL + CHECKPOINT_BYTES_PER_PIXEL)
+    (width as u64 * height as u64).saturating_mul(FILM_BYTES_PER_PIXEL + CHECKPOINT_BYTES_PER_PIXEL)
 }
 
 /// Bytes per pixel more when a render keeps the auxiliary images (`--aux`, `--denoise`): their
@@ -354,7 +354,7 @@ pub fn render_extra_bytes(width: u32, height: u32, aux: bool, adaptive: bool, de
     let per_pixel = aux as u64 * AUX_BYTES_PER_PIXEL
         + adaptive as u64 * ADAPTIVE_BYTES_PER_PIXEL
         + denoise as u64 * DENOISE_BYTES_PER_PIXEL;
-    width as u64 * height as u64 * per_pixel
+    (width as u64 * height as u64).saturating_mul(per_pixel)
 }
 
 /// Bytes per pixel while a texture is decoded: the decoded image (up to 8 bytes per pixel
@@ -363,7 +363,7 @@ pub const TEXTURE_BYTES_PER_PIXEL: u64 = 23;
 
 /// Memory to load a `width` x `height` texture.
 pub fn texture_bytes(width: u32, height: u32) -> u64 {
-    width as u64 * height as u64 * TEXTURE_BYTES_PER_PIXEL
+    (width as u64 * height as u64).saturating_mul(TEXTURE_BYTES_PER_PIXEL)
 }
 
 /// Bytes per pixel while an HDR image (OpenEXR, Radiance) is decoded: the decoded image (up to
@@ -372,7 +372,7 @@ pub const HDR_IMAGE_BYTES_PER_PIXEL: u64 = 28;
 
 /// Memory to load a `width` x `height` HDR image.
 pub fn hdr_image_bytes(width: u32, height: u32) -> u64 {
-    width as u64 * height as u64 * HDR_IMAGE_BYTES_PER_PIXEL
+    (width as u64 * height as u64).saturating_mul(HDR_IMAGE_BYTES_PER_PIXEL)
 }
 
 /// Bytes per pixel of an environment image's sampling distribution while it is built: the
@@ -381,7 +381,7 @@ pub const ENVIRONMENT_SAMPLING_BYTES_PER_PIXEL: u64 = 12;
 
 /// Memory to build the sampling distribution of a `width` x `height` environment image.
 pub fn environment_sampling_bytes(width: u32, height: u32) -> u64 {
-    width as u64 * height as u64 * ENVIRONMENT_SAMPLING_BYTES_PER_PIXEL
+    (width as u64 * height as u64).saturating_mul(ENVIRONMENT_SAMPLING_BYTES_PER_PIXEL)
 }
 
 /// Memory Embree needs for `triangles` triangles and `shapes` user primitives (spheres,

@@ -98,7 +98,16 @@ pub(crate) fn decode_checked(
     // estimate: the decoders' own allowance is lifted to read the header).
     let mut header = open()?;
     header.no_limits();
-    let (w, h) = header.into_dimensions().map_err(|e| TextureError(e.to_string()))?;
+    // The png crate refuses a header whose byte count overflows its arithmetic, in its own
+    // words ("Memory limit exceeded"); its size is then read from the IHDR chunk, and the
+    // budget below says what it would take.
+    let (w, h) = match header.into_dimensions() {
+        Ok(size) => size,
+        Err(e) => match png_header_size(bytes) {
+            Some(size) if format == Some(image::ImageFormat::Png) => size,
+            _ => return Err(TextureError(e.to_string())),
+        },
+    };
     if w == 0 || h == 0 {
         return Err(TextureError(format!("the image is {w}x{h} pixels: empty")));
     }
@@ -122,6 +131,16 @@ pub(crate) fn decode_checked(
         e => TextureError(e.to_string()),
     })?;
     Ok((decoded, is_hdr))
+}
+
+/// The width and height a PNG file's IHDR chunk (the first, right after the signature) gives.
+fn png_header_size(bytes: &[u8]) -> Option<(u32, u32)> {
+    let ihdr = bytes.get(8..24)?;
+    if &ihdr[4..8] != b"IHDR" {
+        return None;
+    }
+    let be = |b: &[u8]| u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+    Some((be(&ihdr[8..12]), be(&ihdr[12..16])))
 }
 
 /// A linear-RGB image.

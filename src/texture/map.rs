@@ -176,7 +176,7 @@ impl MipImage {
         let rgba = decoded.into_rgba8();
         let (width, height) = rgba.dimensions();
         let texels: Vec<[u8; 4]> = rgba.pixels().map(|p| p.0).collect();
-        budget.keep(width as u64 * height as u64 * KEPT_BYTES_PER_TEXEL);
+        budget.keep((width as u64 * height as u64).saturating_mul(KEPT_BYTES_PER_TEXEL));
         Ok(MipImage::new(width, height, texels, encoding))
     }
 
