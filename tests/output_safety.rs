@@ -384,6 +384,60 @@ fn merge_refuses_its_inputs_as_output_holds_the_lock_and_stops_cleanly() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A signal that reaches `ember merge` once its image is in place does not say the image was
+/// not written: the merge ends with the signal's code and says it was written in full (or, if
+/// the signal came too late, the merge had ended with 0).
+#[test]
+fn a_merge_stopped_after_its_image_is_in_place_says_it_was_written() {
+    let dir = common::fresh_dir("safety", "merge-written");
+    // Large enough that the merge still runs for a while after the rename (the summary's pass
+    // over the pixels).
+    let parts: Vec<_> = (0..2)
+        .map(|k| {
+            let out = dir.join(format!("part-{k}.shard"));
+            let o = Command::new(env!("CARGO_BIN_EXE_ember"))
+                .arg("render")
+                .arg(common::scene_path("spheres.toml"))
+                .arg("-o")
+                .arg(&out)
+                .args(["--shard", &format!("{k}/2"), "--spp", "1", "--uniform", "--width", "1500", "--height", "1500"])
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            out
+        })
+        .collect();
+    let out = dir.join("big.exr");
+    let mut merge = Command::new(env!("CARGO_BIN_EXE_ember"))
+        .arg("merge")
+        .args(&parts)
+        .arg("-o")
+        .arg(&out)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while !out.exists() {
+        assert!(start.elapsed() < Duration::from_secs(60), "the merge never wrote its image");
+        std::thread::yield_now();
+    }
+    let _ = Command::new("kill").arg("-TERM").arg(merge.id().to_string()).status();
+    let status = merge.wait().unwrap();
+    let mut e = String::new();
+    std::io::Read::read_to_string(&mut merge.stderr.take().unwrap(), &mut e).unwrap();
+    assert!(!e.contains("was not written"), "the image is there: {e}");
+    match status.code() {
+        Some(0) => {}
+        Some(143) => assert!(e.contains("it was written in full; the merge is finished"), "{e}"),
+        c => panic!("exit {c:?}: {e}"),
+    }
+    assert!(out.exists());
+    let mut left = listing(&dir);
+    left.retain(|n| !n.ends_with(".shard") && n != "big.exr");
+    assert!(left.is_empty(), "left behind: {left:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The `resume with:` line is a command a POSIX shell runs as it was given: an output named
 /// `a'$(touch PWNED)'b.png` is quoted so that pasting the line resumes the render and runs
 /// nothing else.

@@ -92,8 +92,8 @@ fn quit(sig: i32) -> ! {
 }
 
 /// Catches SIGINT, SIGTERM and SIGHUP from here on, in [`Phase::Preparing`]; `output` is what
-/// the command writes (for messages).
-pub(super) fn install_handler(output: &std::path::Path) {
+/// the command writes and `work` what it does ("render", "merge"), for messages.
+pub(super) fn install_handler(output: &std::path::Path, work: &'static str) {
     let output = output.display().to_string();
     let mut signals = match signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) {
         Ok(s) => s,
@@ -124,7 +124,7 @@ pub(super) fn install_handler(output: &std::path::Path) {
                 p if p == Phase::Denoising as u8 => {
                     "stopping the denoiser, then writing a checkpoint of the finished render"
                 }
-                _ => "the render is finished: completing the image being written, then quitting",
+                _ => &format!("the {work} is finished: completing the image being written, then quitting"),
             };
             let _ = writeln!(err, "\n{}: {doing} ({} again to quit at once)", name(sig), name(sig));
         }

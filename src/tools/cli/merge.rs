@@ -62,7 +62,7 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     crate::atomic_write::check_name_length(&args.output, &[(&lock, "its lock file")])?;
     crate::atomic_write::check_writable(&args.output)?;
     // The shards are the merge's state: a signal ends it at once, having written nothing.
-    super::interrupt::install_handler(&args.output);
+    super::interrupt::install_handler(&args.output, "merge");
     super::render::refuse_overwriting_inputs(
         &args.shards,
         "the merge reads this file",
@@ -133,6 +133,9 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
     let denoised = denoiser.as_ref().map(|d| crate::film::denoise(d, &accum, args.denoise_aux)).transpose()?;
     let took = start.elapsed();
+    // From here a signal lets the image be completed (a signal before the rename would
+    // otherwise quit saying it was not written, as it would be true; after it, false).
+    super::interrupt::set_phase(super::interrupt::Phase::Writing);
     super::render::write_images(&accum, &film, denoised.as_ref(), &args.output, &look)?;
     let (min, mean, max) = accum.spp_range();
     say!(
@@ -143,6 +146,14 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     );
     if let (Some(_), Some(d)) = (denoised, &denoiser) {
         say!("{}", super::render::denoised_summary(took, d, args.denoise_aux, format));
+    }
+    if super::interrupt::stop_requested() {
+        return Err(super::interrupt::Interrupted::by_signal(format!(
+            "{} while {} was written: it was written in full; the merge is finished",
+            super::interrupt::name(super::interrupt::signal()),
+            args.output.display()
+        ))
+        .into());
     }
     Ok(())
 }

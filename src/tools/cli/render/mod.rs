@@ -50,7 +50,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     crate::atomic_write::check_writable(&args.output)?;
     // From here a signal ends ember without writing anything until the render starts, then
     // stops it cleanly (see `interrupt`).
-    interrupt::install_handler(&args.output);
+    interrupt::install_handler(&args.output, "render");
     let embree = args.accel == crate::accel::AccelKind::Embree;
     let budget =
         LoadBudget::for_render(limit, embree, args.width, args.height).with_external_files(args.allow_external_files);
