@@ -161,7 +161,7 @@ fn gltf_materials_camera_and_lights_are_mapped() {
         }
         // transmission 1 with ior 1.45 → glass; emissive (1, 0.5, 0.25) × strength 2.
         match &f.materials[2].kind {
-            MaterialKind::Glass(GlassMaterial { ior, tint }) => {
+            MaterialKind::Glass(GlassMaterial { ior, tint, .. }) => {
                 assert!((ior - 1.45).abs() < 1e-6);
                 assert_eq!(*tint, Vec3::ONE);
             }

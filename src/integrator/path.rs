@@ -76,9 +76,22 @@ pub(crate) fn radiance<
     // non-specular bounce, which always follows next-event estimation).
     let mut choice = LightChoice::BY_POWER;
     let mut depth = 0u32;
+    // The absorption of the medium `ray` travels in: that of the glass it last refracted into
+    // (zero outside any, and without glass).
+    let mut absorption = Vec3::ZERO;
     // The closest hit of `ray`: the caller's for the camera ray, then traced at each bounce.
     let mut next_hit = first;
     loop {
+        if GLASS && absorption != Vec3::ZERO {
+            // Beer–Lambert over the segment (a channel that absorbs nothing keeps all of its
+            // light even on an endless one).
+            let d = next_hit.as_ref().map_or(f32::INFINITY, |h| h.t * ray.d.length());
+            let kept = (-absorption * d).exp();
+            beta *= Vec3::select(absorption.cmpeq(Vec3::ZERO), Vec3::ONE, kept);
+            if beta == Vec3::ZERO {
+                break;
+            }
+        }
         let Some(hit) = next_hit else {
             // Without non-delta lights the background is black.
             if HIT_LIGHTS {
@@ -207,6 +220,10 @@ pub(crate) fn radiance<
             break; // below the geometric surface: the shading normal would leak light
         }
         beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if transmissive {
+            // Against the outward normal: into the glass (by transmission, or reflected inside).
+            absorption = if side < 0.0 { sp.material.absorption() } else { Vec3::ZERO };
+        }
         specular = bs.delta;
         prev_pdf = bs.pdf;
         prev_p = sp.p;

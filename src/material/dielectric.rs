@@ -130,6 +130,27 @@ mod tests {
 pub struct GlassMaterial {
     pub ior: f32,
     pub tint: Vec3,
+    /// Absorption coefficient of the inside per unit length, per channel (Beer–Lambert: light
+    /// that travels `d` inside keeps `exp(−absorption · d)`); zero: clear.
+    pub absorption: Vec3,
+}
+
+impl GlassMaterial {
+    /// Clear glass of index `ior`, tinted at each transmission by `tint`.
+    pub fn clear(ior: f32, tint: Vec3) -> GlassMaterial {
+        GlassMaterial { ior, tint, absorption: Vec3::ZERO }
+    }
+
+    /// The absorption coefficient that leaves `color` of the light after `distance` inside (as
+    /// glTF's `KHR_materials_volume` gives it: σ = −ln(color) / distance); zero where the
+    /// distance is infinite or a channel is 1 or more. A channel of 0 absorbs as if it kept
+    /// 10⁻⁶ of the light.
+    pub fn absorption_for(color: Vec3, distance: f32) -> Vec3 {
+        if !(distance > 0.0 && distance.is_finite()) {
+            return Vec3::ZERO;
+        }
+        (-color.clamp(Vec3::splat(1e-6), Vec3::ONE).map(f32::ln) / distance).max(Vec3::ZERO)
+    }
 }
 
 impl MaterialModel for GlassMaterial {
@@ -152,5 +173,9 @@ impl MaterialModel for GlassMaterial {
         h.str("glass");
         h.f32s(&[self.ior]);
         h.v3(&[self.tint]);
+        if self.absorption != Vec3::ZERO {
+            h.str("absorption");
+            h.v3(&[self.absorption]);
+        }
     }
 }

@@ -296,6 +296,16 @@ impl Material {
     }
 
     /// Whether it emits anywhere.
+    /// What the inside of the material absorbs per unit length (glass with an attenuation),
+    /// zero for everything else: a path that refracts into it is attenuated by the distance
+    /// to its next hit.
+    pub fn absorption(&self) -> Vec3 {
+        match &self.kind {
+            MaterialKind::Glass(g) => g.absorption,
+            _ => Vec3::ZERO,
+        }
+    }
+
     pub fn is_emissive(&self) -> bool {
         self.emission.max().max_element() > 0.0
     }

@@ -360,6 +360,9 @@ pub enum MaterialSection {
     Glass {
         ior: Option<Positive>,
         tint: Option<Rgb>,
+        /// With `attenuation_distance`: the colour light keeps after that distance inside.
+        attenuation_color: Option<Rgb>,
+        attenuation_distance: Option<Positive>,
     },
     Emissive {
         emission: Rgb,

@@ -331,8 +331,14 @@ fn material(
             }),
             e(emission),
         ),
-        MaterialSection::Glass { ior, tint } => (
-            MaterialKind::Glass(GlassMaterial { ior: ior.map_or(1.5, |i| i.0), tint: tint.map_or(Vec3::ONE, |t| t.0) }),
+        MaterialSection::Glass { ior, tint, attenuation_color, attenuation_distance } => (
+            MaterialKind::Glass(GlassMaterial {
+                absorption: GlassMaterial::absorption_for(
+                    attenuation_color.map_or(Vec3::ONE, |c| c.0),
+                    attenuation_distance.map_or(f32::INFINITY, |d| d.0),
+                ),
+                ..GlassMaterial::clear(ior.map_or(1.5, |i| i.0), tint.map_or(Vec3::ONE, |t| t.0))
+            }),
             Vec3::ZERO,
         ),
         MaterialSection::Emissive { emission } => (MaterialKind::Emissive(EmissiveMaterial), emission.0),

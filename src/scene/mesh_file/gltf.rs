@@ -41,12 +41,13 @@ pub const CANDELA_PER_WATT_PER_SR: f32 = 683.0;
 pub const GLASS_THRESHOLD: f32 = 0.5;
 
 /// Extensions whose data is read (the rest are warned about, or refused when required).
-const SUPPORTED: [&str; 7] = [
+const SUPPORTED: [&str; 8] = [
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_materials_transmission",
+    "KHR_materials_volume",
     "KHR_mesh_quantization",
     "KHR_texture_transform",
 ];
@@ -192,6 +193,38 @@ impl Tally {
 }
 
 impl<'a> Loader<'a> {
+    /// The absorption of `KHR_materials_volume` (σ = −ln(attenuationColor) / attenuationDistance,
+    /// per channel) for glass; its thickness is not needed (ember traces the real geometry).
+    /// On a material that is not glass the extension is ignored, with a warning.
+    fn volume(&self, m: &gltf::Material, at: &str, is_glass: bool, ignored: &mut Tally) -> Result<Vec3, SceneError> {
+        let Some(v) = m.extension_value("KHR_materials_volume") else { return Ok(Vec3::ZERO) };
+        let at = format!("{at}.extensions.KHR_materials_volume");
+        if !is_glass {
+            ignored.add("KHR_materials_volume without transmission above 0.5 (opaque)", &at);
+            return Ok(Vec3::ZERO);
+        }
+        let distance = match v.get("attenuationDistance") {
+            None => f32::INFINITY,
+            Some(d) => match d.as_f64() {
+                Some(d) if d > 0.0 => d as f32,
+                _ => return Err(self.err(&at, format!("attenuationDistance must be a number > 0, found {d}"))),
+            },
+        };
+        let color = match v.get("attenuationColor") {
+            None => Vec3::ONE,
+            Some(c) => match c.as_array().map(|a| a.iter().map(|x| x.as_f64()).collect::<Option<Vec<f64>>>()) {
+                Some(Some(a)) if a.len() == 3 && a.iter().all(|x| (0.0..=1.0).contains(x)) => {
+                    Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32)
+                }
+                _ => return Err(self.err(&at, format!("attenuationColor must be 3 numbers in [0, 1], found {c}"))),
+            },
+        };
+        if v.get("thicknessTexture").is_some() {
+            ignored.add("thicknessTexture (ember traces the real geometry)", &at);
+        }
+        Ok(GlassMaterial::absorption_for(color, distance))
+    }
+
     fn err(&self, at: impl AsRef<str>, msg: impl AsRef<str>) -> SceneError {
         SceneError::new(self.path, None, format!("{}: {}", at.as_ref(), msg.as_ref()))
     }
@@ -597,6 +630,8 @@ impl<'a> Loader<'a> {
                 }
             }
             let transmission = m.transmission();
+            let is_glass = matches!(&transmission, Some(t) if t.transmission_factor() > GLASS_THRESHOLD);
+            let absorption = self.volume(&m, &at, is_glass, ignored)?;
             let kind = match &transmission {
                 Some(t) if t.transmission_factor() > GLASS_THRESHOLD => {
                     if t.transmission_texture().is_some() {
@@ -605,7 +640,10 @@ impl<'a> Loader<'a> {
                     if pbr.base_color_texture().is_some() {
                         ignored.add("baseColorTexture on glass (the base colour factor tints it)", &at);
                     }
-                    MaterialKind::Glass(GlassMaterial { ior, tint: base.clamp(Vec3::ZERO, Vec3::ONE) })
+                    MaterialKind::Glass(GlassMaterial {
+                        absorption,
+                        ..GlassMaterial::clear(ior, base.clamp(Vec3::ZERO, Vec3::ONE))
+                    })
                 }
                 _ => MaterialKind::Pbr(PbrMaterial {
                     base: color,

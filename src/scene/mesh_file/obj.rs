@@ -186,10 +186,10 @@ fn mtl_materials(obj: &Path, mtls: &[tobj::Material]) -> Vec<Material> {
             };
             let glass = m.dissolve.is_some_and(|d| d < 1.0) || matches!(m.illumination_model, Some(4 | 6 | 7));
             let kind = if glass {
-                MaterialKind::Glass(GlassMaterial {
-                    ior: m.optical_density.filter(|&n| n > 0.0).unwrap_or(1.5),
-                    tint: Vec3::ONE,
-                })
+                MaterialKind::Glass(GlassMaterial::clear(
+                    m.optical_density.filter(|&n| n > 0.0).unwrap_or(1.5),
+                    Vec3::ONE,
+                ))
             } else if ks.max_element() > 0.0 {
                 let ns = m.shininess.unwrap_or(10.0).max(0.0);
                 MaterialKind::Plastic(PlasticMaterial {

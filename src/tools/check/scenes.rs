@@ -43,7 +43,7 @@ impl CaseSceneBuilder {
     }
 
     pub fn glass(&mut self, ior: f32) -> u32 {
-        self.material(MaterialKind::Glass(GlassMaterial { ior, tint: Vec3::ONE }), Vec3::ZERO)
+        self.material(MaterialKind::Glass(GlassMaterial::clear(ior, Vec3::ONE)), Vec3::ZERO)
     }
 
     pub fn mesh(&mut self, mesh: TriMesh, material: u32) {
