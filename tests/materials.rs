@@ -8,7 +8,7 @@
 //! and draw directions themselves (stratified uniform, or an independent cosine + GGX-NDF
 //! mixture for narrow lobes), never through `sample`.
 
-use ember::material::{Bsdf, BsdfModel, MIN_COS, fresnel_dielectric};
+use ember::material::{Bsdf, BsdfModel, MIN_COS, PbrBsdf, fresnel_dielectric};
 use ember::sampler::Rng;
 use glam::{Vec2, Vec3};
 
@@ -179,13 +179,19 @@ fn assert_consistent(what: &str, a: Stats, b: Stats, rel: f64) {
     assert!(se <= 0.25 * rel * mb.abs(), "{what}: test too noisy, σ = {se:.2e}");
 }
 
-fn non_delta_bsdfs(roughness: f32) -> [(String, Bsdf); 5] {
+/// glTF's material under a clear coat (`KHR_materials_clearcoat`) of weight `coat`.
+fn coated(base: Vec3, metallic: f32, roughness: f32, coat: f32, coat_roughness: f32) -> Bsdf {
+    Bsdf::Pbr(PbrBsdf::new(base, metallic, roughness, 1.5, 1.0, Vec3::ONE).with_clearcoat(coat, coat_roughness))
+}
+
+fn non_delta_bsdfs(roughness: f32) -> [(String, Bsdf); 6] {
     [
         (format!("conductor r={roughness}"), Bsdf::conductor(Vec3::ONE, roughness)),
         (format!("plastic r={roughness}"), Bsdf::plastic(Vec3::ONE, roughness)),
         (format!("pbr dielectric r={roughness}"), Bsdf::pbr(Vec3::new(0.8, 0.5, 0.2), 0.0, roughness)),
         (format!("pbr metal r={roughness}"), Bsdf::pbr(Vec3::new(0.9, 0.6, 0.3), 1.0, roughness)),
         (format!("pbr half metal r={roughness}"), Bsdf::pbr(Vec3::ONE, 0.5, roughness)),
+        (format!("pbr coated r={roughness}"), coated(Vec3::new(0.8, 0.5, 0.2), 0.0, roughness, 0.7, roughness)),
     ]
 }
 
@@ -293,6 +299,38 @@ fn pbr_white_furnace_keeps_the_energy_at_every_metalness_and_roughness() {
     let (a3, a1) = (black(0.3).albedo.mean(), black(1.0).albedo.mean());
     println!("black pbr: albedo {a3:.4} at roughness 0.3, {a1:.4} at 1");
     assert!(a3 <= 0.0405 && a3 > 0.035 && a1 < a3 && a1 > 0.01, "{a3} {a1}");
+}
+
+#[test]
+fn a_clear_coat_takes_from_the_layers_under_it_what_it_reflects() {
+    // A white base reflects everything; a coat over it reflects its share and leaves the rest
+    // to the base: still everything, within the tables' 2 %, for smooth and rough coats over
+    // smooth and rough bases, dielectric or metal.
+    for (i, (roughness, coat_roughness)) in
+        [(0.0f32, 0.0f32), (0.6, 0.0), (0.0, 0.3), (0.5, 0.1), (1.0, 1.0)].into_iter().enumerate()
+    {
+        for (k, metallic) in [0.0f32, 1.0].into_iter().enumerate() {
+            let bsdf = coated(Vec3::ONE, metallic, roughness, 1.0, coat_roughness);
+            for (j, theta) in ANGLES.into_iter().enumerate() {
+                let a =
+                    sample_many(&bsdf, dir(theta), 100_000, 5000 + 100 * i as u64 + 10 * k as u64 + j as u64).albedo;
+                println!("coated r={roughness} coat r={coat_roughness} m={metallic} θo={theta}: {:.4}", a.mean());
+                assert!(
+                    (a.mean() - 1.0).abs() < 0.02,
+                    "r={roughness} coat {coat_roughness} m={metallic} θo={theta}: {}",
+                    a.mean()
+                );
+            }
+        }
+    }
+    // Over black, only the coat reflects: its Fresnel, 4 % at normal incidence when smooth,
+    // plus the base's own specular layer (4 % of the 96 % the coat lets through).
+    let black = sample_many(&coated(Vec3::ZERO, 0.0, 0.0, 1.0, 0.0), Vec3::Z, 100_000, 5900).albedo.mean();
+    assert!((black - (0.04 + 0.96 * 0.04)).abs() < 1e-3, "{black}");
+    // Weight 0 is no coat at all.
+    let (a, b) = (coated(Vec3::new(0.8, 0.5, 0.2), 0.0, 0.4, 0.0, 0.1), Bsdf::pbr(Vec3::new(0.8, 0.5, 0.2), 0.0, 0.4));
+    let (wo, wi) = (dir(30.0), Vec3::new(-0.5, 0.2, 0.8).normalize());
+    assert_eq!((a.eval(wo, wi), a.pdf(wo, wi)), (b.eval(wo, wi), b.pdf(wo, wi)));
 }
 
 #[test]
@@ -471,6 +509,8 @@ fn sample_returns_eval_and_pdf() {
     for roughness in [0.0f32, 0.05, 0.3, 0.6, 1.0] {
         bsdfs.push(Bsdf::conductor(Vec3::new(0.9, 0.6, 0.3), roughness));
         bsdfs.push(Bsdf::plastic(Vec3::new(0.2, 0.5, 0.9), roughness));
+        bsdfs.push(coated(Vec3::new(0.2, 0.5, 0.9), 0.3, roughness, 0.8, 0.1));
+        bsdfs.push(coated(Vec3::new(0.2, 0.5, 0.9), 0.0, 0.4, 0.8, roughness));
     }
     let mut rng = Rng::new(800, 0);
     for bsdf in &bsdfs {
@@ -569,6 +609,8 @@ fn never_nan_or_inf() {
         bsdfs.push(Bsdf::conductor(Vec3::new(0.9, 0.0, 0.3), roughness));
         bsdfs.push(Bsdf::plastic(Vec3::ONE, roughness));
         bsdfs.push(Bsdf::plastic(Vec3::ZERO, roughness));
+        bsdfs.push(coated(Vec3::ONE, 0.5, roughness, 1.0, roughness));
+        bsdfs.push(coated(Vec3::ZERO, 1.0, 0.3, 0.5, roughness));
     }
     let mut rng = Rng::new(1000, 0);
     for bsdf in &bsdfs {

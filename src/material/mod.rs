@@ -53,7 +53,7 @@ pub use dielectric::{Dielectric, GlassMaterial};
 pub use diffuse::{DiffuseMaterial, Lambert};
 pub use emissive::EmissiveMaterial;
 pub use fresnel::fresnel_dielectric;
-pub use pbr::{AlphaMode, NormalMap, PbrBsdf, PbrMaterial};
+pub use pbr::{AlphaMode, Clearcoat, NormalMap, PbrBsdf, PbrMaterial};
 pub use plastic::{Plastic, PlasticMaterial};
 
 /// What a material kind answers: see the module documentation.

@@ -18,8 +18,13 @@
 //!   (B = metalness, G = roughness), normal map (tangent space, scaled in x and y by its
 //!   `scale`) — each times its factor. Roughness 0 is a smooth layer: a delta reflection
 //!   over the diffuse base (a pure mirror where the metalness is 1).
-//! - **Sampling**: the specular lobe with the probability of its share of the albedo at this
-//!   view, else the cosine-weighted base; the pdf is the mixture, so MIS weights are exact.
+//! - **Clear coat** (`KHR_materials_clearcoat`): a second dielectric GGX layer of index 1.5,
+//!   weight `clearcoat` and α = clearcoat roughness², over all of the above, which it scales
+//!   by 1 − the coat's directional albedo at the view (so the sum never exceeds what comes
+//!   in). It shares the shading normal (the spec's separate coat normal map is not read).
+//! - **Sampling**: the coat with the probability of its share of the albedo at this view,
+//!   then the specular lobe likewise, else the cosine-weighted base; the pdf is the mixture,
+//!   so MIS weights are exact.
 
 use std::f32::consts::FRAC_1_PI;
 
@@ -73,7 +78,19 @@ pub struct PbrMaterial {
     /// its reflectance at normal incidence.
     pub specular: f32,
     pub specular_color: Vec3,
+    /// `KHR_materials_clearcoat` (factors only; `None`: no coat).
+    pub clearcoat: Option<Clearcoat>,
 }
+
+/// A clear coat's weight and roughness (glTF's `clearcoatFactor`, `clearcoatRoughnessFactor`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Clearcoat {
+    pub factor: f32,
+    pub roughness: f32,
+}
+
+/// The index of refraction of a clear coat (glTF: F0 = 0.04).
+const COAT_IOR: f32 = 1.5;
 
 impl PbrMaterial {
     /// A material of constant base colour, metalness and roughness, dielectric index 1.5.
@@ -87,6 +104,7 @@ impl PbrMaterial {
             ior: 1.5,
             specular: 1.0,
             specular_color: Vec3::ONE,
+            clearcoat: None,
         }
     }
 
@@ -105,7 +123,11 @@ impl MaterialModel for PbrMaterial {
     #[inline(always)]
     fn bsdf<const TEX: bool>(&self, at: &TexCoords) -> PbrBsdf {
         let mr = self.metal_rough.at::<TEX>(at);
-        PbrBsdf::new(self.base.at::<TEX>(at), mr.z, mr.y, self.ior, self.specular, self.specular_color)
+        let b = PbrBsdf::new(self.base.at::<TEX>(at), mr.z, mr.y, self.ior, self.specular, self.specular_color);
+        match self.clearcoat {
+            Some(c) => b.with_clearcoat(c.factor, c.roughness),
+            None => b,
+        }
     }
 
     #[inline(always)]
@@ -123,7 +145,11 @@ impl MaterialModel for PbrMaterial {
             return base;
         }
         let f0 = self.specular * (self.specular_color * dielectric_f0(self.ior)).max_element().min(1.0);
-        coated(f0, base).max(base)
+        let layered = coated(f0, base).max(base);
+        match self.clearcoat {
+            Some(c) => coated(c.factor.clamp(0.0, 1.0) * dielectric_f0(COAT_IOR), layered),
+            None => layered,
+        }
     }
 
     fn scatters(&self) -> bool {
@@ -133,10 +159,11 @@ impl MaterialModel for PbrMaterial {
     fn lobes(&self) -> Lobes {
         let (lo, hi) = (self.metal_rough.min(), self.metal_rough.max());
         let rough = |r: f32| !Ggx::from_roughness(r).is_smooth();
+        let coat = self.clearcoat.filter(|c| c.factor > 0.0);
         Lobes {
             diffuse: lo.z < 1.0 && self.base.max().max_element() > 0.0,
-            glossy: rough(hi.y),
-            mirror: !rough(lo.y),
+            glossy: rough(hi.y) || coat.is_some_and(|c| rough(c.roughness)),
+            mirror: !rough(lo.y) || coat.is_some_and(|c| !rough(c.roughness)),
             glass: false,
         }
     }
@@ -168,6 +195,10 @@ impl MaterialModel for PbrMaterial {
             n.texture.fingerprint(h);
             h.f32s(&[n.scale]);
         }
+        if let Some(c) = self.clearcoat {
+            h.str("clearcoat");
+            h.f32s(&[c.factor, c.roughness]);
+        }
     }
 }
 
@@ -187,6 +218,9 @@ pub struct PbrBsdf {
     /// `KHR_materials_specular`'s weight and colour (a = 0, b = 1 without them).
     spec_a: Vec3,
     spec_b: Vec3,
+    /// The clear coat's weight (0: none) and distribution.
+    coat: f32,
+    coat_ggx: Ggx,
 }
 
 impl PbrBsdf {
@@ -207,7 +241,43 @@ impl PbrBsdf {
             eta,
             spec_a: w * (f0t - f0 * b0),
             spec_b: w * b0,
+            coat: 0.0,
+            coat_ggx: Ggx::from_roughness(0.0),
         }
+    }
+
+    /// The same under a clear coat of weight `factor` and roughness `roughness` (both clamped
+    /// to [0, 1]).
+    pub fn with_clearcoat(self, factor: f32, roughness: f32) -> PbrBsdf {
+        let coat = if factor.is_nan() { 0.0 } else { factor.clamp(0.0, 1.0) };
+        PbrBsdf { coat, coat_ggx: Ggx::from_roughness(roughness), ..self }
+    }
+
+    /// The coat's directional albedo at cos θo = `mu`, times its weight: what it reflects,
+    /// and so what it takes from the layers under it.
+    #[inline]
+    fn coat_albedo(&self, mu: f32) -> f32 {
+        if self.coat <= 0.0 {
+            return 0.0;
+        }
+        let e = if self.coat_ggx.is_smooth() {
+            fresnel_dielectric(mu, COAT_IOR)
+        } else {
+            dielectric_albedo(mu, self.coat_ggx.alpha(), COAT_IOR)
+        };
+        (self.coat * e).clamp(0.0, 1.0)
+    }
+
+    /// The probability of sampling the coat at `wo`: its share of the albedo, against the
+    /// layers under it (scaled by what it leaves).
+    #[inline]
+    fn coat_probability(&self, wo: Vec3, coat_albedo: f32, lost: f32) -> f32 {
+        if coat_albedo <= 0.0 {
+            return 0.0;
+        }
+        let (s, d) = self.base_albedos(wo, lost);
+        let under = (1.0 - coat_albedo) * (s + d);
+        if under <= 0.0 { 1.0 } else { coat_albedo / (coat_albedo + under) }
     }
 
     /// The dielectric layer's reflectance at a microfacet seen at cos θ = `c`.
@@ -248,14 +318,20 @@ impl PbrBsdf {
         (1.0 - self.metallic) * (Vec3::ONE - self.dielectric_albedo(mu, lost))
     }
 
-    /// The probability of sampling the specular lobe at `wo` (wo.z > 0): its share of the
-    /// albedo there.
+    /// The luminances of the specular and diffuse albedos at `wo` (under any coat).
     #[inline]
-    fn specular_probability(&self, wo: Vec3, lost: f32) -> f32 {
+    fn base_albedos(&self, wo: Vec3, lost: f32) -> (f32, f32) {
         let m = self.metallic;
         let spec = (1.0 - m) * self.dielectric_albedo(wo.z, lost) + m * fresnel_schlick(self.base, wo.z);
         let diffuse = self.base * self.diffuse_weight(wo.z, lost);
-        let (s, d) = (luminance(spec).max(0.0), luminance(diffuse).max(0.0));
+        (luminance(spec).max(0.0), luminance(diffuse).max(0.0))
+    }
+
+    /// The probability of sampling the specular lobe at `wo` (wo.z > 0) rather than the
+    /// diffuse one: its share of the albedo there.
+    #[inline]
+    fn specular_probability(&self, wo: Vec3, lost: f32) -> f32 {
+        let (s, d) = self.base_albedos(wo, lost);
         if d <= 0.0 {
             1.0
         } else if s <= 0.0 {
@@ -276,12 +352,10 @@ impl PbrBsdf {
     }
 }
 
-impl BsdfModel for PbrBsdf {
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if !same_hemisphere_above(wo, wi) {
-            return Vec3::ZERO;
-        }
-        let lost = self.lost(wo.z);
+impl PbrBsdf {
+    /// The layers under the coat: f(wo, wi), not scaled by what the coat leaves.
+    #[inline]
+    fn base_eval(&self, wo: Vec3, wi: Vec3, lost: f32) -> Vec3 {
         let diffuse = self.base * self.diffuse_weight(wo.z, lost) * FRAC_1_PI;
         if self.ggx.is_smooth() {
             return diffuse;
@@ -292,11 +366,10 @@ impl BsdfModel for PbrBsdf {
         diffuse + self.specular_fresnel(wo.dot(wm), lost) * (self.ggx.d(wm) * self.ggx.visibility(wo, wi))
     }
 
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if !same_hemisphere_above(wo, wi) {
-            return 0.0;
-        }
-        let p = self.specular_probability(wo, self.lost(wo.z));
+    /// The pdf of sampling the layers under the coat.
+    #[inline]
+    fn base_pdf(&self, wo: Vec3, wi: Vec3, lost: f32) -> f32 {
+        let p = self.specular_probability(wo, lost);
         let diffuse = (1.0 - p) * cosine_hemisphere_pdf(wi);
         if self.ggx.is_smooth() {
             return diffuse;
@@ -308,20 +381,78 @@ impl BsdfModel for PbrBsdf {
         p * specular + diffuse
     }
 
+    /// The rough coat's f(wo, wi) (0 for a smooth one: a delta reflection).
+    #[inline]
+    fn coat_eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if self.coat <= 0.0 || self.coat_ggx.is_smooth() {
+            return Vec3::ZERO;
+        }
+        let Some(wm) = (wo + wi).try_normalize() else { return Vec3::ZERO };
+        let f = fresnel_dielectric(wo.dot(wm), COAT_IOR);
+        Vec3::splat(self.coat * f * self.coat_ggx.d(wm) * self.coat_ggx.visibility(wo, wi))
+    }
+
+    #[inline]
+    fn coat_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.coat_ggx.is_smooth() {
+            return 0.0;
+        }
+        (wo + wi).try_normalize().map_or(0.0, |wm| self.coat_ggx.reflection_pdf(wo, wm))
+    }
+}
+
+impl BsdfModel for PbrBsdf {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if !same_hemisphere_above(wo, wi) {
+            return Vec3::ZERO;
+        }
+        let lost = self.lost(wo.z);
+        let base = self.base_eval(wo, wi, lost);
+        if self.coat <= 0.0 {
+            return base;
+        }
+        base * (1.0 - self.coat_albedo(wo.z)) + self.coat_eval(wo, wi)
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if !same_hemisphere_above(wo, wi) {
+            return 0.0;
+        }
+        let lost = self.lost(wo.z);
+        let base = self.base_pdf(wo, wi, lost);
+        if self.coat <= 0.0 {
+            return base;
+        }
+        let pc = self.coat_probability(wo, self.coat_albedo(wo.z), lost);
+        pc * self.coat_pdf(wo, wi) + (1.0 - pc) * base
+    }
+
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
         if wo.z <= MIN_COS {
             return None;
         }
         let lost = self.lost(wo.z);
-        let p = self.specular_probability(wo, lost);
-        let wi = if uc < p {
-            if self.ggx.is_smooth() {
-                let f = self.specular_fresnel(wo.z, 0.0) / wo.z;
-                return Some(BsdfSample { wi: reflect_z(wo), f, pdf: p, delta: true });
+        let coat_albedo = self.coat_albedo(wo.z);
+        let pc = self.coat_probability(wo, coat_albedo, lost);
+        let wi = if uc < pc {
+            if self.coat_ggx.is_smooth() {
+                let f = self.coat * fresnel_dielectric(wo.z, COAT_IOR) / wo.z;
+                return Some(BsdfSample { wi: reflect_z(wo), f: Vec3::splat(f), pdf: pc, delta: true });
             }
-            reflect(wo, self.ggx.sample_visible_normal(wo, u))
+            reflect(wo, self.coat_ggx.sample_visible_normal(wo, u))
         } else {
-            sample_cosine_hemisphere(u)
+            // What is left of `uc`, for the layers under the coat.
+            let uc = if pc > 0.0 { ((uc - pc) / (1.0 - pc)).clamp(0.0, 1.0 - f32::EPSILON / 2.0) } else { uc };
+            let p = self.specular_probability(wo, lost);
+            if uc < p {
+                if self.ggx.is_smooth() {
+                    let f = self.specular_fresnel(wo.z, 0.0) * (1.0 - coat_albedo) / wo.z;
+                    return Some(BsdfSample { wi: reflect_z(wo), f, pdf: (1.0 - pc) * p, delta: true });
+                }
+                reflect(wo, self.ggx.sample_visible_normal(wo, u))
+            } else {
+                sample_cosine_hemisphere(u)
+            }
         };
         if wi.z <= MIN_COS {
             return None;
@@ -335,9 +466,12 @@ impl BsdfModel for PbrBsdf {
         true
     }
 
-    /// A smooth surface without a diffuse base (a mirror-like metal).
+    /// A smooth surface without a diffuse base (a mirror-like metal), under no coat or a
+    /// smooth one.
     fn is_delta(&self) -> bool {
-        self.ggx.is_smooth() && ((1.0 - self.metallic) * self.base).max_element() <= 0.0
+        self.ggx.is_smooth()
+            && ((1.0 - self.metallic) * self.base).max_element() <= 0.0
+            && (self.coat <= 0.0 || self.coat_ggx.is_smooth())
     }
 
     /// The base colour, seen through the dielectric's 4 % where it is not metal.

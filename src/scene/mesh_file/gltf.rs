@@ -16,7 +16,7 @@
 
 use super::{FileMesh, MeshFile};
 use crate::light::PointLight;
-use crate::material::{AlphaMode, GlassMaterial, Material, MaterialKind, NormalMap, PbrMaterial};
+use crate::material::{AlphaMode, Clearcoat, GlassMaterial, Material, MaterialKind, NormalMap, PbrMaterial};
 use crate::memory::{self, LoadBudget};
 use crate::scene::format::MAX_COORDINATE;
 use crate::scene::{CameraSpec, SceneError, input};
@@ -41,8 +41,9 @@ pub const CANDELA_PER_WATT_PER_SR: f32 = 683.0;
 pub const GLASS_THRESHOLD: f32 = 0.5;
 
 /// Extensions whose data is read (the rest are warned about, or refused when required).
-const SUPPORTED: [&str; 8] = [
+const SUPPORTED: [&str; 9] = [
     "KHR_lights_punctual",
+    "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
@@ -193,6 +194,29 @@ impl Tally {
 }
 
 impl<'a> Loader<'a> {
+    /// `KHR_materials_clearcoat`'s factors (its textures are warned about and ignored); `None`
+    /// without the extension or with a factor of 0.
+    fn clearcoat(&self, m: &gltf::Material, at: &str, ignored: &mut Tally) -> Result<Option<Clearcoat>, SceneError> {
+        let Some(v) = m.extension_value("KHR_materials_clearcoat") else { return Ok(None) };
+        let at = format!("{at}.extensions.KHR_materials_clearcoat");
+        let unit = |key: &str| -> Result<f32, SceneError> {
+            match v.get(key) {
+                None => Ok(0.0),
+                Some(x) => match x.as_f64() {
+                    Some(x) if (0.0..=1.0).contains(&x) => Ok(x as f32),
+                    _ => Err(self.err(&at, format!("{key} must be a number in [0, 1], found {x}"))),
+                },
+            }
+        };
+        let (factor, roughness) = (unit("clearcoatFactor")?, unit("clearcoatRoughnessFactor")?);
+        for t in ["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"] {
+            if v.get(t).is_some() {
+                ignored.add(format!("{t} (its factor is used)"), &at);
+            }
+        }
+        Ok((factor > 0.0).then_some(Clearcoat { factor, roughness }))
+    }
+
     /// The absorption of `KHR_materials_volume` (σ = −ln(attenuationColor) / attenuationDistance,
     /// per channel) for glass; its thickness is not needed (ember traces the real geometry).
     /// On a material that is not glass the extension is ignored, with a warning.
@@ -624,7 +648,8 @@ impl<'a> Loader<'a> {
                     "specular factors must be finite and not negative",
                 ));
             }
-            for ext in ["KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_unlit"] {
+            let clearcoat = self.clearcoat(&m, &at, ignored)?;
+            for ext in ["KHR_materials_sheen", "KHR_materials_unlit"] {
                 if m.extension_value(ext).is_some() {
                     ignored.add(ext, format!("{at}.extensions.{ext}"));
                 }
@@ -654,6 +679,7 @@ impl<'a> Loader<'a> {
                     ior,
                     specular,
                     specular_color,
+                    clearcoat,
                 }),
             };
             if matches!(&transmission, Some(t) if t.transmission_factor() > 0.0 && t.transmission_factor() <= GLASS_THRESHOLD)
