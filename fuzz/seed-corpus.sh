@@ -2,12 +2,13 @@
 # Seeds fuzz/corpus/<target>/ from the committed seeds in fuzz/seeds/<target>/ (small files
 # made for the purpose, and inputs the fuzzers found crashing) and from the files in scenes/;
 # the corpus a run grows is not committed. The shard and first_round seeds are rendered by
-# ember itself: build it first (cargo build --release; EMBER overrides the binary).
+# ember itself as well (fresh for today's format; seeds/shard and seeds/first_round hold the same
+# renders as committed): build it first (cargo build --release; EMBER overrides the binary).
 set -eu
 cd "$(dirname "$0")"
 EMBER=${EMBER:-../target/release/ember}
 mkdir -p corpus/obj corpus/scene_toml corpus/checkpoint corpus/gltf corpus/ply corpus/image corpus/shard corpus/first_round
-for t in gltf ply image; do cp seeds/$t/* corpus/$t/; done
+for t in gltf ply image shard first_round; do cp seeds/$t/* corpus/$t/; done
 cp ../tests/data/meshes/*.gltf ../tests/data/meshes/*.glb corpus/gltf/
 for f in ../tests/data/meshes/*.ply; do cp "$f" corpus/ply/; done
 for f in ../scenes/*.toml; do cp "$f" corpus/scene_toml/; done
