@@ -184,7 +184,12 @@ fn coated(base: Vec3, metallic: f32, roughness: f32, coat: f32, coat_roughness: 
     Bsdf::Pbr(PbrBsdf::new(base, metallic, roughness, 1.5, 1.0, Vec3::ONE).with_clearcoat(coat, coat_roughness))
 }
 
-fn non_delta_bsdfs(roughness: f32) -> [(String, Bsdf); 6] {
+/// glTF's material with a sheen (`KHR_materials_sheen`) of colour `color`, under no coat.
+fn sheened(base: Vec3, metallic: f32, roughness: f32, color: Vec3, sheen_roughness: f32) -> Bsdf {
+    Bsdf::Pbr(PbrBsdf::new(base, metallic, roughness, 1.5, 1.0, Vec3::ONE).with_sheen(color, sheen_roughness))
+}
+
+fn non_delta_bsdfs(roughness: f32) -> [(String, Bsdf); 7] {
     [
         (format!("conductor r={roughness}"), Bsdf::conductor(Vec3::ONE, roughness)),
         (format!("plastic r={roughness}"), Bsdf::plastic(Vec3::ONE, roughness)),
@@ -192,6 +197,10 @@ fn non_delta_bsdfs(roughness: f32) -> [(String, Bsdf); 6] {
         (format!("pbr metal r={roughness}"), Bsdf::pbr(Vec3::new(0.9, 0.6, 0.3), 1.0, roughness)),
         (format!("pbr half metal r={roughness}"), Bsdf::pbr(Vec3::ONE, 0.5, roughness)),
         (format!("pbr coated r={roughness}"), coated(Vec3::new(0.8, 0.5, 0.2), 0.0, roughness, 0.7, roughness)),
+        (
+            format!("pbr sheen r={roughness}"),
+            sheened(Vec3::new(0.1, 0.2, 0.6), 0.0, roughness, Vec3::new(1.0, 0.9, 0.8), 0.5),
+        ),
     ]
 }
 
@@ -329,6 +338,39 @@ fn a_clear_coat_takes_from_the_layers_under_it_what_it_reflects() {
     assert!((black - (0.04 + 0.96 * 0.04)).abs() < 1e-3, "{black}");
     // Weight 0 is no coat at all.
     let (a, b) = (coated(Vec3::new(0.8, 0.5, 0.2), 0.0, 0.4, 0.0, 0.1), Bsdf::pbr(Vec3::new(0.8, 0.5, 0.2), 0.0, 0.4));
+    let (wo, wi) = (dir(30.0), Vec3::new(-0.5, 0.2, 0.8).normalize());
+    assert_eq!((a.eval(wo, wi), a.pdf(wo, wi)), (b.eval(wo, wi), b.pdf(wo, wi)));
+}
+
+#[test]
+fn a_sheen_takes_from_the_layers_under_it_what_it_reflects() {
+    // A white sheen over a white base: the base keeps 1 − E_sheen(μo), the sheen reflects
+    // E_sheen(μo) — all the light, within the table's interpolation (2 %), at every sheen
+    // roughness, over smooth and rough bases, and with a coat over both.
+    for (i, sheen_roughness) in [0.0f32, 0.3, 0.7, 1.0].into_iter().enumerate() {
+        for (k, roughness) in [0.0f32, 0.5].into_iter().enumerate() {
+            let plain = sheened(Vec3::ONE, 0.0, roughness, Vec3::ONE, sheen_roughness);
+            let with_coat = Bsdf::Pbr(
+                PbrBsdf::new(Vec3::ONE, 0.0, roughness, 1.5, 1.0, Vec3::ONE)
+                    .with_sheen(Vec3::ONE, sheen_roughness)
+                    .with_clearcoat(1.0, 0.2),
+            );
+            for (c, bsdf) in [plain, with_coat].iter().enumerate() {
+                for (j, theta) in ANGLES.into_iter().enumerate() {
+                    let seed = 7000 + 100 * i as u64 + 20 * k as u64 + 10 * c as u64 + j as u64;
+                    let a = sample_many(bsdf, dir(theta), 100_000, seed).albedo.mean();
+                    println!("sheen r={sheen_roughness} base r={roughness} coat {c} θo={theta}: {a:.4}");
+                    assert!(
+                        (a - 1.0).abs() < 0.02,
+                        "sheen r={sheen_roughness} base r={roughness} coat {c} θo={theta}: {a}"
+                    );
+                }
+            }
+        }
+    }
+    // A black sheen is no sheen.
+    let (a, b) =
+        (sheened(Vec3::new(0.8, 0.5, 0.2), 0.0, 0.4, Vec3::ZERO, 0.5), Bsdf::pbr(Vec3::new(0.8, 0.5, 0.2), 0.0, 0.4));
     let (wo, wi) = (dir(30.0), Vec3::new(-0.5, 0.2, 0.8).normalize());
     assert_eq!((a.eval(wo, wi), a.pdf(wo, wi)), (b.eval(wo, wi), b.pdf(wo, wi)));
 }
@@ -511,6 +553,7 @@ fn sample_returns_eval_and_pdf() {
         bsdfs.push(Bsdf::plastic(Vec3::new(0.2, 0.5, 0.9), roughness));
         bsdfs.push(coated(Vec3::new(0.2, 0.5, 0.9), 0.3, roughness, 0.8, 0.1));
         bsdfs.push(coated(Vec3::new(0.2, 0.5, 0.9), 0.0, 0.4, 0.8, roughness));
+        bsdfs.push(sheened(Vec3::new(0.2, 0.5, 0.9), 0.0, roughness, Vec3::new(0.9, 0.8, 0.7), 0.4));
     }
     let mut rng = Rng::new(800, 0);
     for bsdf in &bsdfs {
@@ -611,6 +654,7 @@ fn never_nan_or_inf() {
         bsdfs.push(Bsdf::plastic(Vec3::ZERO, roughness));
         bsdfs.push(coated(Vec3::ONE, 0.5, roughness, 1.0, roughness));
         bsdfs.push(coated(Vec3::ZERO, 1.0, 0.3, 0.5, roughness));
+        bsdfs.push(sheened(Vec3::ONE, 0.0, 0.3, Vec3::ONE, roughness));
     }
     let mut rng = Rng::new(1000, 0);
     for bsdf in &bsdfs {

@@ -42,6 +42,7 @@ mod fresnel;
 mod microfacet;
 mod pbr;
 mod plastic;
+mod sheen;
 
 use glam::{Vec2, Vec3};
 
@@ -53,7 +54,7 @@ pub use dielectric::{Dielectric, GlassMaterial};
 pub use diffuse::{DiffuseMaterial, Lambert};
 pub use emissive::EmissiveMaterial;
 pub use fresnel::fresnel_dielectric;
-pub use pbr::{AlphaMode, Clearcoat, NormalMap, PbrBsdf, PbrMaterial};
+pub use pbr::{AlphaMode, Clearcoat, NormalMap, PbrBsdf, PbrMaterial, Sheen};
 pub use plastic::{Plastic, PlasticMaterial};
 
 /// What a material kind answers: see the module documentation.

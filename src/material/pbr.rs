@@ -18,12 +18,15 @@
 //!   (B = metalness, G = roughness), normal map (tangent space, scaled in x and y by its
 //!   `scale`) — each times its factor. Roughness 0 is a smooth layer: a delta reflection
 //!   over the diffuse base (a pure mirror where the metalness is 1).
+//! - **Sheen** (`KHR_materials_sheen`, `sheen.rs`): a back-scattering fibre lobe of colour
+//!   `sheen` over the specular and diffuse layers, which keep 1 − max(colour) E_sheen(μo).
 //! - **Clear coat** (`KHR_materials_clearcoat`): a second dielectric GGX layer of index 1.5,
 //!   weight `clearcoat` and α = clearcoat roughness², over all of the above, which it scales
 //!   by 1 − the coat's directional albedo at the view (so the sum never exceeds what comes
 //!   in). It shares the shading normal (the spec's separate coat normal map is not read).
 //! - **Sampling**: the coat with the probability of its share of the albedo at this view,
-//!   then the specular lobe likewise, else the cosine-weighted base; the pdf is the mixture,
+//!   then the sheen (cosine-weighted) likewise, then the specular lobe, else the
+//!   cosine-weighted base; the pdf is the mixture,
 //!   so MIS weights are exact.
 
 use std::f32::consts::FRAC_1_PI;
@@ -34,6 +37,7 @@ use super::albedo::{dielectric_albedo, ggx_albedo};
 use super::diffuse::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use super::fresnel::{fresnel_dielectric, fresnel_schlick};
 use super::microfacet::Ggx;
+use super::sheen;
 use super::{BsdfModel, BsdfSample, Lobes, MIN_COS, MaterialModel, coated, reflect, reflect_z, same_hemisphere_above};
 use crate::hash::Fingerprint;
 use crate::light::luminance;
@@ -80,6 +84,15 @@ pub struct PbrMaterial {
     pub specular_color: Vec3,
     /// `KHR_materials_clearcoat` (factors only; `None`: no coat).
     pub clearcoat: Option<Clearcoat>,
+    /// `KHR_materials_sheen` (factors only; `None`: no sheen).
+    pub sheen: Option<Sheen>,
+}
+
+/// A sheen's colour and roughness (glTF's `sheenColorFactor`, `sheenRoughnessFactor`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sheen {
+    pub color: Vec3,
+    pub roughness: f32,
 }
 
 /// A clear coat's weight and roughness (glTF's `clearcoatFactor`, `clearcoatRoughnessFactor`).
@@ -105,6 +118,7 @@ impl PbrMaterial {
             specular: 1.0,
             specular_color: Vec3::ONE,
             clearcoat: None,
+            sheen: None,
         }
     }
 
@@ -123,7 +137,10 @@ impl MaterialModel for PbrMaterial {
     #[inline(always)]
     fn bsdf<const TEX: bool>(&self, at: &TexCoords) -> PbrBsdf {
         let mr = self.metal_rough.at::<TEX>(at);
-        let b = PbrBsdf::new(self.base.at::<TEX>(at), mr.z, mr.y, self.ior, self.specular, self.specular_color);
+        let mut b = PbrBsdf::new(self.base.at::<TEX>(at), mr.z, mr.y, self.ior, self.specular, self.specular_color);
+        if let Some(sh) = self.sheen {
+            b = b.with_sheen(sh.color, sh.roughness);
+        }
         match self.clearcoat {
             Some(c) => b.with_clearcoat(c.factor, c.roughness),
             None => b,
@@ -145,7 +162,10 @@ impl MaterialModel for PbrMaterial {
             return base;
         }
         let f0 = self.specular * (self.specular_color * dielectric_f0(self.ior)).max_element().min(1.0);
-        let layered = coated(f0, base).max(base);
+        let mut layered = coated(f0, base).max(base);
+        if let Some(sh) = self.sheen {
+            layered = coated(sh.color.max_element().clamp(0.0, 1.0), layered);
+        }
         match self.clearcoat {
             Some(c) => coated(c.factor.clamp(0.0, 1.0) * dielectric_f0(COAT_IOR), layered),
             None => layered,
@@ -162,7 +182,7 @@ impl MaterialModel for PbrMaterial {
         let coat = self.clearcoat.filter(|c| c.factor > 0.0);
         Lobes {
             diffuse: lo.z < 1.0 && self.base.max().max_element() > 0.0,
-            glossy: rough(hi.y) || coat.is_some_and(|c| rough(c.roughness)),
+            glossy: rough(hi.y) || coat.is_some_and(|c| rough(c.roughness)) || self.sheen.is_some(),
             mirror: !rough(lo.y) || coat.is_some_and(|c| !rough(c.roughness)),
             glass: false,
         }
@@ -199,6 +219,11 @@ impl MaterialModel for PbrMaterial {
             h.str("clearcoat");
             h.f32s(&[c.factor, c.roughness]);
         }
+        if let Some(sh) = self.sheen {
+            h.str("sheen");
+            h.v3(&[sh.color]);
+            h.f32s(&[sh.roughness]);
+        }
     }
 }
 
@@ -221,6 +246,10 @@ pub struct PbrBsdf {
     /// The clear coat's weight (0: none) and distribution.
     coat: f32,
     coat_ggx: Ggx,
+    /// The sheen's colour (zero: none), glTF roughness and lobe width.
+    sheen: Vec3,
+    sheen_roughness: f32,
+    sheen_alpha: f32,
 }
 
 impl PbrBsdf {
@@ -243,7 +272,38 @@ impl PbrBsdf {
             spec_b: w * b0,
             coat: 0.0,
             coat_ggx: Ggx::from_roughness(0.0),
+            sheen: Vec3::ZERO,
+            sheen_roughness: 0.0,
+            sheen_alpha: 1.0,
         }
+    }
+
+    /// The same with a sheen of colour `color` (clamped to [0, 1]) and roughness `roughness`.
+    pub fn with_sheen(self, color: Vec3, roughness: f32) -> PbrBsdf {
+        let color = if color.is_finite() { color.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ZERO };
+        let r = if roughness.is_nan() { 0.0 } else { roughness.clamp(0.0, 1.0) };
+        PbrBsdf { sheen: color, sheen_roughness: r, sheen_alpha: sheen::alpha_of(r), ..self }
+    }
+
+    /// What the sheen reflects at cos θo = `mu` (the largest channel's), and so takes from the
+    /// layers under it.
+    #[inline]
+    fn sheen_albedo(&self, mu: f32) -> f32 {
+        if self.sheen == Vec3::ZERO {
+            return 0.0;
+        }
+        (self.sheen.max_element() * sheen::albedo(mu, self.sheen_roughness)).clamp(0.0, 1.0)
+    }
+
+    /// The probability of sampling the sheen at `wo`, against the layers under it.
+    #[inline]
+    fn sheen_probability(&self, wo: Vec3, sheen_albedo: f32, lost: f32) -> f32 {
+        if sheen_albedo <= 0.0 {
+            return 0.0;
+        }
+        let (s, d) = self.base_albedos(wo, lost);
+        let under = (1.0 - sheen_albedo) * (s + d);
+        if under <= 0.0 { 1.0 } else { sheen_albedo / (sheen_albedo + under) }
     }
 
     /// The same under a clear coat of weight `factor` and roughness `roughness` (both clamped
@@ -276,7 +336,8 @@ impl PbrBsdf {
             return 0.0;
         }
         let (s, d) = self.base_albedos(wo, lost);
-        let under = (1.0 - coat_albedo) * (s + d);
+        let sh = self.sheen_albedo(wo.z);
+        let under = (1.0 - coat_albedo) * (sh + (1.0 - sh) * (s + d));
         if under <= 0.0 { 1.0 } else { coat_albedo / (coat_albedo + under) }
     }
 
@@ -381,6 +442,26 @@ impl PbrBsdf {
         p * specular + diffuse
     }
 
+    /// The layers under the coat: the sheen over the base, which keeps what it leaves.
+    #[inline]
+    fn inner_eval(&self, wo: Vec3, wi: Vec3, lost: f32) -> Vec3 {
+        let base = self.base_eval(wo, wi, lost);
+        if self.sheen == Vec3::ZERO {
+            return base;
+        }
+        base * (1.0 - self.sheen_albedo(wo.z)) + self.sheen * sheen::eval(wo, wi, self.sheen_alpha)
+    }
+
+    #[inline]
+    fn inner_pdf(&self, wo: Vec3, wi: Vec3, lost: f32) -> f32 {
+        let base = self.base_pdf(wo, wi, lost);
+        if self.sheen == Vec3::ZERO {
+            return base;
+        }
+        let ps = self.sheen_probability(wo, self.sheen_albedo(wo.z), lost);
+        ps * cosine_hemisphere_pdf(wi) + (1.0 - ps) * base
+    }
+
     /// The rough coat's f(wo, wi) (0 for a smooth one: a delta reflection).
     #[inline]
     fn coat_eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
@@ -407,11 +488,11 @@ impl BsdfModel for PbrBsdf {
             return Vec3::ZERO;
         }
         let lost = self.lost(wo.z);
-        let base = self.base_eval(wo, wi, lost);
+        let inner = self.inner_eval(wo, wi, lost);
         if self.coat <= 0.0 {
-            return base;
+            return inner;
         }
-        base * (1.0 - self.coat_albedo(wo.z)) + self.coat_eval(wo, wi)
+        inner * (1.0 - self.coat_albedo(wo.z)) + self.coat_eval(wo, wi)
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -419,12 +500,12 @@ impl BsdfModel for PbrBsdf {
             return 0.0;
         }
         let lost = self.lost(wo.z);
-        let base = self.base_pdf(wo, wi, lost);
+        let inner = self.inner_pdf(wo, wi, lost);
         if self.coat <= 0.0 {
-            return base;
+            return inner;
         }
         let pc = self.coat_probability(wo, self.coat_albedo(wo.z), lost);
-        pc * self.coat_pdf(wo, wi) + (1.0 - pc) * base
+        pc * self.coat_pdf(wo, wi) + (1.0 - pc) * inner
     }
 
     fn sample(&self, wo: Vec3, u: Vec2, uc: f32) -> Option<BsdfSample> {
@@ -441,17 +522,32 @@ impl BsdfModel for PbrBsdf {
             }
             reflect(wo, self.coat_ggx.sample_visible_normal(wo, u))
         } else {
-            // What is left of `uc`, for the layers under the coat.
-            let uc = if pc > 0.0 { ((uc - pc) / (1.0 - pc)).clamp(0.0, 1.0 - f32::EPSILON / 2.0) } else { uc };
-            let p = self.specular_probability(wo, lost);
-            if uc < p {
-                if self.ggx.is_smooth() {
-                    let f = self.specular_fresnel(wo.z, 0.0) * (1.0 - coat_albedo) / wo.z;
-                    return Some(BsdfSample { wi: reflect_z(wo), f, pdf: (1.0 - pc) * p, delta: true });
-                }
-                reflect(wo, self.ggx.sample_visible_normal(wo, u))
-            } else {
+            // What is left of `uc`, for the layers under the coat: the sheen, then the base.
+            let rest = |uc: f32, p: f32| {
+                if p > 0.0 { ((uc - p) / (1.0 - p)).clamp(0.0, 1.0 - f32::EPSILON / 2.0) } else { uc }
+            };
+            let uc = rest(uc, pc);
+            let sheen_albedo = self.sheen_albedo(wo.z);
+            let ps = self.sheen_probability(wo, sheen_albedo, lost);
+            if uc < ps {
                 sample_cosine_hemisphere(u)
+            } else {
+                let uc = rest(uc, ps);
+                let p = self.specular_probability(wo, lost);
+                if uc < p {
+                    if self.ggx.is_smooth() {
+                        let f = self.specular_fresnel(wo.z, 0.0) * ((1.0 - coat_albedo) * (1.0 - sheen_albedo)) / wo.z;
+                        return Some(BsdfSample {
+                            wi: reflect_z(wo),
+                            f,
+                            pdf: (1.0 - pc) * (1.0 - ps) * p,
+                            delta: true,
+                        });
+                    }
+                    reflect(wo, self.ggx.sample_visible_normal(wo, u))
+                } else {
+                    sample_cosine_hemisphere(u)
+                }
             }
         };
         if wi.z <= MIN_COS {
@@ -467,11 +563,12 @@ impl BsdfModel for PbrBsdf {
     }
 
     /// A smooth surface without a diffuse base (a mirror-like metal), under no coat or a
-    /// smooth one.
+    /// smooth one, without sheen.
     fn is_delta(&self) -> bool {
         self.ggx.is_smooth()
             && ((1.0 - self.metallic) * self.base).max_element() <= 0.0
             && (self.coat <= 0.0 || self.coat_ggx.is_smooth())
+            && self.sheen == Vec3::ZERO
     }
 
     /// The base colour, seen through the dielectric's 4 % where it is not metal.

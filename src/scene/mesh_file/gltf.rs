@@ -16,7 +16,7 @@
 
 use super::{FileMesh, MeshFile};
 use crate::light::PointLight;
-use crate::material::{AlphaMode, Clearcoat, GlassMaterial, Material, MaterialKind, NormalMap, PbrMaterial};
+use crate::material::{AlphaMode, Clearcoat, GlassMaterial, Material, MaterialKind, NormalMap, PbrMaterial, Sheen};
 use crate::memory::{self, LoadBudget};
 use crate::scene::format::MAX_COORDINATE;
 use crate::scene::{CameraSpec, SceneError, input};
@@ -41,11 +41,12 @@ pub const CANDELA_PER_WATT_PER_SR: f32 = 683.0;
 pub const GLASS_THRESHOLD: f32 = 0.5;
 
 /// Extensions whose data is read (the rest are warned about, or refused when required).
-const SUPPORTED: [&str; 9] = [
+const SUPPORTED: [&str; 10] = [
     "KHR_lights_punctual",
     "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
@@ -194,6 +195,35 @@ impl Tally {
 }
 
 impl<'a> Loader<'a> {
+    /// `KHR_materials_sheen`'s factors (its textures are warned about and ignored); `None`
+    /// without the extension or with a black sheen colour.
+    fn sheen(&self, m: &gltf::Material, at: &str, ignored: &mut Tally) -> Result<Option<Sheen>, SceneError> {
+        let Some(v) = m.extension_value("KHR_materials_sheen") else { return Ok(None) };
+        let at = format!("{at}.extensions.KHR_materials_sheen");
+        let color = match v.get("sheenColorFactor") {
+            None => Vec3::ZERO,
+            Some(c) => match c.as_array().map(|a| a.iter().map(|x| x.as_f64()).collect::<Option<Vec<f64>>>()) {
+                Some(Some(a)) if a.len() == 3 && a.iter().all(|x| (0.0..=1.0).contains(x)) => {
+                    Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32)
+                }
+                _ => return Err(self.err(&at, format!("sheenColorFactor must be 3 numbers in [0, 1], found {c}"))),
+            },
+        };
+        let roughness = match v.get("sheenRoughnessFactor") {
+            None => 0.0,
+            Some(x) => match x.as_f64() {
+                Some(x) if (0.0..=1.0).contains(&x) => x as f32,
+                _ => return Err(self.err(&at, format!("sheenRoughnessFactor must be a number in [0, 1], found {x}"))),
+            },
+        };
+        for t in ["sheenColorTexture", "sheenRoughnessTexture"] {
+            if v.get(t).is_some() {
+                ignored.add(format!("{t} (its factor is used)"), &at);
+            }
+        }
+        Ok((color.max_element() > 0.0).then_some(Sheen { color, roughness }))
+    }
+
     /// `KHR_materials_clearcoat`'s factors (its textures are warned about and ignored); `None`
     /// without the extension or with a factor of 0.
     fn clearcoat(&self, m: &gltf::Material, at: &str, ignored: &mut Tally) -> Result<Option<Clearcoat>, SceneError> {
@@ -649,7 +679,8 @@ impl<'a> Loader<'a> {
                 ));
             }
             let clearcoat = self.clearcoat(&m, &at, ignored)?;
-            for ext in ["KHR_materials_sheen", "KHR_materials_unlit"] {
+            let sheen = self.sheen(&m, &at, ignored)?;
+            for ext in ["KHR_materials_unlit"] {
                 if m.extension_value(ext).is_some() {
                     ignored.add(ext, format!("{at}.extensions.{ext}"));
                 }
@@ -680,6 +711,7 @@ impl<'a> Loader<'a> {
                     specular,
                     specular_color,
                     clearcoat,
+                    sheen,
                 }),
             };
             if matches!(&transmission, Some(t) if t.transmission_factor() > 0.0 && t.transmission_factor() <= GLASS_THRESHOLD)
