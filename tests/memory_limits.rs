@@ -194,6 +194,15 @@ fn hidden_large_allocations_are_counted_first() {
     let args = [&["render", binary_ply.to_str().unwrap(), "-o", o][..], &small].concat();
     refused("binary PLY face", &args, "100M", "a face of 10000000 values needs ~640.0 MB to load", &out);
 
+    // A mesh whose every triangle emits (a lit panel of 180,000 triangles): each is a light to
+    // sample, with its record and its share of the light tree (~88 MB estimated, ~50 MB
+    // measured), counted before they are built.
+    std::fs::write(d.join("glow.mtl"), "newmtl glow\nKd 0 0 0\nKe 1 1 1\n").unwrap();
+    std::fs::write(d.join("glow.obj"), format!("mtllib glow.mtl\nusemtl glow\n{}", grid_obj(300))).unwrap();
+    let glow = d.join("glow.obj");
+    let args = [&["render", glow.to_str().unwrap(), "-o", o][..], &small].concat();
+    refused("emitting mesh", &args, "80M", "the lights of 180000 emitting triangles and spheres needs ~", &out);
+
     // The auxiliary images (--aux) and the denoiser (--denoise) of a 1000x1000 render: counted
     // with the film before rendering.
     let spheres = common::scene_path("spheres.toml");

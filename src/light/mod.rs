@@ -351,6 +351,17 @@ impl LightSet {
         }
     }
 
+    /// The most memory a set of `lights` emitting primitives takes (a textured triangle's
+    /// corner coordinates, the choice's tables and a light tree counted for each), for the
+    /// memory budget before it is built.
+    pub fn bytes_for(lights: u64) -> u64 {
+        let per = std::mem::size_of::<Emitter>()
+            + std::mem::size_of::<triangle::TriangleTexture>()
+            + 4 * 4 // probability, cumulative sum, group, the primitive's light
+            + tree::BYTES_PER_LIGHT;
+        lights.saturating_mul(per as u64)
+    }
+
     /// The background (black if the scene has none).
     pub fn background(&self) -> &Background {
         &self.background

@@ -197,6 +197,10 @@ impl Node {
     }
 }
 
+/// Bytes the tree holds per light: two nodes (a leaf and, on average, one inner node), their
+/// parents, and the light's leaf.
+pub(super) const BYTES_PER_LIGHT: usize = 2 * std::mem::size_of::<Node>() + 2 * 4 + 4;
+
 /// The tree over the bounded lights of a [`super::LightSet`].
 #[derive(Clone, Debug)]
 pub(super) struct LightTree {

@@ -393,6 +393,21 @@ impl Scene {
         Ok(())
     }
 
+    /// How many triangles and spheres emit (their material's emission is not black anywhere):
+    /// the lights of [`Scene::light_set`] beside the described ones.
+    pub fn emitting_primitives(&self) -> u64 {
+        let mut n = 0u64;
+        for (g, geom) in self.geometry.iter().enumerate() {
+            let count = match geom {
+                Geometry::Mesh(m) => m.triangle_count(),
+                Geometry::Spheres(s) => s.len(),
+                Geometry::Cylinders(_) => 0,
+            };
+            n += (0..count).filter(|&p| self.material(g as u32, p as u32).emission.max().max_element() > 0.0).count() as u64;
+        }
+        n
+    }
+
     /// The scene's lights, ready for sampling (a light tree where `mode` and their number
     /// call for one).
     pub fn light_set(&self, mode: crate::settings::LightTreeMode) -> LightSet {

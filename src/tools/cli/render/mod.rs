@@ -81,6 +81,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let what = format!("image {w}x{h}'s auxiliary images, adaptive plan and denoiser buffers");
     budget.admit(what, extra).map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
     budget.keep(extra);
+    // Every emitting triangle is a light to sample: its own record and a light tree's share.
+    let emitting = scene.emitting_primitives();
+    let lights = crate::light::LightSet::bytes_for(emitting);
+    budget
+        .admit(format!("the lights of {emitting} emitting triangles and spheres"), lights)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
+    budget.keep(lights);
     let denoiser = match denoiser {
         Some(d) => {
             let scratch = memory::denoiser_scratch_bytes(budget.available()).ok_or_else(|| {
