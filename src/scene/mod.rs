@@ -403,7 +403,8 @@ impl Scene {
                 Geometry::Spheres(s) => s.len(),
                 Geometry::Cylinders(_) => 0,
             };
-            n += (0..count).filter(|&p| self.material(g as u32, p as u32).emission.max().max_element() > 0.0).count() as u64;
+            n += (0..count).filter(|&p| self.material(g as u32, p as u32).emission.max().max_element() > 0.0).count()
+                as u64;
         }
         n
     }

@@ -41,7 +41,8 @@ pub const CANDELA_PER_WATT_PER_SR: f32 = 683.0;
 pub const GLASS_THRESHOLD: f32 = 0.5;
 
 /// Extensions whose data is read (the rest are warned about, or refused when required).
-const SUPPORTED: [&str; 10] = [
+const SUPPORTED: [&str; 11] = [
+    "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
     "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
@@ -92,8 +93,47 @@ fn parse_unguarded(bytes: Vec<u8>, path: &Path, budget: &LoadBudget) -> Result<M
     let gltf::Gltf { document, blob } = gltf;
     let json = document.into_json();
     check_before_crate(&json).map_err(|m| SceneError::new(path, None, m))?;
-    let document = gltf::Document::from_json(json).map_err(|e| parse_error(path, e))?;
+    let document = validated(json).map_err(|e| parse_error(path, e))?;
     Loader { path, budget, doc: &document, inputs: Default::default() }.load(blob)
+}
+
+/// The document after the `gltf` crate's validation, which takes the accessors of a
+/// Draco-compressed primitive (no `bufferView`: their data is in the extension's) for missing
+/// data, and the extension itself (in `extensionsRequired`) for unsupported: those reports,
+/// and only those, are let through.
+fn validated(json: gltf::json::Root) -> Result<gltf::Document, gltf::Error> {
+    let compressed: std::collections::BTreeSet<String> = json
+        .meshes
+        .iter()
+        .flat_map(|m| &m.primitives)
+        .filter(|p| p.extensions.as_ref().is_some_and(|e| e.others.contains_key("KHR_draco_mesh_compression")))
+        .flat_map(|p| p.attributes.values().map(|i| i.value()).chain(p.indices.map(|i| i.value())))
+        .filter(|&i| json.accessors.get(i).is_some_and(|a| a.buffer_view.is_none()))
+        .map(|i| format!("accessors[{i}].bufferView"))
+        .collect();
+    if compressed.is_empty() {
+        return gltf::Document::from_json(json);
+    }
+    match gltf::Document::from_json(json.clone()) {
+        Err(gltf::Error::Validation(errors)) => {
+            let rest: Vec<_> = errors
+                .into_iter()
+                .filter(|(p, e)| {
+                    use gltf::json::validation::Error::{Missing, Unsupported};
+                    !(matches!(e, Missing) && compressed.contains(p.as_str())
+                        || matches!(e, Unsupported)
+                            && p.as_str().starts_with("extensions")
+                            && p.as_str().ends_with("= \"KHR_draco_mesh_compression\""))
+                })
+                .collect();
+            if rest.is_empty() {
+                Ok(gltf::Document::from_json_without_validation(json))
+            } else {
+                Err(gltf::Error::Validation(rest))
+            }
+        }
+        other => other,
+    }
 }
 
 /// What `gltf` 1.4.1 and `gltf-json` 1.4.1 unwrap without checking (each a panic otherwise),
@@ -143,7 +183,7 @@ fn check_before_crate(json: &gltf::json::Root) -> Result<(), String> {
 /// Why a file that requires extension `ext` is refused.
 fn unsupported_required(ext: &str) -> String {
     let why = match ext {
-        "KHR_draco_mesh_compression" | "EXT_meshopt_compression" | "KHR_meshopt_compression" => {
+        "EXT_meshopt_compression" | "KHR_meshopt_compression" => {
             " (its meshes are compressed and ember does not decompress them: export the file without mesh compression)"
         }
         _ => "",
@@ -181,6 +221,72 @@ struct Loader<'a> {
 struct Instance<'a> {
     mesh: gltf::Mesh<'a>,
     world: Mat4,
+}
+
+/// A primitive's mesh decoded from `KHR_draco_mesh_compression`, and which of its attributes
+/// each glTF attribute name is.
+struct Draco {
+    mesh: draco_core::Mesh,
+    attributes: BTreeMap<String, u32>,
+    /// Where the extension is, for messages.
+    at: String,
+}
+
+impl Draco {
+    /// The values of attribute `name` per point, `width` components each, as f32 (integers
+    /// normalised where the attribute says so); `None` if the extension does not have it.
+    fn values(&self, name: &str, widths: &[usize]) -> Option<Result<(Vec<f32>, usize), String>> {
+        let id = *self.attributes.get(name)?;
+        Some(self.read(name, id, widths))
+    }
+
+    fn read(&self, name: &str, id: u32, widths: &[usize]) -> Result<(Vec<f32>, usize), String> {
+        use draco_core::DataType as T;
+        let a =
+            self.mesh.attribute_by_unique_id(id).ok_or(format!("attributes.{name}: no attribute {id} in the data"))?;
+        let width = a.num_components() as usize;
+        if !widths.contains(&width) {
+            return Err(format!("attributes.{name}: {width} components per value, expected {widths:?}"));
+        }
+        let size = match a.data_type() {
+            T::Int8 | T::Uint8 => 1,
+            T::Int16 | T::Uint16 => 2,
+            T::Int32 | T::Uint32 | T::Float32 => 4,
+            T::Float64 => 8,
+            t => return Err(format!("attributes.{name}: values of type {t:?} are not read")),
+        };
+        let stride = usize::try_from(a.byte_stride()).unwrap_or(0).max(width * size);
+        let data = a.buffer().data();
+        let norm = a.normalized();
+        let n = self.mesh.num_points();
+        let mut out = Vec::with_capacity(n * width);
+        for p in 0..n {
+            let v = a.mapped_index(draco_core::PointIndex(p as u32)).0 as usize;
+            for c in 0..width {
+                let at = v.checked_mul(stride).and_then(|o| o.checked_add(c * size));
+                let b = at
+                    .and_then(|o| data.get(o..o + size))
+                    .ok_or(format!("attributes.{name}: point {p} has no value"))?;
+                let x = match a.data_type() {
+                    T::Int8 => i8::from_le_bytes([b[0]]) as f32 / if norm { 127.0 } else { 1.0 },
+                    T::Uint8 => b[0] as f32 / if norm { 255.0 } else { 1.0 },
+                    T::Int16 => i16::from_le_bytes([b[0], b[1]]) as f32 / if norm { 32767.0 } else { 1.0 },
+                    T::Uint16 => u16::from_le_bytes([b[0], b[1]]) as f32 / if norm { 65535.0 } else { 1.0 },
+                    T::Int32 => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32,
+                    T::Uint32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32,
+                    T::Float32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+                    _ => f64::from_le_bytes(b.try_into().unwrap_or([0; 8])) as f32,
+                };
+                out.push(if norm && matches!(a.data_type(), T::Int8 | T::Int16) { x.max(-1.0) } else { x });
+            }
+        }
+        Ok((out, width))
+    }
+
+    /// The triangles' corners (point indices).
+    fn corners(&self) -> Vec<u32> {
+        (0..self.mesh.num_faces()).flat_map(|f| self.mesh.face(draco_core::FaceIndex(f as u32)).map(|p| p.0)).collect()
+    }
 }
 
 /// Problems of one kind, reported once: how many and the first place.
@@ -742,6 +848,29 @@ impl<'a> Loader<'a> {
     }
 
     /// The bytes of a buffer view.
+    /// A primitive's `KHR_draco_mesh_compression` data, decoded (`None` without it).
+    fn draco(&self, at: &str, prim: &gltf::Primitive, buffers: &[Vec<u8>]) -> Result<Option<Draco>, SceneError> {
+        let Some(ext) = prim.extension_value("KHR_draco_mesh_compression") else { return Ok(None) };
+        let at = format!("{at}.extensions.KHR_draco_mesh_compression");
+        let view = ext
+            .get("bufferView")
+            .and_then(|v| v.as_u64())
+            .and_then(|v| self.doc.views().nth(v as usize))
+            .ok_or_else(|| self.err(&at, "its bufferView is missing or out of range"))?;
+        let bytes = self.view_bytes(&at, &view, buffers)?;
+        let mut mesh = draco_core::Mesh::new();
+        draco_core::MeshDecoder::new()
+            .decode(&mut draco_core::DecoderBuffer::new(bytes), &mut mesh)
+            .map_err(|e| self.err(&at, format!("the compressed mesh cannot be decoded: {e}")))?;
+        let mut attributes = BTreeMap::new();
+        for (name, id) in ext.get("attributes").and_then(|a| a.as_object()).into_iter().flatten() {
+            let id = id.as_u64().and_then(|i| u32::try_from(i).ok());
+            let id = id.ok_or_else(|| self.err(&at, format!("attributes.{name} is not an attribute id")))?;
+            attributes.insert(name.clone(), id);
+        }
+        Ok(Some(Draco { mesh, attributes, at }))
+    }
+
     fn view_bytes<'b>(
         &self,
         at: &str,
@@ -790,8 +919,31 @@ impl<'a> Loader<'a> {
             return Ok(None);
         };
         let attr = |name: &str| format!("{at}.attributes.{name}");
-        let positions = self.read(&attr("POSITION"), &pos, &[Dimensions::Vec3], buffers)?;
+        let draco = self.draco(at, prim, buffers)?;
+        // An attribute's values: decoded, for a compressed primitive that has it; else read
+        // from its accessor.
+        let values = |name: &str, a: &gltf::Accessor, dims: &[Dimensions]| -> Result<Vec<f32>, SceneError> {
+            if let Some(d) = &draco {
+                let width = match a.dimensions() {
+                    Dimensions::Vec2 => 2,
+                    Dimensions::Vec3 => 3,
+                    Dimensions::Vec4 => 4,
+                    _ => 1,
+                };
+                if let Some(r) = d.values(name, &[width]) {
+                    return r.map(|(v, _)| v).map_err(|m| self.err(&d.at, m));
+                }
+            }
+            self.read(&attr(name), a, dims, buffers)
+        };
+        let positions = values("POSITION", &pos, &[Dimensions::Vec3])?;
         let n = pos.count();
+        if let Some(d) = draco.as_ref().filter(|d| d.mesh.num_points() != n) {
+            return Err(self.err(
+                &d.at,
+                format!("the compressed mesh has {} points where its POSITION accessor says {n}", d.mesh.num_points()),
+            ));
+        }
         let same_count = |a: &gltf::Accessor, name: &str| -> Result<(), SceneError> {
             if a.count() != n {
                 return Err(
@@ -809,7 +961,7 @@ impl<'a> Loader<'a> {
         let normals = match prim.get(&gltf::Semantic::Normals) {
             Some(a) => {
                 same_count(&a, "NORMAL")?;
-                let v = self.read(&attr("NORMAL"), &a, &[Dimensions::Vec3], buffers)?;
+                let v = values("NORMAL", &a, &[Dimensions::Vec3])?;
                 finite(&v, "NORMAL", 3)?;
                 v
             }
@@ -818,7 +970,7 @@ impl<'a> Loader<'a> {
         let uvs = match prim.get(&gltf::Semantic::TexCoords(0)) {
             Some(a) => {
                 same_count(&a, "TEXCOORD_0")?;
-                let v = self.read(&attr("TEXCOORD_0"), &a, &[Dimensions::Vec2], buffers)?;
+                let v = values("TEXCOORD_0", &a, &[Dimensions::Vec2])?;
                 finite(&v, "TEXCOORD_0", 2)?;
                 v
             }
@@ -827,7 +979,7 @@ impl<'a> Loader<'a> {
         let uvs1 = match prim.get(&gltf::Semantic::TexCoords(1)) {
             Some(a) => {
                 same_count(&a, "TEXCOORD_1")?;
-                let v = self.read(&attr("TEXCOORD_1"), &a, &[Dimensions::Vec2], buffers)?;
+                let v = values("TEXCOORD_1", &a, &[Dimensions::Vec2])?;
                 finite(&v, "TEXCOORD_1", 2)?;
                 v
             }
@@ -836,7 +988,7 @@ impl<'a> Loader<'a> {
         let given_tangents = match prim.get(&gltf::Semantic::Tangents).filter(|_| tangents.is_some()) {
             Some(a) => {
                 same_count(&a, "TANGENT")?;
-                let v = self.read(&attr("TANGENT"), &a, &[Dimensions::Vec4], buffers)?;
+                let v = values("TANGENT", &a, &[Dimensions::Vec4])?;
                 finite(&v, "TANGENT", 4)?;
                 v
             }
@@ -845,7 +997,7 @@ impl<'a> Loader<'a> {
         let (colors, color_width) = match prim.get(&gltf::Semantic::Colors(0)) {
             Some(a) => {
                 same_count(&a, "COLOR_0")?;
-                let v = self.read(&attr("COLOR_0"), &a, &[Dimensions::Vec3, Dimensions::Vec4], buffers)?;
+                let v = values("COLOR_0", &a, &[Dimensions::Vec3, Dimensions::Vec4])?;
                 let w = if a.dimensions() == Dimensions::Vec4 { 4 } else { 3 };
                 finite(&v, "COLOR_0", w)?;
                 // A colour scales reflected light: a negative one would make radiance negative.
@@ -856,8 +1008,15 @@ impl<'a> Loader<'a> {
             }
             None => (Vec::new(), 3),
         };
-        let corners: Vec<u32> = match prim.indices() {
-            Some(a) => {
+        let corners: Vec<u32> = match (draco.as_ref(), prim.indices()) {
+            (Some(d), _) => {
+                let v = d.corners();
+                if let Some(i) = v.iter().find(|i| **i as usize >= n) {
+                    return Err(self.err(&d.at, format!("point {i} is out of range: the primitive has {n}")));
+                }
+                v
+            }
+            (None, Some(a)) => {
                 let at = format!("{at}.indices");
                 let v = self.read_indices(&at, &a, buffers)?;
                 if let Some((k, i)) = v.iter().enumerate().find(|(_, i)| **i as usize >= n) {
@@ -871,8 +1030,9 @@ impl<'a> Loader<'a> {
                 }
                 v
             }
-            None => (0..n as u32).collect(),
+            (None, None) => (0..n as u32).collect(),
         };
+        drop(draco);
         let mut triangles: Vec<[u32; 3]> = match prim.mode() {
             Mode::TriangleStrip => (0..corners.len().saturating_sub(2))
                 .map(|i| {
