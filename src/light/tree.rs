@@ -26,12 +26,10 @@
 //! area); splits by count take over past a depth of [`COST_DEPTH`], which bounds the depth
 //! at about `COST_DEPTH + log2 n`.
 
+use super::choice::ONE_BELOW;
 use crate::geometry::Aabb;
 use glam::Vec3;
 use std::f32::consts::PI;
-
-/// The largest f32 below 1.
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// Below this depth splits minimise the cost; beyond it they halve the count.
 const COST_DEPTH: usize = 40;

@@ -227,6 +227,14 @@ impl MaterialModel for PbrMaterial {
     }
 }
 
+/// The probability of sampling a layer of albedo `layer` (> 0) over layers of albedo `under`,
+/// which keep 1 − `layer` of the light: its share of what the two reflect.
+#[inline]
+fn layer_share(layer: f32, under: f32) -> f32 {
+    let under = (1.0 - layer) * under;
+    if under <= 0.0 { 1.0 } else { layer / (layer + under) }
+}
+
 /// The reflectance at normal incidence of a dielectric of index `ior`.
 fn dielectric_f0(ior: f32) -> f32 {
     ((ior - 1.0) / (ior + 1.0)).powi(2)
@@ -302,8 +310,7 @@ impl PbrBsdf {
             return 0.0;
         }
         let (s, d) = self.base_albedos(wo, lost);
-        let under = (1.0 - sheen_albedo) * (s + d);
-        if under <= 0.0 { 1.0 } else { sheen_albedo / (sheen_albedo + under) }
+        layer_share(sheen_albedo, s + d)
     }
 
     /// The same under a clear coat of weight `factor` and roughness `roughness` (both clamped
@@ -337,8 +344,7 @@ impl PbrBsdf {
         }
         let (s, d) = self.base_albedos(wo, lost);
         let sh = self.sheen_albedo(wo.z);
-        let under = (1.0 - coat_albedo) * (sh + (1.0 - sh) * (s + d));
-        if under <= 0.0 { 1.0 } else { coat_albedo / (coat_albedo + under) }
+        layer_share(coat_albedo, sh + (1.0 - sh) * (s + d))
     }
 
     /// The dielectric layer's reflectance at a microfacet seen at cos θ = `c`.

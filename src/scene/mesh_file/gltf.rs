@@ -289,6 +289,14 @@ impl Draco {
     }
 }
 
+/// Warns, once per kind, of each of an extension's `textures` present in `v` (its factor is
+/// used instead).
+fn ignore_textures(v: &serde_json::Value, textures: &[&str], at: &str, ignored: &mut Tally) {
+    for t in textures.iter().filter(|t| v.get(**t).is_some()) {
+        ignored.add(format!("{t} (its factor is used)"), at);
+    }
+}
+
 /// Problems of one kind, reported once: how many and the first place.
 #[derive(Default)]
 struct Tally(BTreeMap<String, (usize, String)>);
@@ -306,27 +314,9 @@ impl<'a> Loader<'a> {
     fn sheen(&self, m: &gltf::Material, at: &str, ignored: &mut Tally) -> Result<Option<Sheen>, SceneError> {
         let Some(v) = m.extension_value("KHR_materials_sheen") else { return Ok(None) };
         let at = format!("{at}.extensions.KHR_materials_sheen");
-        let color = match v.get("sheenColorFactor") {
-            None => Vec3::ZERO,
-            Some(c) => match c.as_array().map(|a| a.iter().map(|x| x.as_f64()).collect::<Option<Vec<f64>>>()) {
-                Some(Some(a)) if a.len() == 3 && a.iter().all(|x| (0.0..=1.0).contains(x)) => {
-                    Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32)
-                }
-                _ => return Err(self.err(&at, format!("sheenColorFactor must be 3 numbers in [0, 1], found {c}"))),
-            },
-        };
-        let roughness = match v.get("sheenRoughnessFactor") {
-            None => 0.0,
-            Some(x) => match x.as_f64() {
-                Some(x) if (0.0..=1.0).contains(&x) => x as f32,
-                _ => return Err(self.err(&at, format!("sheenRoughnessFactor must be a number in [0, 1], found {x}"))),
-            },
-        };
-        for t in ["sheenColorTexture", "sheenRoughnessTexture"] {
-            if v.get(t).is_some() {
-                ignored.add(format!("{t} (its factor is used)"), &at);
-            }
-        }
+        let color = self.unit_color(v, "sheenColorFactor", &at, Vec3::ZERO)?;
+        let roughness = self.unit_factor(v, "sheenRoughnessFactor", &at)?;
+        ignore_textures(v, &["sheenColorTexture", "sheenRoughnessTexture"], &at, ignored);
         Ok((color.max_element() > 0.0).then_some(Sheen { color, roughness }))
     }
 
@@ -335,21 +325,9 @@ impl<'a> Loader<'a> {
     fn clearcoat(&self, m: &gltf::Material, at: &str, ignored: &mut Tally) -> Result<Option<Clearcoat>, SceneError> {
         let Some(v) = m.extension_value("KHR_materials_clearcoat") else { return Ok(None) };
         let at = format!("{at}.extensions.KHR_materials_clearcoat");
-        let unit = |key: &str| -> Result<f32, SceneError> {
-            match v.get(key) {
-                None => Ok(0.0),
-                Some(x) => match x.as_f64() {
-                    Some(x) if (0.0..=1.0).contains(&x) => Ok(x as f32),
-                    _ => Err(self.err(&at, format!("{key} must be a number in [0, 1], found {x}"))),
-                },
-            }
-        };
-        let (factor, roughness) = (unit("clearcoatFactor")?, unit("clearcoatRoughnessFactor")?);
-        for t in ["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"] {
-            if v.get(t).is_some() {
-                ignored.add(format!("{t} (its factor is used)"), &at);
-            }
-        }
+        let factor = self.unit_factor(v, "clearcoatFactor", &at)?;
+        let roughness = self.unit_factor(v, "clearcoatRoughnessFactor", &at)?;
+        ignore_textures(v, &["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"], &at, ignored);
         Ok((factor > 0.0).then_some(Clearcoat { factor, roughness }))
     }
 
@@ -370,19 +348,33 @@ impl<'a> Loader<'a> {
                 _ => return Err(self.err(&at, format!("attenuationDistance must be a number > 0, found {d}"))),
             },
         };
-        let color = match v.get("attenuationColor") {
-            None => Vec3::ONE,
-            Some(c) => match c.as_array().map(|a| a.iter().map(|x| x.as_f64()).collect::<Option<Vec<f64>>>()) {
-                Some(Some(a)) if a.len() == 3 && a.iter().all(|x| (0.0..=1.0).contains(x)) => {
-                    Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32)
-                }
-                _ => return Err(self.err(&at, format!("attenuationColor must be 3 numbers in [0, 1], found {c}"))),
-            },
-        };
+        let color = self.unit_color(v, "attenuationColor", &at, Vec3::ONE)?;
         if v.get("thicknessTexture").is_some() {
             ignored.add("thicknessTexture (ember traces the real geometry)", &at);
         }
         Ok(GlassMaterial::absorption_for(color, distance))
+    }
+
+    /// An extension's factor `key` in [0, 1] (0 where absent).
+    fn unit_factor(&self, v: &serde_json::Value, key: &str, at: &str) -> Result<f32, SceneError> {
+        match v.get(key) {
+            None => Ok(0.0),
+            Some(x) => match x.as_f64() {
+                Some(x) if (0.0..=1.0).contains(&x) => Ok(x as f32),
+                _ => Err(self.err(at, format!("{key} must be a number in [0, 1], found {x}"))),
+            },
+        }
+    }
+
+    /// An extension's colour `key`, 3 numbers in [0, 1] (`default` where absent).
+    fn unit_color(&self, v: &serde_json::Value, key: &str, at: &str, default: Vec3) -> Result<Vec3, SceneError> {
+        let Some(c) = v.get(key) else { return Ok(default) };
+        match c.as_array().map(|a| a.iter().map(|x| x.as_f64()).collect::<Option<Vec<f64>>>()) {
+            Some(Some(a)) if a.len() == 3 && a.iter().all(|x| (0.0..=1.0).contains(x)) => {
+                Ok(Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32))
+            }
+            _ => Err(self.err(at, format!("{key} must be 3 numbers in [0, 1], found {c}"))),
+        }
     }
 
     fn err(&self, at: impl AsRef<str>, msg: impl AsRef<str>) -> SceneError {
