@@ -41,9 +41,13 @@ fn rays(geometry: &[Geometry], seed: u64) -> Vec<Ray> {
 
 /// Whether `hit` lies within `eps` (barycentric) of an edge of its triangle.
 fn near_triangle_edge(geometry: &[Geometry], ray: &Ray, hit: &Hit, eps: f32) -> bool {
-    let Geometry::Mesh(m) = &geometry[hit.geom as usize] else { return false };
+    let (m, ray) = match &geometry[hit.geom as usize] {
+        Geometry::Mesh(m) => (m, *ray),
+        Geometry::Instance(i) => (&i.mesh, i.ray_to_object(ray)),
+        _ => return false,
+    };
     let [a, b, c] = m.triangle(hit.prim as usize);
-    match WatertightRay::new(ray).intersect(a, b, c, 0.0, f32::INFINITY) {
+    match WatertightRay::new(&ray).intersect(a, b, c, 0.0, f32::INFINITY) {
         Some(t) => t.u < eps || t.v < eps || 1.0 - t.u - t.v < eps,
         None => true,
     }
@@ -151,4 +155,60 @@ fn robust_and_all_build_qualities_agree_with_naive() {
             .count();
         assert!(mismatches <= 5, "{quality:?} robust={robust}: {mismatches} of {} rays differ", rays.len());
     }
+}
+
+#[test]
+fn placed_meshes_are_hit_as_their_copies_by_embree_and_the_naive_loop() {
+    // The teapot placed three times: moved; turned and stretched unevenly; mirrored.
+    use glam::{Affine3A, Quat, Vec3};
+    let Geometry::Mesh(teapot) = teapot_spheres_cylinders().swap_remove(0) else { panic!("the teapot is a mesh") };
+    let places = [
+        Affine3A::from_translation(Vec3::new(-6.0, 0.0, 0.0)),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::new(1.5, 0.5, 1.0),
+            Quat::from_euler(glam::EulerRot::YXZ, 0.7, 0.3, -0.2),
+            Vec3::new(0.0, 1.0, 2.0),
+        ),
+        Affine3A::from_scale_rotation_translation(Vec3::new(-1.0, 1.0, 1.0), Quat::IDENTITY, Vec3::new(6.0, 0.0, 0.0)),
+    ];
+    let placed: Vec<ember::geometry::MeshInstance> =
+        places.iter().map(|&p| ember::geometry::MeshInstance::new(teapot.clone(), p).unwrap()).collect();
+    let instances: Vec<Geometry> = placed.iter().map(|i| Geometry::Instance(std::sync::Arc::new(i.clone()))).collect();
+    let copies: Vec<Geometry> = placed.iter().map(|i| Geometry::Mesh(std::sync::Arc::new(i.placed_copy()))).collect();
+    let device = Device::new().unwrap();
+    let embree = EmbreeAccel::new(&device, &instances, BuildOptions::default()).unwrap();
+    let naive = NaiveAccel::new(&instances);
+    let naive_copies = NaiveAccel::new(&copies);
+    let rays: Vec<Ray> = rays(&instances, 99).into_iter().take(20_000.min(ray_count())).collect();
+    let (mut hits, mut edge, mut bad) = (0, 0, Vec::new());
+    for (i, ray) in rays.iter().enumerate() {
+        let e = embree.intersect(ray, 0.0, f32::INFINITY).unwrap();
+        let n = naive.intersect(ray, 0.0, f32::INFINITY).unwrap();
+        let c = naive_copies.intersect(ray, 0.0, f32::INFINITY).unwrap();
+        assert_eq!(embree.occluded(ray, 0.0, f32::INFINITY).unwrap(), e.is_some(), "ray {i}");
+        assert_eq!(naive.occluded(ray, 0.0, f32::INFINITY).unwrap(), n.is_some(), "ray {i}");
+        let same = |a: &Option<Hit>, b: &Option<Hit>, rtol: f32| match (a, b) {
+            (None, None) => true,
+            (Some(a), Some(b)) => {
+                a.geom == b.geom && a.prim == b.prim && (a.t - b.t).abs() <= rtol * a.t.abs().max(b.t.abs()).max(1.0)
+            }
+            _ => false,
+        };
+        let ambiguous = |h: &Option<Hit>| h.is_some_and(|h| near_triangle_edge(&instances, ray, &h, 1e-4));
+        if same(&e, &n, 1e-5) && same(&n, &c, 1e-4) {
+            hits += e.is_some() as usize;
+            // Embree's normal and the naive loop's are both in the teapot's own space.
+            if let (Some(e), Some(n)) = (e, n) {
+                assert!(e.ng.normalize().dot(n.ng.normalize()) > 0.999, "ray {i}: {:?} vs {:?}", e.ng, n.ng);
+            }
+        } else if ambiguous(&e) || ambiguous(&n) || ambiguous(&c) {
+            edge += 1;
+        } else {
+            bad.push(format!("ray {i} {ray:?}: embree {e:?}, naive {n:?}, copies {c:?}"));
+        }
+    }
+    println!("{} rays: {hits} hits, {edge} edge ambiguities, {} unexplained", rays.len(), bad.len());
+    assert!(bad.is_empty(), "{}", bad[..bad.len().min(5)].join("\n"));
+    assert!(hits > rays.len() / 5, "too few hits ({hits})");
+    assert!(edge <= rays.len() / 500, "{edge} edge ambiguities");
 }

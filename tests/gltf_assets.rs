@@ -302,3 +302,58 @@ fn alpha_blend_is_met_with_probability_alpha() {
         assert!((occluded as f64 / hits as f64 - 1.0).abs() < 0.05, "{}: occluded {occluded}", accel.name());
     }
 }
+
+#[test]
+fn instanced_nodes_share_one_mesh_and_render_as_their_copies() {
+    // instanced_blender.glb: one icosphere mesh used by 50 nodes; instanced_copies_trimesh.glb:
+    // the same 50 spheres as 50 meshes (SOURCES.md).
+    use ember::accel::{EmbreeAccel, build_options_for};
+    use ember::geometry::Geometry;
+    let budget = LoadBudget::unlimited();
+    let instanced = mesh_file::scene_of(&asset("instanced_blender.glb"), &budget).unwrap();
+    let copies = mesh_file::scene_of(&asset("instanced_copies_trimesh.glb"), &budget).unwrap();
+    let placed: Vec<_> = instanced
+        .geometry
+        .iter()
+        .filter_map(|g| match g {
+            Geometry::Instance(i) => Some(i),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(placed.len(), 50);
+    assert!(placed.iter().all(|i| std::sync::Arc::ptr_eq(&i.mesh, &placed[0].mesh)), "one mesh, shared");
+    assert_eq!(copies.geometry.iter().filter(|g| matches!(g, Geometry::Mesh(_))).count(), 50 + 1, "and the ground");
+    assert_eq!(instanced.primitive_counts(), copies.primitive_counts());
+
+    // Memory: ember's arrays and Embree's (its BVHs and buffers) hold the mesh once.
+    let embree_bytes = |scene: &Scene| {
+        let device = ember::embree::Device::new().unwrap();
+        let before = device.memory_in_use();
+        let accel = EmbreeAccel::new(&device, &scene.geometry, build_options_for(&scene.geometry)).unwrap();
+        let bytes = device.memory_in_use() - before;
+        drop(accel);
+        bytes
+    };
+    let (ours, theirs) = (instanced.data_bytes(), copies.data_bytes());
+    let (embree_ours, embree_theirs) = (embree_bytes(&instanced), embree_bytes(&copies));
+    let mesh = placed[0].mesh.heap_bytes();
+    println!(
+        "one mesh {mesh} B; ember's data: instances {ours} B, copies {theirs} B; Embree: instances {embree_ours} B, \
+         copies {embree_theirs} B"
+    );
+    assert!(ours < 2 * mesh + 50 * 256, "instances hold {ours} B for a mesh of {mesh} B");
+    assert!(theirs > 40 * mesh, "the copies hold {theirs} B");
+    assert!(embree_ours * 5 < embree_theirs, "Embree: {embree_ours} B for instances, {embree_theirs} B for copies");
+
+    // The image: the same, but for rounding where rays meet the spheres (the copies' vertices
+    // were moved by trimesh, the instances' rays are moved by Embree).
+    let settings = RenderSettings { width: 64, height: 48, spp: 16, max_depth: 4, ..Default::default() };
+    let a = render_embree(&instanced, &settings).0.pixels;
+    let b = render_embree(&copies, &settings).0.pixels;
+    let (ma, mb) = (common::image_mean(&a), common::image_mean(&b));
+    println!("means: instances {ma:.5}, copies {mb:.5}");
+    assert!((ma / mb - 1.0).abs() < 0.005, "means {ma} vs {mb}");
+    let differ =
+        a.iter().zip(&b).filter(|(x, y)| (**x - **y).abs().max_element() > 0.02 * x.max_element().max(0.05)).count();
+    assert!(differ <= a.len() / 50, "{differ} of {} pixels differ", a.len());
+}

@@ -3,8 +3,9 @@ use crate::embree::{BuildOptions, BuildQuality, Device, EmbreeError, Scene, Scen
 use crate::geometry::{Geometry, Hit, Ray, RayPacket};
 use std::time::{Duration, Instant};
 
-/// Intersection through Intel Embree: meshes as triangle geometry, spheres and cylinders as
-/// user geometry calling back into [`crate::geometry::Shape`].
+/// Intersection through Intel Embree: meshes as triangle geometry (placed meshes as instances
+/// of a scene holding the mesh once), spheres and cylinders as user geometry calling back
+/// into [`crate::geometry::Shape`].
 pub struct EmbreeAccel {
     scene: Scene,
     build_time: Duration,
@@ -19,6 +20,7 @@ impl EmbreeAccel {
         for (i, g) in geometry.iter().enumerate() {
             let id = match g {
                 Geometry::Mesh(m) => b.add_mesh(m),
+                Geometry::Instance(inst) => b.add_instance(&inst.mesh, &inst.to_world),
                 Geometry::Spheres(s) => b.add_shapes(s.clone()),
                 Geometry::Cylinders(c) => b.add_shapes(c.clone()),
             }
@@ -58,6 +60,7 @@ pub fn build_quality_for(geometry: &[Geometry]) -> BuildQuality {
     for g in geometry {
         match g {
             Geometry::Mesh(m) => triangles += m.indices.len(),
+            Geometry::Instance(i) => triangles += i.mesh.indices.len(),
             Geometry::Spheres(_) | Geometry::Cylinders(_) => return BuildQuality::Medium,
         }
     }

@@ -1,5 +1,5 @@
 use super::{Accel, AccelError};
-use crate::geometry::{Cylinder, Geometry, Hit, Ray, Shape, Sphere, TriMesh, WatertightRay};
+use crate::geometry::{Cylinder, Geometry, Hit, MeshInstance, Ray, Shape, Sphere, TriMesh, WatertightRay};
 use glam::Vec3;
 use std::sync::Arc;
 
@@ -14,18 +14,27 @@ enum Prims {
     Triangles(Vec<[Vec3; 3]>),
     /// A mesh with holes: each candidate hit is asked of its cut-out.
     CutTriangles(Vec<[Vec3; 3]>, Arc<TriMesh>),
+    /// A placed mesh: rays are taken into its space (the triangles are shared by its
+    /// instances; the mesh is kept for a cut-out).
+    Instance(Arc<Vec<[Vec3; 3]>>, Arc<MeshInstance>),
     Spheres(Arc<[Sphere]>),
     Cylinders(Arc<[Cylinder]>),
 }
 
 impl NaiveAccel {
     pub fn new(geometry: &[Geometry]) -> Self {
+        let corners = |m: &TriMesh| -> Vec<[Vec3; 3]> { (0..m.triangle_count()).map(|i| m.triangle(i)).collect() };
+        let mut shared: std::collections::HashMap<*const TriMesh, Arc<Vec<[Vec3; 3]>>> = Default::default();
         let geometry = geometry
             .iter()
             .map(|g| match g {
                 Geometry::Mesh(m) => {
-                    let tris = (0..m.triangle_count()).map(|i| m.triangle(i)).collect();
+                    let tris = corners(m);
                     if m.cutout.is_some() { Prims::CutTriangles(tris, m.clone()) } else { Prims::Triangles(tris) }
+                }
+                Geometry::Instance(i) => {
+                    let tris = shared.entry(Arc::as_ptr(&i.mesh)).or_insert_with(|| Arc::new(corners(&i.mesh)));
+                    Prims::Instance(tris.clone(), i.clone())
                 }
                 Geometry::Spheres(s) => Prims::Spheres(s.clone()),
                 Geometry::Cylinders(c) => Prims::Cylinders(c.clone()),
@@ -73,6 +82,20 @@ impl Accel for NaiveAccel {
                         }
                     }
                 }
+                Prims::Instance(tris, inst) => {
+                    let local = inst.ray_to_object(ray);
+                    let wt = WatertightRay::new(&local);
+                    let cutout = inst.mesh.cutout.as_deref();
+                    for (pi, &[a, b, c]) in tris.iter().enumerate() {
+                        if let Some(h) = wt.intersect(a, b, c, tmin, tmax)
+                            && cutout.is_none_or(|k| k.keeps(&inst.mesh, pi as u32, h.u, h.v, &local))
+                        {
+                            tmax = h.t;
+                            best =
+                                Some(Hit { t: h.t, geom, prim: pi as u32, u: h.u, v: h.v, ng: (b - a).cross(c - a) });
+                        }
+                    }
+                }
                 Prims::Spheres(s) => closest_shape(s, ray, tmin, &mut tmax, geom, &mut best),
                 Prims::Cylinders(c) => closest_shape(c, ray, tmin, &mut tmax, geom, &mut best),
             }
@@ -88,6 +111,15 @@ impl Accel for NaiveAccel {
                 let cutout = mesh.cutout.as_deref().expect("a cut mesh has its cut-out");
                 tris.iter().enumerate().any(|(pi, &[a, b, c])| {
                     wt.intersect(a, b, c, tmin, tmax).is_some_and(|h| cutout.keeps(mesh, pi as u32, h.u, h.v, ray))
+                })
+            }
+            Prims::Instance(tris, inst) => {
+                let local = inst.ray_to_object(ray);
+                let wt = WatertightRay::new(&local);
+                let cutout = inst.mesh.cutout.as_deref();
+                tris.iter().enumerate().any(|(pi, &[a, b, c])| {
+                    wt.intersect(a, b, c, tmin, tmax)
+                        .is_some_and(|h| cutout.is_none_or(|k| k.keeps(&inst.mesh, pi as u32, h.u, h.v, &local)))
                 })
             }
             Prims::Spheres(s) => s.iter().any(|p| p.occludes(ray, tmin, tmax)),

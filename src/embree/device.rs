@@ -3,6 +3,7 @@ use super::ffi;
 use super::layout::{EmbreeVersion, RayHitLayout};
 use std::ffi::{CStr, CString, c_char, c_void};
 use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::atomic::{AtomicI64, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// An Embree device. Cheap to clone (reference counted); scenes keep their device alive, so
@@ -19,6 +20,9 @@ pub(super) struct DeviceInner {
     pub(super) layout: RayHitLayout,
     /// Where the error callback records errors. Boxed: Embree holds a pointer to it.
     sink: Box<ErrorSink>,
+    /// The bytes Embree holds for this device's scenes (BVHs, geometry buffers), kept by the
+    /// memory monitor callback. Boxed: Embree holds a pointer to it.
+    memory: Box<AtomicI64>,
 }
 
 #[derive(Default)]
@@ -39,6 +43,7 @@ impl Drop for DeviceInner {
         // first so that Embree never calls into the sink after this box is freed.
         unsafe {
             ffi::rtcSetDeviceErrorFunction(self.raw, None, std::ptr::null_mut());
+            ffi::rtcSetDeviceMemoryMonitorFunction(self.raw, None, std::ptr::null_mut());
             ffi::rtcReleaseDevice(self.raw);
         }
     }
@@ -64,6 +69,19 @@ unsafe extern "C" fn on_error(user: *mut c_void, code: u32, message: *const c_ch
             *first = Some(EmbreeError::Api { code: ErrorCode(code), message });
         }
     }));
+}
+
+/// Called by Embree, on any thread, before or after it allocates (`bytes` > 0) or frees
+/// (`bytes` < 0) a block: counts the bytes and lets the allocation go ahead. Never unwinds
+/// (an atomic add cannot panic).
+unsafe extern "C" fn on_memory(user: *mut c_void, bytes: isize, _post: bool) -> bool {
+    if !user.is_null() {
+        // SAFETY: `user` is the counter box registered in `Device::with_config`, alive until
+        // the callback is unset in `DeviceInner::drop`.
+        let memory = unsafe { &*(user as *const AtomicI64) };
+        memory.fetch_add(bytes as i64, Ordering::Relaxed);
+    }
+    true
 }
 
 impl Device {
@@ -109,13 +127,16 @@ impl Device {
             }
         };
         let sink = Box::new(ErrorSink::default());
-        // SAFETY: `raw` is valid; the sink pointer stays valid (boxed, owned by DeviceInner)
-        // until the callback is unset in Drop. `on_error` has the C signature of
-        // RTCErrorFunction, with the enum code as the u32 it is.
+        let memory = Box::new(AtomicI64::new(0));
+        // SAFETY: `raw` is valid; the sink and counter pointers stay valid (boxed, owned by
+        // DeviceInner) until the callbacks are unset in Drop. `on_error` has the C signature
+        // of RTCErrorFunction, with the enum code as the u32 it is; `on_memory` that of
+        // RTCMemoryMonitorFunction.
         unsafe {
             ffi::rtcSetDeviceErrorFunction(raw, Some(on_error), &*sink as *const ErrorSink as *mut c_void);
+            ffi::rtcSetDeviceMemoryMonitorFunction(raw, Some(on_memory), &*memory as *const AtomicI64 as *mut c_void);
         }
-        Ok(Device { inner: Arc::new(DeviceInner { raw, version, layout, sink }) })
+        Ok(Device { inner: Arc::new(DeviceInner { raw, version, layout, sink, memory }) })
     }
 
     /// Takes the first error Embree reported since the last call, if any.
@@ -146,6 +167,12 @@ impl Device {
     /// The running library's version as numbers.
     pub fn embree_version(&self) -> EmbreeVersion {
         self.inner.version
+    }
+
+    /// The bytes Embree holds now for the scenes built on this device: their BVHs and the
+    /// geometry buffers it allocated (as its memory monitor callback reports them).
+    pub fn memory_in_use(&self) -> u64 {
+        self.inner.memory.load(Ordering::Relaxed).max(0) as u64
     }
 
     /// The ray-hit memory layout of the running library, decided from its version.

@@ -27,9 +27,10 @@ pub(super) use raw::{
     RTCFilterFunctionNArguments, RTCFormat, RTCGeometry, RTCGeometryType, RTCIntersectFunctionNArguments,
     RTCOccludedFunctionNArguments, RTCRay, RTCRay8, RTCScene, RTCSceneFlags, rtcAttachGeometryByID, rtcCommitGeometry,
     rtcCommitScene, rtcGetDeviceProperty, rtcGetSceneBounds, rtcNewDevice, rtcNewGeometry, rtcNewScene,
-    rtcReleaseDevice, rtcReleaseGeometry, rtcReleaseScene, rtcSetGeometryBoundsFunction,
-    rtcSetGeometryIntersectFilterFunction, rtcSetGeometryIntersectFunction, rtcSetGeometryOccludedFilterFunction,
-    rtcSetGeometryOccludedFunction, rtcSetGeometryUserData, rtcSetGeometryUserPrimitiveCount, rtcSetNewGeometryBuffer,
+    rtcReleaseDevice, rtcReleaseGeometry, rtcReleaseScene, rtcSetDeviceMemoryMonitorFunction,
+    rtcSetGeometryBoundsFunction, rtcSetGeometryInstancedScene, rtcSetGeometryIntersectFilterFunction,
+    rtcSetGeometryIntersectFunction, rtcSetGeometryOccludedFilterFunction, rtcSetGeometryOccludedFunction,
+    rtcSetGeometryTransform, rtcSetGeometryUserData, rtcSetGeometryUserPrimitiveCount, rtcSetNewGeometryBuffer,
     rtcSetSceneBuildQuality, rtcSetSceneFlags,
 };
 
@@ -72,10 +73,12 @@ mod backend {
 
     pub(in super::super) const GEOMETRY_TYPE_TRIANGLE: RTCGeometryType = raw::RTC_GEOMETRY_TYPE_TRIANGLE;
     pub(in super::super) const GEOMETRY_TYPE_USER: RTCGeometryType = raw::RTC_GEOMETRY_TYPE_USER;
+    pub(in super::super) const GEOMETRY_TYPE_INSTANCE: RTCGeometryType = raw::RTC_GEOMETRY_TYPE_INSTANCE;
     pub(in super::super) const BUFFER_TYPE_VERTEX: RTCBufferType = raw::RTC_BUFFER_TYPE_VERTEX;
     pub(in super::super) const BUFFER_TYPE_INDEX: RTCBufferType = raw::RTC_BUFFER_TYPE_INDEX;
     pub(in super::super) const FORMAT_FLOAT3: RTCFormat = raw::RTC_FORMAT_FLOAT3;
     pub(in super::super) const FORMAT_UINT3: RTCFormat = raw::RTC_FORMAT_UINT3;
+    pub(in super::super) const FORMAT_FLOAT3X4_COLUMN_MAJOR: RTCFormat = raw::RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR;
     pub(in super::super) const BUILD_QUALITY_LOW: RTCBuildQuality = raw::RTC_BUILD_QUALITY_LOW;
     pub(in super::super) const BUILD_QUALITY_MEDIUM: RTCBuildQuality = raw::RTC_BUILD_QUALITY_MEDIUM;
     pub(in super::super) const BUILD_QUALITY_HIGH: RTCBuildQuality = raw::RTC_BUILD_QUALITY_HIGH;
@@ -207,10 +210,12 @@ mod backend {
 
     pub(in super::super) const GEOMETRY_TYPE_TRIANGLE: RTCGeometryType = RTCGeometryType::TRIANGLE;
     pub(in super::super) const GEOMETRY_TYPE_USER: RTCGeometryType = RTCGeometryType::USER;
+    pub(in super::super) const GEOMETRY_TYPE_INSTANCE: RTCGeometryType = RTCGeometryType::INSTANCE;
     pub(in super::super) const BUFFER_TYPE_VERTEX: RTCBufferType = RTCBufferType::VERTEX;
     pub(in super::super) const BUFFER_TYPE_INDEX: RTCBufferType = RTCBufferType::INDEX;
     pub(in super::super) const FORMAT_FLOAT3: RTCFormat = RTCFormat::FLOAT3;
     pub(in super::super) const FORMAT_UINT3: RTCFormat = RTCFormat::UINT3;
+    pub(in super::super) const FORMAT_FLOAT3X4_COLUMN_MAJOR: RTCFormat = RTCFormat::FLOAT3X4_COLUMN_MAJOR;
     pub(in super::super) const BUILD_QUALITY_LOW: RTCBuildQuality = RTCBuildQuality::LOW;
     pub(in super::super) const BUILD_QUALITY_MEDIUM: RTCBuildQuality = RTCBuildQuality::MEDIUM;
     pub(in super::super) const BUILD_QUALITY_HIGH: RTCBuildQuality = RTCBuildQuality::HIGH;

@@ -190,9 +190,11 @@ impl RayHitMem {
         if self.hit.geom_id == ffi::INVALID_GEOMETRY_ID {
             return None;
         }
+        // A hit inside an instance is named by the instance: its geometry id in our scene.
+        let inst = self.hit.inst_id;
         Some(Hit {
             t: self.ray.tfar,
-            geom: self.hit.geom_id,
+            geom: if inst != ffi::INVALID_GEOMETRY_ID { inst } else { self.hit.geom_id },
             prim: self.hit.prim_id,
             u: self.hit.u,
             v: self.hit.v,

@@ -105,9 +105,11 @@ impl RayHit8Mem {
         if self.geom_id[i] == ffi::INVALID_GEOMETRY_ID {
             return None;
         }
+        // A hit inside an instance is named by the instance (see `RayHitMem::hit`).
+        let inst = self.inst_id[i];
         Some(Hit {
             t: self.ray.tfar[i],
-            geom: self.geom_id[i],
+            geom: if inst != ffi::INVALID_GEOMETRY_ID { inst } else { self.geom_id[i] },
             prim: self.prim_id[i],
             u: self.u[i],
             v: self.v[i],

@@ -100,6 +100,10 @@ impl Drop for GeomHandle {
 pub struct SceneBuilder {
     scene: RawScene,
     next_id: u32,
+    options: BuildOptions,
+    /// The committed scene of each instanced mesh (by the address of its data), built once
+    /// and placed by every instance of it; owned by `scene`'s user data.
+    instanced: std::collections::HashMap<*const TriMesh, ffi::RTCScene>,
 }
 
 // SAFETY: the builder owns its scene exclusively (no shared references exist before commit),
@@ -148,7 +152,7 @@ impl SceneBuilder {
             ffi::rtcSetSceneFlags(raw, flags);
         }
         device.take_error()?;
-        Ok(SceneBuilder { scene, next_id: 0 })
+        Ok(SceneBuilder { scene, next_id: 0, options, instanced: Default::default() })
     }
 
     fn device(&self) -> &Device {
@@ -205,6 +209,41 @@ impl SceneBuilder {
             self.scene._user_data.push(data);
             self.device().take_error()?;
         }
+        self.attach(g)
+    }
+
+    /// Adds `mesh` placed by `to_world` as an Embree instance; returns its geometry id, which
+    /// hits inside it report ([`Hit::geom`]; their `prim` is the mesh's triangle, their `ng`
+    /// in the mesh's space). The mesh is built into a scene of its own the first time it is
+    /// placed; later instances of the same mesh (the same `Arc`) place that scene again, so
+    /// its vertices and BVH exist once however many times it is placed.
+    pub fn add_instance(&mut self, mesh: &Arc<TriMesh>, to_world: &glam::Affine3A) -> Result<u32, EmbreeError> {
+        let key = Arc::as_ptr(mesh);
+        let child = match self.instanced.get(&key) {
+            Some(&raw) => raw,
+            None => {
+                let mut b = SceneBuilder::new(self.device(), self.options)?;
+                // A cut-out's callback failing inside the instance fails this scene's queries.
+                b.scene.failure = self.scene.failure.clone();
+                b.add_mesh(mesh)?;
+                let child = b.commit()?;
+                let raw = child.scene.raw;
+                self.scene._user_data.push(Box::new(child));
+                self.instanced.insert(key, raw);
+                raw
+            }
+        };
+        let g = self.new_geometry(ffi::GEOMETRY_TYPE_INSTANCE)?;
+        let xfm = to_world.to_cols_array();
+        // SAFETY: `g` is a valid instance geometry; `child` is a committed scene of the same
+        // device, kept alive by this scene's user data (and Embree's own reference) for as
+        // long as this scene; `xfm` holds the 12 floats of a column-major 3x4 matrix, which
+        // Embree copies.
+        unsafe {
+            ffi::rtcSetGeometryInstancedScene(g.0, child);
+            ffi::rtcSetGeometryTransform(g.0, 0, ffi::FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm.as_ptr().cast());
+        }
+        self.device().take_error()?;
         self.attach(g)
     }
 

@@ -5,6 +5,7 @@ mod bounds;
 mod cutout;
 mod cylinder;
 mod frame;
+mod instance;
 mod mesh;
 mod packet;
 mod ray;
@@ -16,6 +17,7 @@ pub use bounds::Aabb;
 pub use cutout::Cutout;
 pub use cylinder::{Cylinder, CylinderPart};
 pub use frame::Frame;
+pub use instance::MeshInstance;
 pub use mesh::{MeshError, TriMesh};
 pub use packet::{LANES, RayPacket};
 pub use ray::{Hit, Ray, ShapeHit};
@@ -53,6 +55,9 @@ pub fn bounds_of(geometry: &[Geometry]) -> Aabb {
 pub enum Geometry {
     /// A triangle mesh: one geometry id, primitive id = triangle index.
     Mesh(Arc<TriMesh>),
+    /// A triangle mesh placed by a transform, its data shared with every other instance of
+    /// it: one geometry id, primitive id = triangle index.
+    Instance(Arc<MeshInstance>),
     /// A set of spheres: one geometry id, primitive id = sphere index.
     Spheres(Arc<[Sphere]>),
     /// A set of capped cylinders: one geometry id, primitive id = cylinder index.
@@ -64,6 +69,7 @@ impl Geometry {
     pub fn len(&self) -> usize {
         match self {
             Geometry::Mesh(m) => m.triangle_count(),
+            Geometry::Instance(i) => i.mesh.triangle_count(),
             Geometry::Spheres(s) => s.len(),
             Geometry::Cylinders(c) => c.len(),
         }
@@ -78,6 +84,7 @@ impl Geometry {
     pub fn bounds(&self) -> Aabb {
         match self {
             Geometry::Mesh(m) => m.bounds(),
+            Geometry::Instance(i) => i.bounds(),
             Geometry::Spheres(s) => s.iter().fold(Aabb::EMPTY, |b, p| b.union(&p.bounds())),
             Geometry::Cylinders(c) => c.iter().fold(Aabb::EMPTY, |b, p| b.union(&p.bounds())),
         }

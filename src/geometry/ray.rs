@@ -41,7 +41,8 @@ pub struct Hit {
     pub prim: u32,
     pub u: f32,
     pub v: f32,
-    /// Geometric normal, not necessarily normalized. For triangles `(p1-p0) x (p2-p0)`.
+    /// Geometric normal, not necessarily normalized. For triangles `(p1-p0) x (p2-p0)`; for a
+    /// placed mesh ([`super::MeshInstance`]) in the mesh's own space, as Embree gives it.
     pub ng: Vec3,
 }
 

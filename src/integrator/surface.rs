@@ -1,11 +1,13 @@
 //! From a hit to a shading point: position refined from the primitive (barycentrics for
 //! triangles, re-projection for spheres), normals, texture coordinates, material.
 
-use crate::geometry::{Geometry, Hit, Ray};
+use crate::geometry::{Geometry, Hit, Ray, TriMesh};
 use crate::material::{Material, MaterialModel};
 use crate::scene::Scene;
 use crate::texture::TexCoords;
 use glam::{Vec2, Vec3};
+use std::collections::HashMap;
+use std::sync::Arc;
 
 pub struct SurfacePoint<'a> {
     pub p: Vec3,
@@ -65,24 +67,30 @@ pub fn facing_shading_normal(wo: Vec3, ng: Vec3, ns: Vec3) -> Vec3 {
 /// The unit geometric normal of every mesh triangle, (p1 − p0) × (p2 − p0) normalised (the
 /// orientation of both accelerators' `Hit::ng`), computed once per render: a hit on a triangle
 /// reads it instead of normalising the hit's, which put a square root and a division at the
-/// head of every bounce. Zero for a triangle that has none (zero area).
-pub struct FaceNormals(Vec<Vec<Vec3>>);
+/// head of every bounce. Zero for a triangle that has none (zero area). A placed mesh's are in
+/// its own space, computed once for all its instances.
+pub struct FaceNormals(Vec<Arc<[Vec3]>>);
 
 impl FaceNormals {
     pub fn of(scene: &Scene) -> FaceNormals {
+        let of = |m: &TriMesh| -> Arc<[Vec3]> {
+            (0..m.triangle_count())
+                .map(|i| {
+                    let [a, b, c] = m.triangle(i);
+                    let n = (b - a).cross(c - a).normalize_or_zero();
+                    if n.is_finite() { n } else { Vec3::ZERO }
+                })
+                .collect()
+        };
+        let mut shared: HashMap<*const TriMesh, Arc<[Vec3]>> = HashMap::new();
         FaceNormals(
             scene
                 .geometry
                 .iter()
                 .map(|g| match g {
-                    Geometry::Mesh(m) => (0..m.triangle_count())
-                        .map(|i| {
-                            let [a, b, c] = m.triangle(i);
-                            let n = (b - a).cross(c - a).normalize_or_zero();
-                            if n.is_finite() { n } else { Vec3::ZERO }
-                        })
-                        .collect(),
-                    _ => Vec::new(),
+                    Geometry::Mesh(m) => of(m),
+                    Geometry::Instance(i) => shared.entry(Arc::as_ptr(&i.mesh)).or_insert_with(|| of(&i.mesh)).clone(),
+                    _ => Arc::from([]),
                 })
                 .collect(),
         )
@@ -104,31 +112,23 @@ pub fn surface_point<'a, const TEX: bool>(
         Geometry::Mesh(m) => {
             let n = normals.0[hit.geom as usize][hit.prim as usize];
             let ng = if n != Vec3::ZERO { n } else { -ray.d };
-            let [i0, i1, i2] = m.indices[hit.prim as usize].map(|i| i as usize);
-            let (u, v) = (hit.u, hit.v);
-            let w = 1.0 - u - v;
-            // The hit point from barycentrics: no error from o + t·d far from the origin.
-            let p = w * m.positions[i0] + u * m.positions[i1] + v * m.positions[i2];
-            let ns = if m.normals.is_empty() {
+            on_mesh::<TEX>(m, ng, hit, material)
+        }
+        Geometry::Instance(inst) => {
+            // Shaded in the mesh's space, then placed.
+            let n = normals.0[hit.geom as usize][hit.prim as usize];
+            let ng = if n != Vec3::ZERO { n } else { inst.to_object.transform_vector3(-ray.d) };
+            let local = on_mesh::<TEX>(&inst.mesh, ng, hit, material);
+            let ng = Some(inst.normal(local.ng)).filter(|n| *n != Vec3::ZERO).unwrap_or(-ray.d);
+            let ns = inst.normal(local.ns);
+            let ns = if ns == Vec3::ZERO {
                 ng
-            } else {
-                let n = (w * m.normals[i0] + u * m.normals[i1] + v * m.normals[i2]).normalize_or(ng);
-                if n.dot(ng) < 0.0 { -n } else { n }
-            };
-            let at = |a: &[Vec2]| w * a[i0] + u * a[i1] + v * a[i2];
-            let uv = if !TEX || m.uvs.is_empty() { Vec2::new(u, v) } else { at(&m.uvs) };
-            let uv1 = if !TEX || m.uvs1.is_empty() { uv } else { at(&m.uvs1) };
-            let tex = TexCoords { uv: [uv, uv1], width: 0.0 };
-            let ns = if TEX && !m.tangents.is_empty() {
-                let [t0, t1, t2] = m.tangents[hit.prim as usize];
-                match material.kind.normal_at::<TEX>(&tex) {
-                    Some(local) => normal_mapped(ns, ng, w * t0 + u * t1 + v * t2, local),
-                    None => ns,
-                }
+            } else if ns.dot(ng) < 0.0 {
+                -ns
             } else {
                 ns
             };
-            SurfacePoint { p, ng, ns, tex, material }
+            SurfacePoint { p: inst.to_world.transform_point3(local.p), ng, ns, ..local }
         }
         Geometry::Spheres(s) => {
             let ng = hit.ng.normalize_or(-ray.d);
@@ -151,6 +151,37 @@ pub fn surface_point<'a, const TEX: bool>(
             SurfacePoint { p, ng, ns: ng, tex: TexCoords::new(Vec2::new(hit.u, hit.v)), material }
         }
     }
+}
+
+/// The shading point at `hit` on triangle mesh `m` whose face there has unit normal `ng`
+/// (all in the mesh's space).
+#[inline(always)]
+fn on_mesh<'a, const TEX: bool>(m: &TriMesh, ng: Vec3, hit: &Hit, material: &'a Material) -> SurfacePoint<'a> {
+    let [i0, i1, i2] = m.indices[hit.prim as usize].map(|i| i as usize);
+    let (u, v) = (hit.u, hit.v);
+    let w = 1.0 - u - v;
+    // The hit point from barycentrics: no error from o + t·d far from the origin.
+    let p = w * m.positions[i0] + u * m.positions[i1] + v * m.positions[i2];
+    let ns = if m.normals.is_empty() {
+        ng
+    } else {
+        let n = (w * m.normals[i0] + u * m.normals[i1] + v * m.normals[i2]).normalize_or(ng);
+        if n.dot(ng) < 0.0 { -n } else { n }
+    };
+    let at = |a: &[Vec2]| w * a[i0] + u * a[i1] + v * a[i2];
+    let uv = if !TEX || m.uvs.is_empty() { Vec2::new(u, v) } else { at(&m.uvs) };
+    let uv1 = if !TEX || m.uvs1.is_empty() { uv } else { at(&m.uvs1) };
+    let tex = TexCoords { uv: [uv, uv1], width: 0.0 };
+    let ns = if TEX && !m.tangents.is_empty() {
+        let [t0, t1, t2] = m.tangents[hit.prim as usize];
+        match material.kind.normal_at::<TEX>(&tex) {
+            Some(local) => normal_mapped(ns, ng, w * t0 + u * t1 + v * t2, local),
+            None => ns,
+        }
+    } else {
+        ns
+    };
+    SurfacePoint { p, ng, ns, tex, material }
 }
 
 #[cfg(test)]

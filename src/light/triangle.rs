@@ -50,13 +50,13 @@ impl EmissiveTriangle {
         Some(EmissiveTriangle { p, normal, area, emission, texture: None })
     }
 
-    /// Triangle `i` of `mesh` under an emission texture: sampled, like any emitting triangle,
+    /// Triangle `i` of `mesh`, with world corners `placed`, under an emission texture: sampled, like any emitting triangle,
     /// uniformly by area, with the texture's radiance at the sampled point; chosen among
     /// lights by its power, the area times the texture's mean over it (estimated from 4×4
     /// stratified points, each reading the texture's pyramid at a quarter of the triangle's
     /// extent in texture space). A triangle whose estimate is black is no light (BSDF
     /// sampling still finds any light it has: the estimate only guides).
-    pub(super) fn textured(mesh: &TriMesh, i: usize, texture: &Texture) -> Option<EmissiveTriangle> {
+    pub(super) fn textured(mesh: &TriMesh, i: usize, placed: [Vec3; 3], texture: &Texture) -> Option<EmissiveTriangle> {
         let idx = mesh.indices[i].map(|k| k as usize);
         let corners = |a: &[Vec2]| if a.is_empty() { [Vec2::ZERO; 3] } else { idx.map(|k| a[k]) };
         let uv0 = corners(&mesh.uvs);
@@ -72,7 +72,7 @@ impl EmissiveTriangle {
                 sum += tex.at(b0, b1, width);
             }
         }
-        let mut t = EmissiveTriangle::new(mesh.triangle(i), sum / (MEAN_STRATA * MEAN_STRATA) as f32)?;
+        let mut t = EmissiveTriangle::new(placed, sum / (MEAN_STRATA * MEAN_STRATA) as f32)?;
         t.texture = Some(Box::new(tex));
         Some(t)
     }

@@ -103,6 +103,10 @@ impl Effects {
                     e.triangles = true;
                     e.cutouts |= m.cutout.is_some();
                 }
+                Geometry::Instance(i) => {
+                    e.triangles = true;
+                    e.cutouts |= i.mesh.cutout.is_some();
+                }
                 Geometry::Spheres(_) => e.spheres = true,
                 Geometry::Cylinders(_) => e.cylinders = true,
             }

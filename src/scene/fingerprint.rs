@@ -12,15 +12,32 @@ impl Scene {
     /// See the module documentation.
     pub fn fingerprint(&self) -> u64 {
         let mut h = Fingerprint::default();
-        for g in &self.geometry {
+        let mesh = |h: &mut Fingerprint, m: &crate::geometry::TriMesh| {
+            h.v3(&m.positions);
+            h.u32(m.indices.len() as u32);
+            m.indices.iter().for_each(|t| t.iter().for_each(|&i| h.u32(i)));
+            h.v3(&m.normals);
+            h.v2(&m.uvs);
+        };
+        // A placed mesh is hashed the first time, and named by that place after.
+        let mut placed = std::collections::HashMap::new();
+        for (k, g) in self.geometry.iter().enumerate() {
             match g {
                 Geometry::Mesh(m) => {
                     h.u32(0);
-                    h.v3(&m.positions);
-                    h.u32(m.indices.len() as u32);
-                    m.indices.iter().for_each(|t| t.iter().for_each(|&i| h.u32(i)));
-                    h.v3(&m.normals);
-                    h.v2(&m.uvs);
+                    mesh(&mut h, m);
+                }
+                Geometry::Instance(i) => {
+                    h.u32(3);
+                    h.f32s(&i.to_world.to_cols_array());
+                    match placed.get(&std::sync::Arc::as_ptr(&i.mesh)) {
+                        Some(&first) => h.u32(first),
+                        None => {
+                            placed.insert(std::sync::Arc::as_ptr(&i.mesh), k as u32);
+                            h.u32(u32::MAX);
+                            mesh(&mut h, &i.mesh);
+                        }
+                    }
                 }
                 Geometry::Spheres(s) => {
                     h.u32(1);

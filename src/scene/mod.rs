@@ -225,6 +225,7 @@ impl Scene {
         self.subject().flat_map(move |g| -> Box<dyn Iterator<Item = Vec3> + '_> {
             match g {
                 Geometry::Mesh(m) => Box::new(m.positions.iter().copied()),
+                Geometry::Instance(i) => Box::new(i.positions()),
                 Geometry::Spheres(s) => Box::new(s.iter().flat_map(|p| p.bounds().corners())),
                 Geometry::Cylinders(c) => Box::new(c.iter().flat_map(|p| p.bounds().corners())),
             }
@@ -234,11 +235,17 @@ impl Scene {
     /// Bytes held by the geometry arrays, the texture and environment images (each image once)
     /// and the environment's sampling distribution.
     pub fn data_bytes(&self) -> u64 {
+        // A placed mesh's data once, however many times it is placed.
+        let mut placed = std::collections::HashSet::new();
         let geometry: u64 = self
             .geometry
             .iter()
             .map(|g| match g {
                 Geometry::Mesh(m) => m.heap_bytes(),
+                Geometry::Instance(i) => {
+                    let once = if placed.insert(Arc::as_ptr(&i.mesh)) { i.mesh.heap_bytes() } else { 0 };
+                    once + size_of::<crate::geometry::MeshInstance>() as u64
+                }
                 Geometry::Spheres(s) => std::mem::size_of_val(&s[..]) as u64,
                 Geometry::Cylinders(c) => std::mem::size_of_val(&c[..]) as u64,
             })
@@ -268,6 +275,7 @@ impl Scene {
         for g in &self.geometry {
             match g {
                 Geometry::Mesh(m) => c.0 += m.triangle_count(),
+                Geometry::Instance(i) => c.0 += i.mesh.triangle_count(),
                 Geometry::Spheres(s) => c.1 += s.len(),
                 Geometry::Cylinders(s) => c.2 += s.len(),
             }
@@ -400,6 +408,7 @@ impl Scene {
         for (g, geom) in self.geometry.iter().enumerate() {
             let count = match geom {
                 Geometry::Mesh(m) => m.triangle_count(),
+                Geometry::Instance(i) => i.mesh.triangle_count(),
                 Geometry::Spheres(s) => s.len(),
                 Geometry::Cylinders(_) => 0,
             };

@@ -22,7 +22,7 @@ use crate::scene::format::MAX_COORDINATE;
 use crate::scene::{CameraSpec, SceneError, input};
 use crate::texture::{Encoding, MipImage, Sampler, Texture, TextureMap, UvTransform, Wrap};
 use base64::Engine;
-use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use std::borrow::Cow;
@@ -464,11 +464,23 @@ impl<'a> Loader<'a> {
             }
         }
 
-        // Memory: the buffers, and every placed mesh's vertices and indices.
+        // A mesh that several nodes use is loaded once and placed by each (instances).
+        let mut uses = vec![0usize; self.doc.meshes().len()];
+        for inst in &instances {
+            uses[inst.mesh.index()] += 1;
+        }
+        let shared = |mesh: &gltf::Mesh| uses[mesh.index()] > 1;
+
+        // Memory: the buffers, and every mesh's vertices and indices, once per node that uses
+        // it unless it is shared.
         let buffer_bytes: u64 = self.doc.buffers().map(|b| b.length() as u64).sum();
         let mut vertices = 0u64;
         let mut index_count = 0u64;
+        let mut counted = vec![false; uses.len()];
         for inst in &instances {
+            if shared(&inst.mesh) && std::mem::replace(&mut counted[inst.mesh.index()], true) {
+                continue;
+            }
             for p in inst.mesh.primitives() {
                 let n = p.get(&gltf::Semantic::Positions).map_or(0, |a| a.count() as u64);
                 vertices = vertices.saturating_add(n);
@@ -491,7 +503,21 @@ impl<'a> Loader<'a> {
 
         let materials = self.materials(&buffers, &mut ignored)?;
         let mut meshes = Vec::new();
+        let mut loaded = vec![false; uses.len()];
         for inst in &instances {
+            let (world, places) = if shared(&inst.mesh) {
+                if std::mem::replace(&mut loaded[inst.mesh.index()], true) {
+                    continue;
+                }
+                let places: Vec<Affine3A> = instances
+                    .iter()
+                    .filter(|i| i.mesh.index() == inst.mesh.index())
+                    .map(|i| Affine3A::from_mat4(i.world))
+                    .collect();
+                (Mat4::IDENTITY, places)
+            } else {
+                (inst.world, Vec::new())
+            };
             for prim in inst.mesh.primitives() {
                 let at = format!("meshes[{}].primitives[{}]", inst.mesh.index(), prim.index());
                 // A normal-mapped material needs tangents, for its normal map's coordinate set.
@@ -502,9 +528,10 @@ impl<'a> Loader<'a> {
                     }) => Some(map.set),
                     _ => None,
                 });
-                if let Some(m) =
-                    self.primitive(&at, &inst.mesh, &prim, inst.world, &buffers, tangents, &mut ignored, &mut warnings)?
+                if let Some(mut m) =
+                    self.primitive(&at, &inst.mesh, &prim, world, &buffers, tangents, &mut ignored, &mut warnings)?
                 {
+                    m.instances = places.clone();
                     meshes.push(m);
                 }
             }
@@ -1086,7 +1113,7 @@ impl<'a> Loader<'a> {
         Ok(Some(tri).map(|mesh| {
             self.budget.keep(mesh.heap_bytes() + size_of_val(&colors[..]) as u64);
             self.budget.keep_primitives(mesh.triangle_count() as u64, 0);
-            FileMesh { mesh, material: prim.material().index(), colors }
+            FileMesh { mesh, instances: Vec::new(), material: prim.material().index(), colors }
         }))
     }
 

@@ -17,13 +17,13 @@ mod scene;
 pub(in crate::scene) use scene::add_to_scene;
 pub use scene::{CLAY, STUDIO_GROUND, STUDIO_SKY, VERTEX_COLOURS_WARNING, scene_of};
 
-use crate::geometry::{Geometry, TriMesh};
+use crate::geometry::{Geometry, MeshInstance, TriMesh};
 use crate::light::PointLight;
 use crate::material::Material;
 use crate::memory::LoadBudget;
 use crate::scene::format::MAX_COORDINATE;
 use crate::scene::{CameraSpec, SceneError};
-use glam::Vec3;
+use glam::{Affine3A, Vec3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -44,8 +44,13 @@ pub struct MeshFile {
 /// One mesh of a mesh file.
 #[derive(Clone, Debug)]
 pub struct FileMesh {
-    /// In world space (any transforms of the file applied).
+    /// In world space (any transforms of the file applied), or, when `instances` is not
+    /// empty, in its own space.
     pub mesh: TriMesh,
+    /// Where the file places a mesh it uses more than once: one transform (the mesh's space
+    /// to the world) per use. The mesh is then loaded once and placed as instances
+    /// ([`crate::geometry::MeshInstance`]). Empty: the mesh is in world space, used once.
+    pub instances: Vec<Affine3A>,
     /// Index into [`MeshFile::materials`].
     pub material: Option<usize>,
     /// Per-vertex linear RGB colours, empty if none.
@@ -53,13 +58,29 @@ pub struct FileMesh {
 }
 
 impl MeshFile {
+    /// Triangles placed (an instanced mesh's once per instance).
     pub fn triangle_count(&self) -> usize {
-        self.meshes.iter().map(|m| m.mesh.triangle_count()).sum()
+        self.meshes.iter().map(|m| m.mesh.triangle_count() * m.instances.len().max(1)).sum()
     }
 
-    /// The meshes as geometry, without materials (for benchmarks and tests).
+    /// The meshes as geometry, without materials (for benchmarks and tests); instances whose
+    /// transform flattens the mesh are left out.
     pub fn geometry(self) -> Vec<Geometry> {
-        self.meshes.into_iter().map(|m| Geometry::Mesh(Arc::new(m.mesh))).collect()
+        let mut out = Vec::new();
+        for m in self.meshes {
+            if m.instances.is_empty() {
+                out.push(Geometry::Mesh(Arc::new(m.mesh)));
+                continue;
+            }
+            let mesh = Arc::new(m.mesh);
+            out.extend(
+                m.instances
+                    .iter()
+                    .filter_map(|&xf| MeshInstance::new(mesh.clone(), xf))
+                    .map(|i| Geometry::Instance(Arc::new(i))),
+            );
+        }
+        out
     }
 }
 
@@ -95,12 +116,16 @@ pub fn load(path: &Path, budget: &LoadBudget) -> Result<MeshFile, SceneError> {
     let mut file = load(path, budget)?;
     file.inputs.insert(0, path.to_path_buf());
     for m in &file.meshes {
-        let far = m
-            .mesh
-            .positions
-            .iter()
-            .enumerate()
-            .find(|(_, p)| p.to_array().iter().any(|c| c.is_finite() && c.abs() > MAX_COORDINATE));
+        let identity = [Affine3A::IDENTITY];
+        let places = if m.instances.is_empty() { &identity[..] } else { &m.instances[..] };
+        let far = places.iter().find_map(|xf| {
+            m.mesh
+                .positions
+                .iter()
+                .map(|&p| xf.transform_point3(p))
+                .enumerate()
+                .find(|(_, p)| p.to_array().iter().any(|c| c.is_finite() && c.abs() > MAX_COORDINATE))
+        });
         if let Some((i, p)) = far {
             return Err(SceneError::new(
                 path,

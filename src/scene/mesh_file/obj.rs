@@ -157,7 +157,7 @@ pub fn parse_obj(
         }
         budget.keep(tri.heap_bytes());
         budget.keep_primitives(tri.triangle_count() as u64, 0);
-        meshes.push(FileMesh { mesh: tri, material, colors: Vec::new() });
+        meshes.push(FileMesh { mesh: tri, instances: Vec::new(), material, colors: Vec::new() });
     }
     if meshes.is_empty() {
         return Err(SceneError::new(path, None, "no triangles: the file has no faces (or only degenerate ones)"));

@@ -270,7 +270,7 @@ pub fn parse(source: impl Read, len: u64, path: &Path, budget: &LoadBudget) -> R
     if let Some(m) = super::keep_hittable(path, mesh, &mut warnings) {
         budget.keep(m.heap_bytes() + size_of_val(&colors[..]) as u64);
         budget.keep_primitives(m.triangle_count() as u64, 0);
-        meshes.push(FileMesh { mesh: m, material: None, colors });
+        meshes.push(FileMesh { mesh: m, instances: Vec::new(), material: None, colors });
     } else {
         return Err(err(None, "no triangles: every face is degenerate".into()));
     }

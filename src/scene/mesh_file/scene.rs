@@ -2,8 +2,8 @@
 //! colour, its camera or one that frames it, and a studio — a sky and a ground plane — when
 //! nothing in it lights the scene), or as a TOML scene's `[[meshes]]` ([`add_to_scene`]).
 
-use super::{MeshFile, load};
-use crate::geometry::{Geometry, TriMesh};
+use super::{FileMesh, MeshFile, load};
+use crate::geometry::{Geometry, MeshInstance, TriMesh};
 use crate::light::{Background, Light, PointLight};
 use crate::material::Material;
 use crate::memory::LoadBudget;
@@ -107,6 +107,11 @@ pub(in crate::scene) fn add_to_scene(
     let placed = if transform.is_some() { ", after the scene's scale/rotate/translate" } else { "" };
     let mut colours = false;
     for fm in file.meshes {
+        if !fm.instances.is_empty() {
+            colours |= !fm.colors.is_empty();
+            place_instances(scene, path, fm, first, transform, over, smooth)?;
+            continue;
+        }
         let mut mesh = fm.mesh;
         let Some(transform) = transform else {
             colours |= !fm.colors.is_empty();
@@ -135,14 +140,7 @@ pub(in crate::scene) fn add_to_scene(
             mesh.compute_vertex_normals();
         }
         colours |= !fm.colors.is_empty();
-        let own = fm.material.map(|i| first + i as u32);
-        let textured = own.is_some_and(|m| scene.materials[m as usize].has_texture_map());
-        let id = match (over, own) {
-            (Some((m, Override::All)), _) => m,
-            (Some((m, Override::Untextured)), _) if !textured => m,
-            (_, Some(m)) => m,
-            (_, None) => scene.default_material(),
-        };
+        let id = material_of(scene, fm.material.map(|i| first + i as u32), over);
         mesh.cutout = scene.materials[id as usize].cutout().map(Arc::new);
         scene.geometry.push(Geometry::Mesh(Arc::new(mesh)));
         scene.bindings.push(MaterialBinding::Uniform(id));
@@ -156,6 +154,71 @@ pub(in crate::scene) fn add_to_scene(
     }
     if colours {
         scene.warnings.push(format!("{}: {VERTEX_COLOURS_WARNING}", path.display()));
+    }
+    Ok(())
+}
+
+/// The material of a mesh whose file gives it `own`: the override `over` where its scope
+/// takes the mesh, else `own`, else the scene's default.
+fn material_of(scene: &mut Scene, own: Option<u32>, over: Option<(u32, Override)>) -> u32 {
+    let textured = own.is_some_and(|m| scene.materials[m as usize].has_texture_map());
+    match (over, own) {
+        (Some((m, Override::All)), _) => m,
+        (Some((m, Override::Untextured)), _) if !textured => m,
+        (_, Some(m)) => m,
+        (_, None) => scene.default_material(),
+    }
+}
+
+/// Adds a mesh the file places more than once ([`FileMesh::instances`]): its data once, and
+/// an instance per place, each after the scene file's `transform`. A place that flattens the
+/// mesh is left out with a warning.
+fn place_instances(
+    scene: &mut Scene,
+    path: &Path,
+    fm: FileMesh,
+    first: u32,
+    transform: Option<Affine3A>,
+    over: Option<(u32, Override)>,
+    smooth: bool,
+) -> Result<(), String> {
+    let id = match transform {
+        None => fm.material.map(|i| first + i as u32).unwrap_or_else(|| scene.default_material()),
+        Some(_) => material_of(scene, fm.material.map(|i| first + i as u32), over),
+    };
+    let mut mesh = fm.mesh;
+    if transform.is_some() && smooth && mesh.normals.is_empty() {
+        mesh.compute_vertex_normals();
+    }
+    mesh.cutout = scene.materials[id as usize].cutout().map(Arc::new);
+    let mesh = Arc::new(mesh);
+    let mut flat = 0;
+    for &place in &fm.instances {
+        let to_world = transform.map_or(place, |t| t * place);
+        if let Some(far) = mesh
+            .positions
+            .iter()
+            .flat_map(|&p| to_world.transform_point3(p).to_array())
+            .find(|c| c.is_finite() && c.abs() > MAX_COORDINATE)
+        {
+            let placed = if transform.is_some() { ", after the scene's scale/rotate/translate" } else { "" };
+            return Err(format!("a coordinate is {far:e}{placed}, beyond ±{MAX_COORDINATE:e}"));
+        }
+        match MeshInstance::new(mesh.clone(), to_world) {
+            Some(inst) => {
+                scene.geometry.push(Geometry::Instance(Arc::new(inst)));
+                scene.bindings.push(MaterialBinding::Uniform(id));
+            }
+            None => flat += 1,
+        }
+    }
+    if flat > 0 {
+        scene.warnings.push(format!(
+            "{}: mesh {:?}: {flat} of its {} places flatten it (a zero scale); those are left out",
+            path.display(),
+            mesh.name,
+            fm.instances.len()
+        ));
     }
     Ok(())
 }

@@ -87,12 +87,15 @@ impl BenchScene {
     }
 
     pub fn triangles(&self) -> usize {
-        self.geometry.iter().map(|g| if let Geometry::Mesh(m) = g { m.triangle_count() } else { 0 }).sum()
+        self.geometry.iter().map(|g| if let Geometry::Mesh(_) | Geometry::Instance(_) = g { g.len() } else { 0 }).sum()
     }
 
     /// Spheres plus cylinders.
     pub fn shapes(&self) -> usize {
-        self.geometry.iter().map(|g| if let Geometry::Mesh(_) = g { 0 } else { g.len() }).sum()
+        self.geometry
+            .iter()
+            .map(|g| if let Geometry::Spheres(_) | Geometry::Cylinders(_) = g { g.len() } else { 0 })
+            .sum()
     }
 
     /// Primitives of every kind: what the naive loop tests per ray.
@@ -111,7 +114,7 @@ impl BenchScene {
             self.geometry
                 .iter()
                 .map(|g| match g {
-                    Geometry::Mesh(m) => Geometry::Mesh(m.clone()),
+                    Geometry::Mesh(_) | Geometry::Instance(_) => g.clone(),
                     Geometry::Spheres(s) => Geometry::Mesh(Arc::new(tessellate_spheres(s, TESSELLATION_SEGMENTS).mesh)),
                     Geometry::Cylinders(c) => {
                         Geometry::Mesh(Arc::new(tessellate_cylinders(c, TESSELLATION_SEGMENTS).mesh))

@@ -110,6 +110,13 @@ fn at_edge(geometry: &[Geometry], ray: &Ray, hit: &Hit) -> bool {
                 None => true, // missed by the watertight test: it slipped past an edge
             }
         }
+        Some(Geometry::Instance(i)) if (hit.prim as usize) < i.mesh.triangle_count() => {
+            let [a, b, c] = i.mesh.triangle(hit.prim as usize);
+            match WatertightRay::new(&i.ray_to_object(ray)).intersect(a, b, c, 0.0, f32::INFINITY) {
+                Some(t) => t.u < 1e-4 || t.v < 1e-4 || 1.0 - t.u - t.v < 1e-4,
+                None => true,
+            }
+        }
         Some(_) => {
             let cos = hit.ng.normalize_or_zero().dot(ray.d.normalize_or_zero());
             cos.abs() < 1e-3

@@ -206,6 +206,11 @@ pub fn map_scene(scene: &Scene, point: impl Fn(Vec3) -> Vec3, scale: f32) -> Sce
                 m.positions.iter_mut().for_each(|p| *p = point(*p));
                 Geometry::Mesh(Arc::new(m))
             }
+            Geometry::Instance(i) => {
+                let mut m = i.placed_copy();
+                m.positions.iter_mut().for_each(|p| *p = point(*p));
+                Geometry::Mesh(Arc::new(m))
+            }
             Geometry::Spheres(s) => {
                 Geometry::Spheres(s.iter().map(|s| Sphere::new(point(s.center), s.radius * scale)).collect())
             }

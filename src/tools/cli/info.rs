@@ -41,6 +41,22 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     out!("scene:      {}", args.scene.display());
     out!("geometries: {}", scene.geometry.len() - scene.ground.is_some() as usize);
     out!("triangles:  {tris}");
+    let mut meshes: Vec<&std::sync::Arc<crate::geometry::TriMesh>> = scene
+        .geometry
+        .iter()
+        .filter_map(|g| if let crate::geometry::Geometry::Instance(i) = g { Some(&i.mesh) } else { None })
+        .collect();
+    if !meshes.is_empty() {
+        let placed = meshes.len();
+        meshes.sort_by_key(|m| std::sync::Arc::as_ptr(m));
+        meshes.dedup_by(|a, b| std::sync::Arc::ptr_eq(a, b));
+        let held: usize = meshes.iter().map(|m| m.triangle_count()).sum();
+        out!(
+            "instances:  {placed} of {} mesh{} used more than once, held once ({held} triangles)",
+            meshes.len(),
+            if meshes.len() == 1 { "" } else { "es" }
+        );
+    }
     out!("spheres:    {spheres}");
     out!("cylinders:  {cylinders}");
     out!(
@@ -63,9 +79,10 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     out!("{plan}");
     out!("lights:     {}", scene.light_set(crate::settings::LightTreeMode::Auto).describe());
     out!(
-        "bvh build:  {:.2} ms ({} quality, as ember render builds it)",
+        "bvh build:  {:.2} ms ({} quality, as ember render builds it); Embree holds {}",
         accel.build_time().as_secs_f64() * 1e3,
-        options.quality
+        options.quality,
+        crate::memory::format_bytes(device.memory_in_use())
     );
     let settings = RenderSettings::from_scene(&scene.render);
     out!("{}", camera_lines(&scene, settings.width as f32 / settings.height as f32, None).trim_end());
