@@ -70,31 +70,9 @@ impl Accel for NaiveAccel {
                         }
                     }
                 }
-                Prims::CutTriangles(tris, mesh) => {
-                    let cutout = mesh.cutout.as_deref().expect("a cut mesh has its cut-out");
-                    for (pi, &[a, b, c]) in tris.iter().enumerate() {
-                        if let Some(h) = wt.intersect(a, b, c, tmin, tmax)
-                            && cutout.keeps(mesh, pi as u32, h.u, h.v, ray)
-                        {
-                            tmax = h.t;
-                            best =
-                                Some(Hit { t: h.t, geom, prim: pi as u32, u: h.u, v: h.v, ng: (b - a).cross(c - a) });
-                        }
-                    }
-                }
+                Prims::CutTriangles(tris, mesh) => closest_cut(tris, mesh, ray, tmin, &mut tmax, geom, &mut best),
                 Prims::Instance(tris, inst) => {
-                    let local = inst.ray_to_object(ray);
-                    let wt = WatertightRay::new(&local);
-                    let cutout = inst.mesh.cutout.as_deref();
-                    for (pi, &[a, b, c]) in tris.iter().enumerate() {
-                        if let Some(h) = wt.intersect(a, b, c, tmin, tmax)
-                            && cutout.is_none_or(|k| k.keeps(&inst.mesh, pi as u32, h.u, h.v, &local))
-                        {
-                            tmax = h.t;
-                            best =
-                                Some(Hit { t: h.t, geom, prim: pi as u32, u: h.u, v: h.v, ng: (b - a).cross(c - a) });
-                        }
-                    }
+                    closest_cut(tris, &inst.mesh, &inst.ray_to_object(ray), tmin, &mut tmax, geom, &mut best)
                 }
                 Prims::Spheres(s) => closest_shape(s, ray, tmin, &mut tmax, geom, &mut best),
                 Prims::Cylinders(c) => closest_shape(c, ray, tmin, &mut tmax, geom, &mut best),
@@ -107,25 +85,45 @@ impl Accel for NaiveAccel {
         let wt = WatertightRay::new(ray);
         self.geometry.iter().any(|g| match g {
             Prims::Triangles(tris) => tris.iter().any(|&[a, b, c]| wt.intersect(a, b, c, tmin, tmax).is_some()),
-            Prims::CutTriangles(tris, mesh) => {
-                let cutout = mesh.cutout.as_deref().expect("a cut mesh has its cut-out");
-                tris.iter().enumerate().any(|(pi, &[a, b, c])| {
-                    wt.intersect(a, b, c, tmin, tmax).is_some_and(|h| cutout.keeps(mesh, pi as u32, h.u, h.v, ray))
-                })
-            }
-            Prims::Instance(tris, inst) => {
-                let local = inst.ray_to_object(ray);
-                let wt = WatertightRay::new(&local);
-                let cutout = inst.mesh.cutout.as_deref();
-                tris.iter().enumerate().any(|(pi, &[a, b, c])| {
-                    wt.intersect(a, b, c, tmin, tmax)
-                        .is_some_and(|h| cutout.is_none_or(|k| k.keeps(&inst.mesh, pi as u32, h.u, h.v, &local)))
-                })
-            }
+            Prims::CutTriangles(tris, mesh) => occluded_cut(tris, mesh, ray, tmin, tmax),
+            Prims::Instance(tris, inst) => occluded_cut(tris, &inst.mesh, &inst.ray_to_object(ray), tmin, tmax),
             Prims::Spheres(s) => s.iter().any(|p| p.occludes(ray, tmin, tmax)),
             Prims::Cylinders(c) => c.iter().any(|p| p.occludes(ray, tmin, tmax)),
         })
     }
+}
+
+/// The closest hit on `tris`, the corners of `mesh`'s triangles in the space of `ray`, each
+/// candidate asked of the mesh's cut-out if it has one.
+fn closest_cut(
+    tris: &[[Vec3; 3]],
+    mesh: &TriMesh,
+    ray: &Ray,
+    tmin: f32,
+    tmax: &mut f32,
+    geom: u32,
+    best: &mut Option<Hit>,
+) {
+    let wt = WatertightRay::new(ray);
+    let cutout = mesh.cutout.as_deref();
+    for (pi, &[a, b, c]) in tris.iter().enumerate() {
+        if let Some(h) = wt.intersect(a, b, c, tmin, *tmax)
+            && cutout.is_none_or(|k| k.keeps(mesh, pi as u32, h.u, h.v, ray))
+        {
+            *tmax = h.t;
+            *best = Some(Hit { t: h.t, geom, prim: pi as u32, u: h.u, v: h.v, ng: (b - a).cross(c - a) });
+        }
+    }
+}
+
+/// Whether any of `tris` (as in [`closest_cut`]) blocks `ray` where the cut-out keeps it.
+fn occluded_cut(tris: &[[Vec3; 3]], mesh: &TriMesh, ray: &Ray, tmin: f32, tmax: f32) -> bool {
+    let wt = WatertightRay::new(ray);
+    let cutout = mesh.cutout.as_deref();
+    tris.iter().enumerate().any(|(pi, &[a, b, c])| {
+        wt.intersect(a, b, c, tmin, tmax)
+            .is_some_and(|h| cutout.is_none_or(|k| k.keeps(mesh, pi as u32, h.u, h.v, ray)))
+    })
 }
 
 fn closest_shape<S: Shape>(shapes: &[S], ray: &Ray, tmin: f32, tmax: &mut f32, geom: u32, best: &mut Option<Hit>) {

@@ -80,6 +80,28 @@ impl Geometry {
         self.len() == 0
     }
 
+    /// The triangle mesh of a mesh, or of a placed mesh (in its own space); `None` for
+    /// spheres and cylinders.
+    pub fn mesh(&self) -> Option<&Arc<TriMesh>> {
+        match self {
+            Geometry::Mesh(m) => Some(m),
+            Geometry::Instance(i) => Some(&i.mesh),
+            Geometry::Spheres(_) | Geometry::Cylinders(_) => None,
+        }
+    }
+
+    /// The world corners of triangle `i` of a mesh or a placed mesh.
+    ///
+    /// # Panics
+    /// For spheres and cylinders.
+    pub fn triangle(&self, i: usize) -> [glam::Vec3; 3] {
+        match self {
+            Geometry::Mesh(m) => m.triangle(i),
+            Geometry::Instance(inst) => inst.triangle(i),
+            Geometry::Spheres(_) | Geometry::Cylinders(_) => panic!("spheres and cylinders have no triangles"),
+        }
+    }
+
     /// Bounding box of all (valid) primitives.
     pub fn bounds(&self) -> Aabb {
         match self {

@@ -216,32 +216,13 @@ impl LightSet {
             let base = emitters.len() as u32;
             let mut per = Vec::new();
             match g {
-                Geometry::Mesh(m) => {
+                Geometry::Mesh(_) | Geometry::Instance(_) => {
+                    let m = g.mesh().expect("a mesh has triangles");
                     for i in 0..m.triangle_count() {
                         let t = match emission(gi, i as u32) {
-                            Texture::Constant(e) if e.max_element() > 0.0 => EmissiveTriangle::new(m.triangle(i), *e),
+                            Texture::Constant(e) if e.max_element() > 0.0 => EmissiveTriangle::new(g.triangle(i), *e),
                             Texture::Constant(_) => None,
-                            e => EmissiveTriangle::textured(m, i, m.triangle(i), e),
-                        };
-                        let Some(t) = t.filter(|t| t.emission.max_element() > 0.0) else {
-                            per.push(u32::MAX);
-                            continue;
-                        };
-                        per.push(emitters.len() as u32);
-                        emitters.push(Emitter::Triangle(t));
-                    }
-                    if emitters.len() as u32 > base {
-                        spans.push((base, emitters.len() as u32));
-                    }
-                }
-                Geometry::Instance(inst) => {
-                    for i in 0..inst.mesh.triangle_count() {
-                        let t = match emission(gi, i as u32) {
-                            Texture::Constant(e) if e.max_element() > 0.0 => {
-                                EmissiveTriangle::new(inst.triangle(i), *e)
-                            }
-                            Texture::Constant(_) => None,
-                            e => EmissiveTriangle::textured(&inst.mesh, i, inst.triangle(i), e),
+                            e => EmissiveTriangle::textured(m, i, g.triangle(i), e),
                         };
                         let Some(t) = t.filter(|t| t.emission.max_element() > 0.0) else {
                             per.push(u32::MAX);

@@ -99,13 +99,9 @@ impl Effects {
                 continue;
             }
             match g {
-                Geometry::Mesh(m) => {
+                Geometry::Mesh(_) | Geometry::Instance(_) => {
                     e.triangles = true;
-                    e.cutouts |= m.cutout.is_some();
-                }
-                Geometry::Instance(i) => {
-                    e.triangles = true;
-                    e.cutouts |= i.mesh.cutout.is_some();
+                    e.cutouts |= g.mesh().is_some_and(|m| m.cutout.is_some());
                 }
                 Geometry::Spheres(_) => e.spheres = true,
                 Geometry::Cylinders(_) => e.cylinders = true,

@@ -104,7 +104,7 @@ pub(in crate::scene) fn add_to_scene(
     scene.inputs.extend(file.inputs);
     let first = scene.materials.len() as u32;
     scene.materials.extend(file.materials);
-    let placed = if transform.is_some() { ", after the scene's scale/rotate/translate" } else { "" };
+    let placed = if transform.is_some() { PLACED } else { "" };
     let mut colours = false;
     for fm in file.meshes {
         if !fm.instances.is_empty() {
@@ -122,11 +122,7 @@ pub(in crate::scene) fn add_to_scene(
             continue;
         };
         mesh.transform(transform);
-        if let Some(far) =
-            mesh.positions.iter().flat_map(|p| p.to_array()).find(|c| c.is_finite() && c.abs() > MAX_COORDINATE)
-        {
-            return Err(format!("a coordinate is {far:e}{placed}, beyond ±{MAX_COORDINATE:e}"));
-        }
+        within_range(mesh.positions.iter().copied(), placed)?;
         // A transform can collapse triangles too (a tiny scale underflows to zero area).
         let dropped = mesh.remove_degenerate();
         if !dropped.is_empty() {
@@ -158,6 +154,18 @@ pub(in crate::scene) fn add_to_scene(
     Ok(())
 }
 
+/// Said of a coordinate out of range after a scene file's transform.
+const PLACED: &str = ", after the scene's scale/rotate/translate";
+
+/// An error naming the first finite coordinate of `points` beyond ±[`MAX_COORDINATE`], if
+/// one is, with `placed` saying how it got there.
+fn within_range(points: impl Iterator<Item = Vec3>, placed: &str) -> Result<(), String> {
+    match points.flat_map(|p| p.to_array()).find(|c| c.is_finite() && c.abs() > MAX_COORDINATE) {
+        Some(far) => Err(format!("a coordinate is {far:e}{placed}, beyond ±{MAX_COORDINATE:e}")),
+        None => Ok(()),
+    }
+}
+
 /// The material of a mesh whose file gives it `own`: the override `over` where its scope
 /// takes the mesh, else `own`, else the scene's default.
 fn material_of(scene: &mut Scene, own: Option<u32>, over: Option<(u32, Override)>) -> u32 {
@@ -182,10 +190,7 @@ fn place_instances(
     over: Option<(u32, Override)>,
     smooth: bool,
 ) -> Result<(), String> {
-    let id = match transform {
-        None => fm.material.map(|i| first + i as u32).unwrap_or_else(|| scene.default_material()),
-        Some(_) => material_of(scene, fm.material.map(|i| first + i as u32), over),
-    };
+    let id = material_of(scene, fm.material.map(|i| first + i as u32), over);
     let mut mesh = fm.mesh;
     if transform.is_some() && smooth && mesh.normals.is_empty() {
         mesh.compute_vertex_normals();
@@ -195,14 +200,9 @@ fn place_instances(
     let mut flat = 0;
     for &place in &fm.instances {
         let to_world = transform.map_or(place, |t| t * place);
-        if let Some(far) = mesh
-            .positions
-            .iter()
-            .flat_map(|&p| to_world.transform_point3(p).to_array())
-            .find(|c| c.is_finite() && c.abs() > MAX_COORDINATE)
-        {
-            let placed = if transform.is_some() { ", after the scene's scale/rotate/translate" } else { "" };
-            return Err(format!("a coordinate is {far:e}{placed}, beyond ±{MAX_COORDINATE:e}"));
+        // The file's own places were checked as it loaded.
+        if transform.is_some() {
+            within_range(mesh.positions.iter().map(|&p| to_world.transform_point3(p)), PLACED)?;
         }
         match MeshInstance::new(mesh.clone(), to_world) {
             Some(inst) => {

@@ -103,18 +103,16 @@ fn close(ray: &Ray, a: f32, b: f32) -> bool {
 
 fn at_edge(geometry: &[Geometry], ray: &Ray, hit: &Hit) -> bool {
     match geometry.get(hit.geom as usize) {
-        Some(Geometry::Mesh(m)) if (hit.prim as usize) < m.triangle_count() => {
+        Some(g @ (Geometry::Mesh(_) | Geometry::Instance(_))) if (hit.prim as usize) < g.len() => {
+            // In the mesh's own space, where a placed mesh's hit is.
+            let (m, ray) = match g {
+                Geometry::Instance(i) => (&i.mesh, i.ray_to_object(ray)),
+                _ => (g.mesh().expect("a mesh"), *ray),
+            };
             let [a, b, c] = m.triangle(hit.prim as usize);
-            match WatertightRay::new(ray).intersect(a, b, c, 0.0, f32::INFINITY) {
+            match WatertightRay::new(&ray).intersect(a, b, c, 0.0, f32::INFINITY) {
                 Some(t) => t.u < 1e-4 || t.v < 1e-4 || 1.0 - t.u - t.v < 1e-4,
                 None => true, // missed by the watertight test: it slipped past an edge
-            }
-        }
-        Some(Geometry::Instance(i)) if (hit.prim as usize) < i.mesh.triangle_count() => {
-            let [a, b, c] = i.mesh.triangle(hit.prim as usize);
-            match WatertightRay::new(&i.ray_to_object(ray)).intersect(a, b, c, 0.0, f32::INFINITY) {
-                Some(t) => t.u < 1e-4 || t.v < 1e-4 || 1.0 - t.u - t.v < 1e-4,
-                None => true,
             }
         }
         Some(_) => {
