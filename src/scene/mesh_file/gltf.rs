@@ -14,7 +14,7 @@
 //! - the first perspective camera found walking the scene → [`CameraSpec`];
 //! - `KHR_lights_punctual` point lights → [`PointLight`], candela / 683 → W/sr.
 
-use super::{FileMesh, MeshFile};
+use super::{FileMesh, MeshFile, meshopt};
 use crate::light::PointLight;
 use crate::material::{AlphaMode, Clearcoat, GlassMaterial, Material, MaterialKind, NormalMap, PbrMaterial, Sheen};
 use crate::memory::{self, LoadBudget};
@@ -41,7 +41,8 @@ pub const CANDELA_PER_WATT_PER_SR: f32 = 683.0;
 pub const GLASS_THRESHOLD: f32 = 0.5;
 
 /// Extensions whose data is read (the rest are warned about, or refused when required).
-const SUPPORTED: [&str; 11] = [
+const SUPPORTED: [&str; 13] = [
+    "EXT_meshopt_compression",
     "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
     "KHR_materials_clearcoat",
@@ -52,6 +53,7 @@ const SUPPORTED: [&str; 11] = [
     "KHR_materials_transmission",
     "KHR_materials_volume",
     "KHR_mesh_quantization",
+    "KHR_meshopt_compression",
     "KHR_texture_transform",
 ];
 
@@ -99,8 +101,8 @@ fn parse_unguarded(bytes: Vec<u8>, path: &Path, budget: &LoadBudget) -> Result<M
 
 /// The document after the `gltf` crate's validation, which takes the accessors of a
 /// Draco-compressed primitive (no `bufferView`: their data is in the extension's) for missing
-/// data, and the extension itself (in `extensionsRequired`) for unsupported: those reports,
-/// and only those, are let through.
+/// data, and extensions read here but unknown to it (Draco, meshopt, mesh quantization) in
+/// `extensionsRequired` for unsupported: those reports, and only those, are let through.
 fn validated(json: gltf::json::Root) -> Result<gltf::Document, gltf::Error> {
     let compressed: std::collections::BTreeSet<String> = json
         .meshes
@@ -111,7 +113,14 @@ fn validated(json: gltf::json::Root) -> Result<gltf::Document, gltf::Error> {
         .filter(|&i| json.accessors.get(i).is_some_and(|a| a.buffer_view.is_none()))
         .map(|i| format!("accessors[{i}].bufferView"))
         .collect();
-    if compressed.is_empty() {
+    // Required extensions read here, which the crate may report as unsupported (it knows
+    // neither the compression extensions nor KHR_mesh_quantization).
+    let decoded_here: Vec<String> = SUPPORTED
+        .iter()
+        .filter(|e| json.extensions_required.iter().any(|r| r == *e))
+        .map(|e| format!("= \"{e}\""))
+        .collect();
+    if compressed.is_empty() && decoded_here.is_empty() {
         return gltf::Document::from_json(json);
     }
     match gltf::Document::from_json(json.clone()) {
@@ -123,7 +132,7 @@ fn validated(json: gltf::json::Root) -> Result<gltf::Document, gltf::Error> {
                     !(matches!(e, Missing) && compressed.contains(p.as_str())
                         || matches!(e, Unsupported)
                             && p.as_str().starts_with("extensions")
-                            && p.as_str().ends_with("= \"KHR_draco_mesh_compression\""))
+                            && decoded_here.iter().any(|d| p.as_str().ends_with(d.as_str())))
                 })
                 .collect();
             if rest.is_empty() {
@@ -182,13 +191,7 @@ fn check_before_crate(json: &gltf::json::Root) -> Result<(), String> {
 
 /// Why a file that requires extension `ext` is refused.
 fn unsupported_required(ext: &str) -> String {
-    let why = match ext {
-        "EXT_meshopt_compression" | "KHR_meshopt_compression" => {
-            " (its meshes are compressed and ember does not decompress them: export the file without mesh compression)"
-        }
-        _ => "",
-    };
-    format!("extensionsRequired: {ext} is not supported{why}; supported: {}", SUPPORTED.join(", "))
+    format!("extensionsRequired: {ext} is not supported; supported: {}", SUPPORTED.join(", "))
 }
 
 /// A `gltf` crate error as a located [`SceneError`].
@@ -592,7 +595,7 @@ impl<'a> Loader<'a> {
     }
 
     /// The bytes of every buffer, by index: no more than its byteLength (what was counted),
-    /// each file read once however many buffers name it.
+    /// each file read once however many buffers name it, meshopt-compressed views decoded.
     fn buffers(&self, blob: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>, SceneError> {
         let mut blob = blob;
         let mut out = Vec::new();
@@ -600,6 +603,8 @@ impl<'a> Loader<'a> {
         for b in self.doc.buffers() {
             let at = format!("buffers[{}]", b.index());
             let data = match b.source() {
+                // Filled by decoding the compressed views that lie in it.
+                _ if meshopt::is_fallback(&b) => vec![0; b.length()],
                 gltf::buffer::Source::Bin => blob
                     .take()
                     .ok_or_else(|| self.err(&at, "refers to the GLB binary chunk, which the file does not have"))?,
@@ -629,6 +634,7 @@ impl<'a> Loader<'a> {
             }
             out.push(data);
         }
+        meshopt::decode_views(self.doc, &mut out).map_err(|(at, what)| self.err(at, what))?;
         Ok(out)
     }
 
@@ -955,7 +961,8 @@ impl<'a> Loader<'a> {
             }
             self.read(&attr(name), a, dims, buffers)
         };
-        let positions = values("POSITION", &pos, &[Dimensions::Vec3])?;
+        // The accessor's count is what the memory budget admitted: checked before any
+        // decoded attribute is copied out.
         let n = pos.count();
         if let Some(d) = draco.as_ref().filter(|d| d.mesh.num_points() != n) {
             return Err(self.err(
@@ -963,6 +970,7 @@ impl<'a> Loader<'a> {
                 format!("the compressed mesh has {} points where its POSITION accessor says {n}", d.mesh.num_points()),
             ));
         }
+        let positions = values("POSITION", &pos, &[Dimensions::Vec3])?;
         let same_count = |a: &gltf::Accessor, name: &str| -> Result<(), SceneError> {
             if a.count() != n {
                 return Err(
@@ -1028,7 +1036,15 @@ impl<'a> Loader<'a> {
             None => (Vec::new(), 3),
         };
         let corners: Vec<u32> = match (draco.as_ref(), prim.indices()) {
-            (Some(d), _) => {
+            (Some(d), indices) => {
+                // As for the points: the count the budget admitted, before copying.
+                let declared = indices.map_or(n, |a| a.count());
+                if d.mesh.num_faces().checked_mul(3) != Some(declared) {
+                    return Err(self.err(
+                        &d.at,
+                        format!("the compressed mesh has {} triangles where its accessors say {declared} corners", d.mesh.num_faces()),
+                    ));
+                }
                 let v = d.corners();
                 if let Some(i) = v.iter().find(|i| **i as usize >= n) {
                     return Err(self.err(&d.at, format!("point {i} is out of range: the primitive has {n}")));

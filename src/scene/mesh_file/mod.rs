@@ -12,6 +12,7 @@
 pub mod gltf;
 pub mod obj;
 pub mod ply;
+mod meshopt;
 mod scene;
 
 pub(in crate::scene) use scene::add_to_scene;
