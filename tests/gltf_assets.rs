@@ -149,6 +149,48 @@ fn an_emission_texture_is_seen_and_lights_as_its_texels_say() {
     assert!((nee - bsdf).abs() < 0.02 * bsdf, "NEE {nee} vs BSDF {bsdf}");
 }
 
+/// Blender's exporter writes a clear coat's weight and roughness and a sheen's colour and
+/// roughness as textures (`ext_clearcoat_textured.glb`, `ext_sheen_textured.glb`: 8 sectors in
+/// u, 4 bands in v, SOURCES.md): each is read from its channel (coat weight R, coat roughness
+/// G, sheen colour RGB in sRGB, sheen roughness A) times its factor. Looked up at each
+/// block's centre (bilinear filtering reaches one texel, the blocks are 8 × 16), within the
+/// 8-bit steps.
+#[test]
+fn clearcoat_and_sheen_textures_are_read_channel_by_channel() {
+    let centre = |s: usize, j: usize| ((s as f32 + 0.5) / 8.0, (j as f32 + 0.5) / 4.0);
+    let f = load("ext_clearcoat_textured.glb");
+    let MaterialKind::Pbr(PbrMaterial { clearcoat: Some(coat), .. }) = &f.materials[0].kind else {
+        panic!("{:?}", f.materials[0].kind)
+    };
+    let f = load("ext_sheen_textured.glb");
+    let MaterialKind::Pbr(PbrMaterial { sheen: Some(sheen), .. }) = &f.materials[0].kind else {
+        panic!("{:?}", f.materials[0].kind)
+    };
+    let Texture::Map { map: rough_map, factor: rough_factor } = &sheen.roughness else {
+        panic!("{:?}", sheen.roughness)
+    };
+    let orange = Vec3::new(1.0, 0.35, 0.05);
+    for s in 0..8 {
+        for j in 0..4 {
+            let (u, v) = centre(s, j);
+            let weight = at(&coat.factor, u, v, None).x;
+            let roughness = at(&coat.roughness, u, v, None).y;
+            let want = (if s % 2 == 0 { 1.0 } else { 0.0 }, [0.05, 0.25, 0.5, 0.8][j]);
+            assert!(
+                (weight - want.0).abs() < 1e-3 && (roughness - want.1).abs() < 2.5e-3,
+                "coat ({s}, {j}): {weight} {roughness}, want {want:?}"
+            );
+            let colour = at(&sheen.color, u, v, None);
+            let want_colour = if s % 2 == 0 { Vec3::ONE } else { orange };
+            assert!((colour - want_colour).abs().max_element() < 0.01, "sheen colour ({s}, {j}): {colour}");
+            let tc = TexCoords { uv: [Vec2::new(u, 1.0 - v); 2], width: 0.0 };
+            let r = rough_factor.x * rough_map.sample(&tc).w;
+            let want_r = [0.2, 0.4, 0.6, 0.9][j];
+            assert!((r - want_r).abs() < 2.5e-3, "sheen roughness ({s}, {j}): {r}, want {want_r}");
+        }
+    }
+}
+
 /// The worst distance (position, normal, texture coordinates) from a corner of `a`'s triangles
 /// to the nearest corner of the nearest triangle of `b`: two files of the same mesh, their
 /// vertices and faces in any order. Texture coordinates are compared where the base colour

@@ -562,6 +562,43 @@ def extensions():
     export("ext_transmission_volume.glb")
 
 
+def textured_layers():
+    """Clear coat and sheen driven by textures, each on a sphere in 8 longitude sectors (u) and 4
+    latitude bands (v): the coat's weight (R) alternates 1, 0 by sector, its roughness (G) is
+    0.05, 0.25, 0.5, 0.8 by band; the sheen's colour (sRGB) alternates white, orange by sector,
+    its roughness (alpha) is 0.2, 0.4, 0.6, 0.9 by band."""
+    def sectors_bands(sector, band, channels):
+        px = np.zeros((64, 64, channels), np.uint8)
+        for j in range(4):
+            for s in range(8):
+                px[16 * j:16 * j + 16, 8 * s:8 * s + 8] = sector(s) + band(j)
+        return px
+
+    new_scene()
+    coat = sectors_bands(lambda s: (255 if s % 2 == 0 else 0,), lambda j: (round(255 * [0.05, 0.25, 0.5, 0.8][j]), 0), 3)
+    m = Mat("clearcoat_textured", base=(0.8, 0.05, 0.05), roughness=0.6)
+    t = m.tex(image("coat_weight_rough", coat, "Non-Color"))
+    sep = m.node("ShaderNodeSeparateColor")
+    m.link(t.outputs["Color"], sep.inputs["Color"])
+    m.link(sep.outputs["Red"], m.p.inputs["Coat Weight"])
+    m.link(sep.outputs["Green"], m.p.inputs["Coat Roughness"])
+    ob = uv_sphere("clearcoat_textured", 48, 24)
+    ob.data.materials.append(m.m)
+    export("ext_clearcoat_textured.glb")
+
+    new_scene()
+    tints = [tuple(srgb_u8((1.0, 1.0, 1.0))), tuple(srgb_u8((1.0, 0.35, 0.05)))]
+    sheen = sectors_bands(lambda s: tints[s % 2], lambda j: (round(255 * [0.2, 0.4, 0.6, 0.9][j]),), 4)
+    m = Mat("sheen_textured", base=(0.05, 0.1, 0.4), roughness=0.8)
+    m.set(**{"Sheen Weight": 1.0})
+    t = m.tex(image("sheen_color_rough", sheen, "sRGB"))
+    m.link(t.outputs["Color"], m.p.inputs["Sheen Tint"])
+    m.link(t.outputs["Alpha"], m.p.inputs["Sheen Roughness"])
+    ob = uv_sphere("sheen_textured", 48, 24)
+    ob.data.materials.append(m.m)
+    export("ext_sheen_textured.glb")
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     metal_rough_sphere()
@@ -574,6 +611,7 @@ def main():
     instanced()
     draco()
     extensions()
+    textured_layers()
     import io_scene_gltf2
     import trimesh
     print(f"Blender {bpy.app.version_string}, glTF add-on {'.'.join(map(str, io_scene_gltf2.bl_info['version']))}, "

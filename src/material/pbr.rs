@@ -16,7 +16,8 @@
 //!   that depend on the view.
 //! - **Textures**: base colour (RGBA: alpha for `MASK` and `BLEND`), metallic-roughness
 //!   (B = metalness, G = roughness), normal map (tangent space, scaled in x and y by its
-//!   `scale`) — each times its factor. Roughness 0 is a smooth layer: a delta reflection
+//!   `scale`), the coat's weight (R) and roughness (G), the sheen's colour (RGB) and
+//!   roughness (A) — each times its factor. Roughness 0 is a smooth layer: a delta reflection
 //!   over the diffuse base (a pure mirror where the metalness is 1).
 //! - **Sheen** (`KHR_materials_sheen`, `sheen.rs`): a back-scattering fibre lobe of colour
 //!   `sheen` over the specular and diffuse layers, which keep 1 − max(colour) E_sheen(μo).
@@ -82,24 +83,31 @@ pub struct PbrMaterial {
     /// its reflectance at normal incidence.
     pub specular: f32,
     pub specular_color: Vec3,
-    /// `KHR_materials_clearcoat` (factors only; `None`: no coat).
+    /// `KHR_materials_clearcoat` (`None`: no coat).
     pub clearcoat: Option<Clearcoat>,
-    /// `KHR_materials_sheen` (factors only; `None`: no sheen).
+    /// `KHR_materials_sheen` (`None`: no sheen).
     pub sheen: Option<Sheen>,
 }
 
-/// A sheen's colour and roughness (glTF's `sheenColorFactor`, `sheenRoughnessFactor`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A sheen's colour and roughness (glTF's `sheenColorFactor`, `sheenRoughnessFactor` and
+/// their textures).
+#[derive(Clone, Debug, PartialEq)]
 pub struct Sheen {
-    pub color: Vec3,
-    pub roughness: f32,
+    /// The sheen colour: a map's colour (`sheenColorTexture`, sRGB) times the factor, or the factor.
+    pub color: Texture,
+    /// The sheen roughness in `x`: the factor, times a map's alpha (`sheenRoughnessTexture`).
+    pub roughness: Texture,
 }
 
-/// A clear coat's weight and roughness (glTF's `clearcoatFactor`, `clearcoatRoughnessFactor`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A clear coat's weight and roughness (glTF's `clearcoatFactor`, `clearcoatRoughnessFactor`
+/// and their textures).
+#[derive(Clone, Debug, PartialEq)]
 pub struct Clearcoat {
-    pub factor: f32,
-    pub roughness: f32,
+    /// The coat's weight in `x`: a map's red (`clearcoatTexture`) times the factor, or the factor.
+    pub factor: Texture,
+    /// The coat's roughness in `y`: a map's green (`clearcoatRoughnessTexture`) times the
+    /// factor, or the factor.
+    pub roughness: Texture,
 }
 
 /// The index of refraction of a clear coat (glTF: F0 = 0.04).
@@ -138,11 +146,11 @@ impl MaterialModel for PbrMaterial {
     fn bsdf<const TEX: bool>(&self, at: &TexCoords) -> PbrBsdf {
         let mr = self.metal_rough.at::<TEX>(at);
         let mut b = PbrBsdf::new(self.base.at::<TEX>(at), mr.z, mr.y, self.ior, self.specular, self.specular_color);
-        if let Some(sh) = self.sheen {
-            b = b.with_sheen(sh.color, sh.roughness);
+        if let Some(sh) = &self.sheen {
+            b = b.with_sheen(sh.color.at::<TEX>(at), alpha_channel::<TEX>(&sh.roughness, at));
         }
-        match self.clearcoat {
-            Some(c) => b.with_clearcoat(c.factor, c.roughness),
+        match &self.clearcoat {
+            Some(c) => b.with_clearcoat(c.factor.at::<TEX>(at).x, c.roughness.at::<TEX>(at).y),
             None => b,
         }
     }
@@ -163,11 +171,11 @@ impl MaterialModel for PbrMaterial {
         }
         let f0 = self.specular * (self.specular_color * dielectric_f0(self.ior)).max_element().min(1.0);
         let mut layered = coated(f0, base).max(base);
-        if let Some(sh) = self.sheen {
-            layered = coated(sh.color.max_element().clamp(0.0, 1.0), layered);
+        if let Some(sh) = &self.sheen {
+            layered = coated(sh.color.max().max_element().clamp(0.0, 1.0), layered);
         }
-        match self.clearcoat {
-            Some(c) => coated(c.factor.clamp(0.0, 1.0) * dielectric_f0(COAT_IOR), layered),
+        match &self.clearcoat {
+            Some(c) => coated(c.factor.max().x.clamp(0.0, 1.0) * dielectric_f0(COAT_IOR), layered),
             None => layered,
         }
     }
@@ -179,18 +187,31 @@ impl MaterialModel for PbrMaterial {
     fn lobes(&self) -> Lobes {
         let (lo, hi) = (self.metal_rough.min(), self.metal_rough.max());
         let rough = |r: f32| !Ggx::from_roughness(r).is_smooth();
-        let coat = self.clearcoat.filter(|c| c.factor > 0.0);
+        // The coat's roughness range where it has weight.
+        let coat = self
+            .clearcoat
+            .as_ref()
+            .filter(|c| c.factor.max().x > 0.0)
+            .map(|c| (c.roughness.min().y, c.roughness.max().y));
         Lobes {
             diffuse: lo.z < 1.0 && self.base.max().max_element() > 0.0,
-            glossy: rough(hi.y) || coat.is_some_and(|c| rough(c.roughness)) || self.sheen.is_some(),
-            mirror: !rough(lo.y) || coat.is_some_and(|c| !rough(c.roughness)),
+            glossy: rough(hi.y) || coat.is_some_and(|(_, hi)| rough(hi)) || self.sheen.is_some(),
+            mirror: !rough(lo.y) || coat.is_some_and(|(lo, _)| !rough(lo)),
             glass: false,
         }
     }
 
     fn textures(&self) -> Vec<&Texture> {
         let normal = self.normal.as_ref().map(|n| &n.texture);
-        [Some(&self.base), Some(&self.metal_rough), normal].into_iter().flatten().filter(|t| !t.is_constant()).collect()
+        let coat = self.clearcoat.iter().flat_map(|c| [&c.factor, &c.roughness]);
+        let sheen = self.sheen.iter().flat_map(|sh| [&sh.color, &sh.roughness]);
+        [Some(&self.base), Some(&self.metal_rough), normal]
+            .into_iter()
+            .flatten()
+            .chain(coat)
+            .chain(sheen)
+            .filter(|t| !t.is_constant())
+            .collect()
     }
 
     fn has_normal_map(&self) -> bool {
@@ -215,15 +236,26 @@ impl MaterialModel for PbrMaterial {
             n.texture.fingerprint(h);
             h.f32s(&[n.scale]);
         }
-        if let Some(c) = self.clearcoat {
+        if let Some(c) = &self.clearcoat {
             h.str("clearcoat");
-            h.f32s(&[c.factor, c.roughness]);
+            c.factor.fingerprint(h);
+            c.roughness.fingerprint(h);
         }
-        if let Some(sh) = self.sheen {
+        if let Some(sh) = &self.sheen {
             h.str("sheen");
-            h.v3(&[sh.color]);
-            h.f32s(&[sh.roughness]);
+            sh.color.fingerprint(h);
+            sh.roughness.fingerprint(h);
         }
+    }
+}
+
+/// `x` of `t` at `at`, times its map's alpha where it is a map (glTF's sheen roughness is a
+/// texture's alpha channel); without `TEX` the surface's mean.
+#[inline(always)]
+fn alpha_channel<const TEX: bool>(t: &Texture, at: &TexCoords) -> f32 {
+    match t {
+        Texture::Map { map, factor } => factor.x * if TEX { map.sample(at).w } else { map.image.mean().w },
+        t => t.at::<TEX>(at).x,
     }
 }
 

@@ -312,26 +312,85 @@ impl Tally {
 }
 
 impl<'a> Loader<'a> {
-    /// `KHR_materials_sheen`'s factors (its textures are warned about and ignored); `None`
-    /// without the extension or with a black sheen colour.
-    fn sheen(&self, m: &gltf::Material, at: &str, ignored: &mut Tally) -> Result<Option<Sheen>, SceneError> {
+    /// `KHR_materials_sheen`: its colour and roughness, each a factor times its texture if it
+    /// has one (`map` loads a texture reference); `None` without the extension or with a black
+    /// sheen colour.
+    fn sheen(
+        &self,
+        m: &gltf::Material,
+        at: &str,
+        map: &mut MapFn<'a, '_>,
+        ignored: &mut Tally,
+    ) -> Result<Option<Sheen>, SceneError> {
         let Some(v) = m.extension_value("KHR_materials_sheen") else { return Ok(None) };
         let at = format!("{at}.extensions.KHR_materials_sheen");
         let color = self.unit_color(v, "sheenColorFactor", &at, Vec3::ZERO)?;
         let roughness = self.unit_factor(v, "sheenRoughnessFactor", &at)?;
-        ignore_textures(v, &["sheenColorTexture", "sheenRoughnessTexture"], &at, ignored);
-        Ok((color.max_element() > 0.0).then_some(Sheen { color, roughness }))
+        if color.max_element() <= 0.0 {
+            return Ok(None);
+        }
+        let color = self.factor_texture(v, "sheenColorTexture", &at, color, Encoding::Srgb, map, ignored)?;
+        let roughness = self.factor_texture(
+            v,
+            "sheenRoughnessTexture",
+            &at,
+            Vec3::splat(roughness),
+            Encoding::Linear,
+            map,
+            ignored,
+        )?;
+        Ok(Some(Sheen { color, roughness }))
     }
 
-    /// `KHR_materials_clearcoat`'s factors (its textures are warned about and ignored); `None`
-    /// without the extension or with a factor of 0.
-    fn clearcoat(&self, m: &gltf::Material, at: &str, ignored: &mut Tally) -> Result<Option<Clearcoat>, SceneError> {
+    /// `KHR_materials_clearcoat`: its weight and roughness, each a factor times its texture if
+    /// it has one; `None` without the extension or with a factor of 0. The coat's own normal
+    /// map is warned about and ignored (the coat shares the surface's shading normal).
+    fn clearcoat(
+        &self,
+        m: &gltf::Material,
+        at: &str,
+        map: &mut MapFn<'a, '_>,
+        ignored: &mut Tally,
+    ) -> Result<Option<Clearcoat>, SceneError> {
         let Some(v) = m.extension_value("KHR_materials_clearcoat") else { return Ok(None) };
         let at = format!("{at}.extensions.KHR_materials_clearcoat");
         let factor = self.unit_factor(v, "clearcoatFactor", &at)?;
         let roughness = self.unit_factor(v, "clearcoatRoughnessFactor", &at)?;
-        ignore_textures(v, &["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"], &at, ignored);
-        Ok((factor > 0.0).then_some(Clearcoat { factor, roughness }))
+        ignore_textures(v, &["clearcoatNormalTexture"], &at, ignored);
+        if factor <= 0.0 {
+            return Ok(None);
+        }
+        let factor =
+            self.factor_texture(v, "clearcoatTexture", &at, Vec3::splat(factor), Encoding::Linear, map, ignored)?;
+        let roughness = self.factor_texture(
+            v,
+            "clearcoatRoughnessTexture",
+            &at,
+            Vec3::splat(roughness),
+            Encoding::Linear,
+            map,
+            ignored,
+        )?;
+        Ok(Some(Clearcoat { factor, roughness }))
+    }
+
+    /// An extension's factor `factor` times its texture `key` (a `textureInfo` in the
+    /// extension's JSON `v`), or the factor alone without one.
+    #[allow(clippy::too_many_arguments)]
+    fn factor_texture(
+        &self,
+        v: &serde_json::Value,
+        key: &str,
+        at: &str,
+        factor: Vec3,
+        encoding: Encoding,
+        map: &mut MapFn<'a, '_>,
+        ignored: &mut Tally,
+    ) -> Result<Texture, SceneError> {
+        let Some(info) = v.get(key) else { return Ok(Texture::Constant(factor)) };
+        let at = format!("{at}.{key}");
+        let slot = TextureSlot::raw(self.doc, info).map_err(|m| self.err(&at, m))?;
+        Ok(Texture::Map { map: map(slot, &at, encoding, ignored)?, factor })
     }
 
     /// The absorption of `KHR_materials_volume` (σ = −ln(attenuationColor) / attenuationDistance,
@@ -715,8 +774,8 @@ impl<'a> Loader<'a> {
             }
             let roughness = pbr.roughness_factor().clamp(0.0, 1.0);
             let metallic = pbr.metallic_factor();
-            let mut map = |slot: TextureSlot, what: &str, encoding: Encoding, ignored: &mut Tally| {
-                let at = format!("{at}.{what}");
+            // `at`: the reference's JSON path.
+            let mut map = |slot: TextureSlot<'a>, at: &str, encoding: Encoding, ignored: &mut Tally| {
                 let set = match slot.tex_coord {
                     0 | 1 => slot.tex_coord as usize,
                     k => {
@@ -728,17 +787,22 @@ impl<'a> Loader<'a> {
                 let image = match images.get(&key) {
                     Some(done) => done.clone(),
                     None => {
-                        let loaded = Arc::new(self.image(&at, &slot.texture.source(), buffers, encoding)?);
+                        let loaded = Arc::new(self.image(at, &slot.texture.source(), buffers, encoding)?);
                         images.insert(key, loaded.clone());
                         loaded
                     }
                 };
-                let transform = slot.transform.map_err(|e| self.err(&at, e))?;
+                let transform = slot.transform.map_err(|e| self.err(at, e))?;
                 Ok::<TextureMap, SceneError>(texture_map(image, &slot.texture.sampler(), set, transform))
             };
             let color = match pbr.base_color_texture() {
                 Some(info) => Texture::Map {
-                    map: map(TextureSlot::of(&info), "pbrMetallicRoughness.baseColorTexture", Encoding::Srgb, ignored)?,
+                    map: map(
+                        TextureSlot::of(&info),
+                        &format!("{at}.pbrMetallicRoughness.baseColorTexture"),
+                        Encoding::Srgb,
+                        ignored,
+                    )?,
                     factor: base,
                 },
                 None => Texture::Constant(base),
@@ -748,7 +812,7 @@ impl<'a> Loader<'a> {
                 Some(info) => Texture::Map {
                     map: map(
                         TextureSlot::of(&info),
-                        "pbrMetallicRoughness.metallicRoughnessTexture",
+                        &format!("{at}.pbrMetallicRoughness.metallicRoughnessTexture"),
                         Encoding::Linear,
                         ignored,
                     )?,
@@ -759,8 +823,10 @@ impl<'a> Loader<'a> {
             let normal = match m.normal_texture() {
                 Some(n) => {
                     let slot = TextureSlot::normal(&n);
-                    let texture =
-                        Texture::Map { map: map(slot, "normalTexture", Encoding::Linear, ignored)?, factor: Vec3::ONE };
+                    let texture = Texture::Map {
+                        map: map(slot, &format!("{at}.normalTexture"), Encoding::Linear, ignored)?,
+                        factor: Vec3::ONE,
+                    };
                     Some(NormalMap { texture, scale: n.scale() })
                 }
                 None => None,
@@ -771,7 +837,7 @@ impl<'a> Loader<'a> {
             }
             let emission = match m.emissive_texture() {
                 Some(info) if emission != Vec3::ZERO => Texture::Map {
-                    map: map(TextureSlot::of(&info), "emissiveTexture", Encoding::Srgb, ignored)?,
+                    map: map(TextureSlot::of(&info), &format!("{at}.emissiveTexture"), Encoding::Srgb, ignored)?,
                     factor: emission,
                 },
                 _ => Texture::Constant(emission),
@@ -809,8 +875,8 @@ impl<'a> Loader<'a> {
                     "specular factors must be finite and not negative",
                 ));
             }
-            let clearcoat = self.clearcoat(&m, &at, ignored)?;
-            let sheen = self.sheen(&m, &at, ignored)?;
+            let clearcoat = self.clearcoat(&m, &at, &mut map, ignored)?;
+            let sheen = self.sheen(&m, &at, &mut map, ignored)?;
             for ext in ["KHR_materials_unlit"] {
                 if m.extension_value(ext).is_some() {
                     ignored.add(ext, format!("{at}.extensions.{ext}"));
@@ -1042,7 +1108,10 @@ impl<'a> Loader<'a> {
                 if d.mesh.num_faces().checked_mul(3) != Some(declared) {
                     return Err(self.err(
                         &d.at,
-                        format!("the compressed mesh has {} triangles where its accessors say {declared} corners", d.mesh.num_faces()),
+                        format!(
+                            "the compressed mesh has {} triangles where its accessors say {declared} corners",
+                            d.mesh.num_faces()
+                        ),
                     ));
                 }
                 let v = d.corners();
@@ -1318,6 +1387,10 @@ impl<'a> Loader<'a> {
     }
 }
 
+/// Loads a texture reference for a material: (the reference, where it is, the image's
+/// encoding, the warnings) → the map.
+type MapFn<'a, 'm> = dyn FnMut(TextureSlot<'a>, &str, Encoding, &mut Tally) -> Result<TextureMap, SceneError> + 'm;
+
 /// Where a material takes a texture: the texture, its coordinate set, and its
 /// `KHR_texture_transform` (an error message if malformed).
 struct TextureSlot<'a> {
@@ -1336,6 +1409,26 @@ impl<'a> TextureSlot<'a> {
             .map(|t| UvTransform::offset_rotation_scale(Vec2::from(t.offset()), t.rotation(), Vec2::from(t.scale())));
         let tex_coord = t.and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
         TextureSlot { texture: info.texture(), tex_coord, transform: Ok(transform) }
+    }
+
+    /// A `textureInfo` in an extension's raw JSON (`index`, `texCoord`, and its own
+    /// `KHR_texture_transform`, whose `texCoord` overrides), or what is wrong with it.
+    fn raw(doc: &'a gltf::Document, info: &serde_json::Value) -> Result<TextureSlot<'a>, String> {
+        let index = info.get("index").and_then(|i| i.as_u64()).ok_or("index is missing or not a whole number")?;
+        let texture = usize::try_from(index)
+            .ok()
+            .and_then(|i| doc.textures().nth(i))
+            .ok_or_else(|| format!("index {index}: no such texture (the file has {})", doc.textures().len()))?;
+        let whole = |v: &serde_json::Value| v.as_u64().and_then(|t| u32::try_from(t).ok());
+        let mut tex_coord = match info.get("texCoord") {
+            None => 0,
+            Some(t) => whole(t).ok_or_else(|| format!("texCoord {t} is not a whole number"))?,
+        };
+        let extensions = info.get("extensions").and_then(|e| e.as_object());
+        if let Some(t) = extensions.and_then(|e| e.get("KHR_texture_transform")).and_then(|t| t.get("texCoord")) {
+            tex_coord = whole(t).ok_or_else(|| format!("KHR_texture_transform.texCoord {t} is not a whole number"))?;
+        }
+        Ok(TextureSlot { texture, tex_coord, transform: texture_transform(extensions) })
     }
 
     /// A `normalTexture`, whose `KHR_texture_transform` the crate does not model: read from

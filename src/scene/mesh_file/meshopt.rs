@@ -49,7 +49,9 @@ pub fn decode_views(doc: &gltf::Document, buffers: &mut [Vec<u8>]) -> Result<(),
         let source = buffers
             .get(source_buffer)
             .and_then(|b| b.get(offset..offset.checked_add(length)?))
-            .ok_or_else(|| fail(format!("its bytes ({offset} + {length} of buffers[{source_buffer}]) are out of range")))?
+            .ok_or_else(|| {
+                fail(format!("its bytes ({offset} + {length} of buffers[{source_buffer}]) are out of range"))
+            })?
             .to_vec();
         let decoded = count.checked_mul(stride).filter(|&n| n == view.length()).ok_or_else(|| {
             fail(format!("count {count} × byteStride {stride} is not the view's byteLength {}", view.length()))
@@ -71,13 +73,15 @@ pub fn decode_views(doc: &gltf::Document, buffers: &mut [Vec<u8>]) -> Result<(),
         }
         let ws = &mut workspace;
         let decoding = match mode {
-            "ATTRIBUTES" => codec::decode_vertex_buffer_into(target, count, stride, &source, ws).and_then(|()| match filter {
-                "OCTAHEDRAL" => codec::decode_filter_oct(target, count, stride, ws),
-                "QUATERNION" => codec::decode_filter_quat(target, count, stride, ws),
-                "EXPONENTIAL" => codec::decode_filter_exp(target, count, stride, ws),
-                "COLOR" => codec::decode_filter_color(target, count, stride, ws),
-                _ => Ok(()),
-            }),
+            "ATTRIBUTES" => {
+                codec::decode_vertex_buffer_into(target, count, stride, &source, ws).and_then(|()| match filter {
+                    "OCTAHEDRAL" => codec::decode_filter_oct(target, count, stride, ws),
+                    "QUATERNION" => codec::decode_filter_quat(target, count, stride, ws),
+                    "EXPONENTIAL" => codec::decode_filter_exp(target, count, stride, ws),
+                    "COLOR" => codec::decode_filter_color(target, count, stride, ws),
+                    _ => Ok(()),
+                })
+            }
             "TRIANGLES" => codec::decode_index_buffer_into(target, count, stride, &source, ws),
             "INDICES" => codec::decode_index_sequence_into(target, count, stride, &source, ws),
             other => return Err(fail(format!("mode {other:?} is not one of ATTRIBUTES, TRIANGLES, INDICES"))),

@@ -10,9 +10,9 @@
 //! with a warning.
 
 pub mod gltf;
+mod meshopt;
 pub mod obj;
 pub mod ply;
-mod meshopt;
 mod scene;
 
 pub(in crate::scene) use scene::add_to_scene;
