@@ -16,18 +16,25 @@
 //! groups of [`LANES`] samples (inside a pixel too, whose samples may take minutes), where the
 //! pixel's state — its sums, in sample order — is saved exactly, and a pixel stopped inside a
 //! round goes on with it when resumed (see [`round_target`]).
+//!
+//! Each round is a parallel loop over tiles, in named steps: the task takes its tile's pixels
+//! out of the shared film ([`TileFilm::take`]), renders them ([`render_tile`]) and puts them
+//! back ([`TileFilm::put_back`]), then writes a due checkpoint or preview and reports progress.
+//! The film is locked twice per tile, not per pixel.
 
 use super::adaptive;
 use super::aux::AuxSample;
+use super::kernel::SampleFn;
 use super::light_vertex::LightVertexPool;
 use super::path::PathContext;
 use super::surface::FaceNormals;
 use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
-use crate::film::{Accumulator, Checkpoint, PixelState};
+use crate::film::{Accumulator, AuxSums, Checkpoint, PixelState};
 use crate::sampler::{PixelSampler, mix64};
 use crate::scene::Scene;
 use crate::settings::{TILE, clamp_sample};
+use glam::DVec3;
 use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Mutex;
@@ -334,16 +341,7 @@ pub(super) fn run(
         // An adaptive render plans its second round once the first is done everywhere (a
         // resumed render may have the plan from its checkpoint).
         if round == 1 {
-            let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
-            let a = &mut *a;
-            if let Some(plan) = &mut a.adaptive
-                && plan.iter().any(|p| p.target == 0)
-            {
-                let targets = adaptive::allocate(&a.pixels, plan, w, h, settings.spp);
-                for (p, t) in plan.iter_mut().zip(targets) {
-                    p.target = t;
-                }
-            }
+            plan_second_round(&mut shared.lock().unwrap_or_else(|e| e.into_inner()), settings.spp);
         }
         // Pixel `i`'s planned total in an adaptive render (0 before the plan).
         let allocated = |a: &Accumulator, i: usize| a.adaptive.as_ref().map(|plan| plan[i].target);
@@ -369,110 +367,43 @@ pub(super) fn run(
                 stopped.store(true, Ordering::Relaxed);
                 return Ok(());
             }
-            let (x0, y0) = (tx * TILE, ty * TILE);
-            let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
-            let mut rays = 0u64;
-            let mut taken = 0.0f64;
-            let mut values = [glam::Vec3::ZERO; LANES];
-            let mut aux_values = [AuxSample::default(); LANES];
-            'pixels: for y in y0..y1 {
-                for x in x0..x1 {
-                    if stop_requested() {
-                        stopped.store(true, Ordering::Relaxed);
-                        break 'pixels;
-                    }
-                    let i = (y * w + x) as usize;
-                    // During a round, a pixel belongs to the one task rendering its tile.
-                    let (mut p, mut pa, planned_total, mut sum_sq) = {
-                        let a = shared.lock().unwrap_or_else(|e| e.into_inner());
-                        // An adaptive render's first round also sums the squares of the samples:
-                        // on from what a stopped session summed, in sample order.
-                        let sum_sq = a.adaptive.as_ref().map_or(glam::DVec3::ZERO, |plan| plan[i].sum_sq);
-                        (a.pixels[i], a.aux.as_ref().map(|aux| aux[i]), allocated(&a, i), sum_sq)
-                    };
-                    let Some(target) = round_target(settings, round, &p, planned_total) else { continue };
-                    let mut pixel_bad = 0;
-                    let mut pixel_clamped = 0;
-                    let (first, mut s) = (p.count, p.count);
-                    let streams = PixelSampler::new(settings.sampler, settings.seed, y as u64 * w as u64 + x as u64);
-                    let rays_before = rays;
-                    while s < target {
-                        // A pixel of many samples can take minutes: a stop is honoured between
-                        // groups, the pixel's state kept as it is.
-                        if stop_requested() {
-                            stopped.store(true, Ordering::Relaxed);
-                            break;
-                        }
-                        // Samples go in groups of LANES aligned on sample 0, whatever the
-                        // rounds: a sample's packet mates never depend on when it is taken.
-                        let end = target.min((s / LANES as u32 + 1) * LANES as u32);
-                        let aux_out = pa.is_some().then_some(&mut aux_values);
-                        sample(&ctx, &streams, (x, y), s..end, &mut values, aux_out, &mut rays)
-                            .map_err(RenderError::from)?;
-                        for &v in &values[..(end - s) as usize] {
-                            if v.is_finite() {
-                                // The sample clamp acts on what the film receives: the path
-                                // and its numbers are those of an unclamped render.
-                                let v = match settings.clamp {
-                                    Some(limit) => {
-                                        let (v, scaled) = clamp_sample(v, limit);
-                                        pixel_clamped += scaled as u64;
-                                        v
-                                    }
-                                    None => v,
-                                };
-                                p.add(v);
-                                let v = v.as_dvec3();
-                                sum_sq += v * v;
-                            } else {
-                                pixel_bad += 1;
-                                p.add(glam::Vec3::ZERO);
-                            }
-                        }
-                        if let Some(pa) = &mut pa {
-                            // In sample order, like the radiance: the same sums whatever the
-                            // threads, rounds or sessions.
-                            for a in &aux_values[..(end - s) as usize] {
-                                pa.add(a.albedo, a.normal);
-                            }
-                        }
-                        s = end;
-                    }
-                    taken += work_of(&costs, i, s) - work_of(&costs, i, first);
-                    let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
-                    a.pixels[i] = p;
-                    if round == 0
-                        && let Some(plan) = &mut a.adaptive
-                    {
-                        plan[i].rays = plan[i].rays.saturating_add((rays - rays_before).min(u32::MAX as u64) as u32);
-                        plan[i].sum_sq = sum_sq;
-                    }
-                    if let (Some(aux), Some(pa)) = (&mut a.aux, pa) {
-                        aux[i] = pa;
-                    }
-                    // Counted under the lock, so a checkpoint's count matches its pixels.
-                    let total_bad = nonfinite.fetch_add(pixel_bad, Ordering::Relaxed) + pixel_bad;
-                    clamped.fetch_add(pixel_clamped, Ordering::Relaxed);
-                    // A periodic checkpoint that cannot be written (a full disk) does not stop
-                    // the render: it is reported at the end, and tried again after `every`.
-                    if let Some((_, Some(every))) = control.checkpoint
-                        && let Ok(mut p) = periodic.try_lock()
-                        && p.last.elapsed() >= every
-                    {
-                        p.attempt(|| save_checkpoint(&a, total_bad));
-                    }
-                    // A preview reads the pixels under the lock and is written without it.
-                    if let Some((every, show)) = control.preview
-                        && let Ok(mut p) = previews.try_lock()
-                        && p.last.elapsed() >= every
-                    {
-                        let film = a.film();
-                        drop(a);
-                        p.attempt(|| show(&film));
-                    }
-                }
+            // The tile's pixels belong to this task for the round: taken out of the shared
+            // film once, rendered, put back once.
+            let mut tile = {
+                let a = shared.lock().unwrap_or_else(|e| e.into_inner());
+                TileFilm::take(&a, tile_rect(tx, ty, w, h), round, settings)
+            };
+            let out = render_tile(&ctx, sample, &mut tile, &stop_requested)?;
+            if out.stopped {
+                stopped.store(true, Ordering::Relaxed);
             }
-            let rays = rays_total.fetch_add(rays, Ordering::Relaxed) + rays;
+            let taken: f64 =
+                tile.pixels.iter().map(|t| work_of(&costs, t.i, t.state.count) - work_of(&costs, t.i, t.first)).sum();
+            let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
+            tile.put_back(&mut a, round);
+            // Counted under the lock, so a checkpoint's count matches its pixels.
+            let total_bad = nonfinite.fetch_add(out.nonfinite, Ordering::Relaxed) + out.nonfinite;
+            clamped.fetch_add(out.clamped, Ordering::Relaxed);
+            // A periodic checkpoint that cannot be written (a full disk) does not stop the
+            // render: it is reported at the end, and tried again after `every`.
+            if let Some((_, Some(every))) = control.checkpoint
+                && let Ok(mut p) = periodic.try_lock()
+                && p.last.elapsed() >= every
+            {
+                p.attempt(|| save_checkpoint(&a, total_bad));
+            }
+            // A preview reads the pixels under the lock and is written without it.
+            if let Some((every, show)) = control.preview
+                && let Ok(mut p) = previews.try_lock()
+                && p.last.elapsed() >= every
+            {
+                let film = a.film();
+                drop(a);
+                p.attempt(|| show(&film));
+            } else {
+                drop(a);
+            }
+            let rays = rays_total.fetch_add(out.rays, Ordering::Relaxed) + out.rays;
             let done = {
                 let mut done = work_done.lock().unwrap_or_else(|e| e.into_inner());
                 *done += taken;
@@ -507,4 +438,176 @@ pub(super) fn run(
         .collect();
     let counts = (bad, clamped.load(Ordering::Relaxed));
     Ok(finish(accum, rays_total.load(Ordering::Relaxed), counts, complete, warnings))
+}
+
+/// An adaptive render's plan for its second round, made once the first is done everywhere
+/// (a resumed render may have it from its checkpoint already): each pixel's total of the
+/// `spp` budget ([`adaptive::allocate`]).
+fn plan_second_round(a: &mut Accumulator, spp: u32) {
+    let (w, h) = (a.width, a.height);
+    if let Some(plan) = &mut a.adaptive
+        && plan.iter().any(|p| p.target == 0)
+    {
+        let targets = adaptive::allocate(&a.pixels, plan, w, h, spp);
+        for (p, t) in plan.iter_mut().zip(targets) {
+            p.target = t;
+        }
+    }
+}
+
+/// The pixels of tile (`tx`, `ty`) of a `w` × `h` image: x0..x1, y0..y1.
+fn tile_rect(tx: u32, ty: u32, w: u32, h: u32) -> (std::ops::Range<u32>, std::ops::Range<u32>) {
+    let (x0, y0) = (tx * TILE, ty * TILE);
+    (x0..(x0 + TILE).min(w), y0..(y0 + TILE).min(h))
+}
+
+/// One pixel of a [`TileFilm`].
+struct TilePixel {
+    /// Index in the image, and coordinates.
+    i: usize,
+    x: u32,
+    y: u32,
+    /// Its sums, taken out of the film; the sample count it had then.
+    state: PixelState,
+    first: u32,
+    aux: Option<AuxSums>,
+    /// The samples it takes this round ([`round_target`]; `None`: none).
+    target: Option<u32>,
+    /// An adaptive render's first round: the squares of its samples, summed on from the
+    /// film's (in sample order, whatever the sessions), and the rays its samples traced.
+    sum_sq: DVec3,
+    rays: u64,
+}
+
+/// A tile's pixels for one round, owned by the task that renders it: taken out of the shared
+/// film at the tile's start and put back at its end, so that the film is locked twice per
+/// tile, not per pixel.
+struct TileFilm {
+    pixels: Vec<TilePixel>,
+}
+
+impl TileFilm {
+    fn take(
+        a: &Accumulator,
+        (xs, ys): (std::ops::Range<u32>, std::ops::Range<u32>),
+        round: u32,
+        settings: &RenderSettings,
+    ) -> TileFilm {
+        let w = a.width;
+        let pixels = ys
+            .flat_map(|y| xs.clone().map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let i = (y * w + x) as usize;
+                let state = a.pixels[i];
+                let planned = a.adaptive.as_ref().map(|plan| plan[i].target);
+                TilePixel {
+                    i,
+                    x,
+                    y,
+                    state,
+                    first: state.count,
+                    aux: a.aux.as_ref().map(|aux| aux[i]),
+                    target: round_target(settings, round, &state, planned),
+                    sum_sq: a.adaptive.as_ref().map_or(DVec3::ZERO, |plan| plan[i].sum_sq),
+                    rays: 0,
+                }
+            })
+            .collect();
+        TileFilm { pixels }
+    }
+
+    /// Writes the tile's pixels (those that took part in the round) back into `a`.
+    fn put_back(&self, a: &mut Accumulator, round: u32) {
+        for t in self.pixels.iter().filter(|t| t.target.is_some()) {
+            a.pixels[t.i] = t.state;
+            if round == 0
+                && let Some(plan) = &mut a.adaptive
+            {
+                let p = &mut plan[t.i];
+                p.rays = p.rays.saturating_add(t.rays.min(u32::MAX as u64) as u32);
+                p.sum_sq = t.sum_sq;
+            }
+            if let (Some(aux), Some(pa)) = (&mut a.aux, t.aux) {
+                aux[t.i] = pa;
+            }
+        }
+    }
+}
+
+/// What rendering a tile did.
+struct TileOutcome {
+    rays: u64,
+    /// Samples dropped as non-finite, and scaled by the sample clamp.
+    nonfinite: u64,
+    clamped: u64,
+    /// A stop was requested: the tile's pixels are as far as they got (whole groups).
+    stopped: bool,
+}
+
+/// Takes each pixel of `tile` to its round's target, in groups of [`LANES`] samples aligned
+/// on sample 0, whatever the rounds (a sample's packet mates never depend on when it is
+/// taken); a stop request is honoured between groups (a pixel of many samples can take
+/// minutes), the pixel's state kept as it is.
+fn render_tile(
+    ctx: &PathContext,
+    sample: SampleFn,
+    tile: &mut TileFilm,
+    stop_requested: &dyn Fn() -> bool,
+) -> Result<TileOutcome, RenderError> {
+    let settings = ctx.settings;
+    let mut out = TileOutcome { rays: 0, nonfinite: 0, clamped: 0, stopped: false };
+    let mut values = [glam::Vec3::ZERO; LANES];
+    let mut aux_values = [AuxSample::default(); LANES];
+    for t in &mut tile.pixels {
+        let Some(target) = t.target else { continue };
+        if stop_requested() {
+            out.stopped = true;
+            t.target = None; // untouched: nothing to put back
+            continue;
+        }
+        let streams =
+            PixelSampler::new(settings.sampler, settings.seed, t.y as u64 * settings.width as u64 + t.x as u64);
+        let rays_before = out.rays;
+        let mut s = t.state.count;
+        while s < target {
+            if stop_requested() {
+                out.stopped = true;
+                break;
+            }
+            let end = target.min((s / LANES as u32 + 1) * LANES as u32);
+            let aux_out = t.aux.is_some().then_some(&mut aux_values);
+            sample(ctx, &streams, (t.x, t.y), s..end, &mut values, aux_out, &mut out.rays)
+                .map_err(RenderError::from)?;
+            for &v in &values[..(end - s) as usize] {
+                if v.is_finite() {
+                    // The sample clamp acts on what the film receives: the path and its
+                    // numbers are those of an unclamped render.
+                    let v = match settings.clamp {
+                        Some(limit) => {
+                            let (v, scaled) = clamp_sample(v, limit);
+                            out.clamped += scaled as u64;
+                            v
+                        }
+                        None => v,
+                    };
+                    t.state.add(v);
+                    let v = v.as_dvec3();
+                    t.sum_sq += v * v;
+                } else {
+                    out.nonfinite += 1;
+                    t.state.add(glam::Vec3::ZERO);
+                }
+            }
+            if let Some(pa) = &mut t.aux {
+                // In sample order, like the radiance: the same sums whatever the threads,
+                // rounds or sessions.
+                for a in &aux_values[..(end - s) as usize] {
+                    pa.add(a.albedo, a.normal);
+                }
+            }
+            s = end;
+        }
+        t.rays += out.rays - rays_before;
+    }
+    Ok(out)
 }
