@@ -33,15 +33,13 @@
 //! Memory: the density per cell and the cumulative sums per row (8 bytes per pixel, f32), the
 //! marginal and the row boundaries (8 bytes per row).
 
+use super::distribution::{normalized_cdf, pick};
 use super::{LightSample, luminance, uniform_sphere};
 use crate::hash::Fingerprint;
 use crate::texture::Image;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;
-
-/// The largest f32 below 1.
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// An environment image with its rotation, strength and sampling distribution.
 #[derive(Clone)]
@@ -275,27 +273,15 @@ impl Distribution {
         let mut row_cdf = Vec::with_capacity(w * h);
         let mut row_weight = Vec::with_capacity(h);
         for y in 0..h {
-            let row = &func[y * w..(y + 1) * w];
-            let sum: f64 = row.iter().map(|&f| f as f64).sum();
-            let mut acc = 0.0f64;
-            for (x, &f) in row.iter().enumerate() {
-                acc += f as f64;
-                row_cdf.push(if sum > 0.0 { (acc / sum) as f32 } else { (x + 1) as f32 / w as f32 });
+            let row = func[y * w..(y + 1) * w].iter().map(|&f| f as f64);
+            match normalized_cdf(row.clone()) {
+                Some(cdf) => row_cdf.extend(cdf),
+                None => row_cdf.extend((0..w).map(|x| (x + 1) as f32 / w as f32)),
             }
-            row_weight.push(sum * (z[y] - z[y + 1]));
+            row_weight.push(row.sum::<f64>() * (z[y] - z[y + 1]));
         }
         let total: f64 = row_weight.iter().sum();
-        if !(total > 0.0 && total.is_finite()) {
-            return None;
-        }
-        let mut acc = 0.0f64;
-        let marginal_cdf = row_weight
-            .iter()
-            .map(|&r| {
-                acc += r;
-                (acc / total) as f32
-            })
-            .collect();
+        let marginal_cdf = normalized_cdf(row_weight.iter().copied())?;
         // ∫ f dω = Σ_rows Σₓ f · 2π/W · Δz.
         let integral = total * std::f64::consts::TAU / w as f64;
         Some(Distribution {
@@ -339,18 +325,6 @@ impl Distribution {
         let y = (((1.0 - uv.y) * self.height as f32) as usize).min(self.height - 1);
         self.func[y * self.width + x] * self.inv_total
     }
-}
-
-/// The entry of the cumulative distribution `cdf` (non-decreasing, ending at 1) that `u` in
-/// [0, 1) falls in, and where in it, rescaled to [0, 1). Entries of zero probability are
-/// never picked.
-#[inline]
-fn pick(cdf: &[f32], u: f32) -> (usize, f32) {
-    let i = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
-    let lo = if i == 0 { 0.0 } else { cdf[i - 1] };
-    let width = cdf[i] - lo;
-    let f = if width > 0.0 { ((u - lo) / width).clamp(0.0, ONE_BELOW) } else { 0.5 };
-    (i, f)
 }
 
 #[cfg(test)]

@@ -14,6 +14,7 @@
 
 mod background;
 mod choice;
+mod distribution;
 mod environment;
 mod point;
 mod sphere;
@@ -353,11 +354,12 @@ impl LightSet {
     }
 
     /// The most memory a set of `lights` emitting primitives takes (a textured triangle's
-    /// corner coordinates, the choice's tables and a light tree counted for each), for the
-    /// memory budget before it is built.
+    /// corner coordinates and cell distribution, the choice's tables and a light tree counted
+    /// for each), for the memory budget before it is built.
     pub fn bytes_for(lights: u64) -> u64 {
         let per = std::mem::size_of::<Emitter>()
             + std::mem::size_of::<triangle::TriangleTexture>()
+            + triangle::CELL_BYTES
             + 4 * 4 // probability, cumulative sum, group, the primitive's light
             + tree::BYTES_PER_LIGHT;
         lights.saturating_mul(per as u64)
@@ -477,10 +479,10 @@ impl LightSet {
             // Within the group by power, with what is left of `u`.
             let below = if start == 0 { 0.0 } else { self.cdf[start - 1] };
             let target = below + u * group.prob;
-            let i = (start + self.cdf[start..end].partition_point(|&c| c <= target)).min(end - 1);
+            let i = start + distribution::pick_index(&self.cdf[start..end], target);
             return (i, p_group * (self.prob[i] / group.prob));
         }
-        let i = self.cdf.partition_point(|&c| c <= u).min(n - 1);
+        let i = distribution::pick_index(&self.cdf, u);
         (i, self.prob[i])
     }
 
