@@ -329,17 +329,12 @@ impl<'a> Loader<'a> {
         if color.max_element() <= 0.0 {
             return Ok(None);
         }
-        let color = self.factor_texture(v, "sheenColorTexture", &at, color, Encoding::Srgb, map, ignored)?;
-        let roughness = self.factor_texture(
-            v,
-            "sheenRoughnessTexture",
-            &at,
-            Vec3::splat(roughness),
-            Encoding::Linear,
-            map,
-            ignored,
-        )?;
-        Ok(Some(Sheen { color, roughness }))
+        let mut texture =
+            |key: &str, factor: Vec3, encoding| self.factor_texture(v, key, &at, factor, encoding, map, ignored);
+        Ok(Some(Sheen {
+            color: texture("sheenColorTexture", color, Encoding::Srgb)?,
+            roughness: texture("sheenRoughnessTexture", Vec3::splat(roughness), Encoding::Linear)?,
+        }))
     }
 
     /// `KHR_materials_clearcoat`: its weight and roughness, each a factor times its texture if
@@ -360,18 +355,13 @@ impl<'a> Loader<'a> {
         if factor <= 0.0 {
             return Ok(None);
         }
-        let factor =
-            self.factor_texture(v, "clearcoatTexture", &at, Vec3::splat(factor), Encoding::Linear, map, ignored)?;
-        let roughness = self.factor_texture(
-            v,
-            "clearcoatRoughnessTexture",
-            &at,
-            Vec3::splat(roughness),
-            Encoding::Linear,
-            map,
-            ignored,
-        )?;
-        Ok(Some(Clearcoat { factor, roughness }))
+        let mut texture = |key: &str, factor: f32| {
+            self.factor_texture(v, key, &at, Vec3::splat(factor), Encoding::Linear, map, ignored)
+        };
+        Ok(Some(Clearcoat {
+            factor: texture("clearcoatTexture", factor)?,
+            roughness: texture("clearcoatRoughnessTexture", roughness)?,
+        }))
     }
 
     /// An extension's factor `factor` times its texture `key` (a `textureInfo` in the
