@@ -4,10 +4,10 @@
 
 use super::choice::ONE_BELOW;
 
-/// The cumulative sums of `weights` (not negative) divided by their total, so that the last
-/// is 1; `None` if the total is not positive and finite. Accumulated in f64.
-pub(super) fn normalized_cdf(weights: impl Iterator<Item = f64> + Clone) -> Option<Vec<f32>> {
-    let total: f64 = weights.clone().sum();
+/// The cumulative sums of `weights` (not negative) divided by `total`, their sum (which the
+/// callers need themselves, so they pass it), so that the last is 1; `None` if the total is
+/// not positive and finite. Accumulated in f64.
+pub(super) fn normalized_cdf(weights: impl Iterator<Item = f64>, total: f64) -> Option<Vec<f32>> {
     if !(total > 0.0 && total.is_finite()) {
         return None;
     }
@@ -53,7 +53,7 @@ mod tests {
 
     #[test]
     fn picks_in_proportion_to_the_weights_and_never_a_zero_weight() {
-        let cdf = normalized_cdf([1.0, 0.0, 3.0].into_iter()).unwrap();
+        let cdf = normalized_cdf([1.0, 0.0, 3.0].into_iter(), 4.0).unwrap();
         assert_eq!(cdf, vec![0.25, 0.25, 1.0]);
         assert_eq!(pick(&cdf, 0.0), (0, 0.0));
         assert_eq!(pick(&cdf, 0.125), (0, 0.5));
@@ -61,7 +61,7 @@ mod tests {
         assert_eq!(pick(&cdf, 0.625), (2, 0.5));
         assert_eq!(pick(&cdf, ONE_BELOW).0, 2);
         assert_eq!([0, 1, 2].map(|i| probability(&cdf, i)), [0.25, 0.0, 0.75]);
-        assert!(normalized_cdf([0.0, 0.0].into_iter()).is_none());
-        assert!(normalized_cdf([1.0, f64::INFINITY].into_iter()).is_none());
+        assert!(normalized_cdf([0.0, 0.0].into_iter(), 0.0).is_none());
+        assert!(normalized_cdf([1.0, f64::INFINITY].into_iter(), f64::INFINITY).is_none());
     }
 }

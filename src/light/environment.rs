@@ -273,15 +273,16 @@ impl Distribution {
         let mut row_cdf = Vec::with_capacity(w * h);
         let mut row_weight = Vec::with_capacity(h);
         for y in 0..h {
-            let row = func[y * w..(y + 1) * w].iter().map(|&f| f as f64);
-            match normalized_cdf(row.clone()) {
+            let row = || func[y * w..(y + 1) * w].iter().map(|&f| f as f64);
+            let sum: f64 = row().sum();
+            match normalized_cdf(row(), sum) {
                 Some(cdf) => row_cdf.extend(cdf),
                 None => row_cdf.extend((0..w).map(|x| (x + 1) as f32 / w as f32)),
             }
-            row_weight.push(row.sum::<f64>() * (z[y] - z[y + 1]));
+            row_weight.push(sum * (z[y] - z[y + 1]));
         }
         let total: f64 = row_weight.iter().sum();
-        let marginal_cdf = normalized_cdf(row_weight.iter().copied())?;
+        let marginal_cdf = normalized_cdf(row_weight.iter().copied(), total)?;
         // ∫ f dω = Σ_rows Σₓ f · 2π/W · Δz.
         let integral = total * std::f64::consts::TAU / w as f64;
         Some(Distribution {

@@ -29,10 +29,10 @@ pub(super) struct EmissiveTriangle {
 ///
 /// Points on the triangle are made from points u of the unit square by an area-preserving map
 /// ([`uniform_barycentrics`]), so the square's [`CELLS`]² equal cells are equal parts of the
-/// triangle. Each cell is weighted by the texture's luminance at its centre, read at the
-/// cell's footprint (mostly the texels in it), mixed with a uniform share
-/// ([`UNIFORM_SHARE`]), so that no cell is left unsampled where the centre misses light the
-/// cell has: unbiased whatever the texture. A triangle whose texture is within
+/// triangle. Each cell is weighted by the largest of the texture's luminances at its centre
+/// and corners, read at the cell's footprint, mixed with a uniform share ([`UNIFORM_SHARE`]),
+/// so that no cell is left unsampled where those points miss light the cell has: unbiased
+/// whatever the texture. A triangle whose texture is within
 /// [`FLAT_RATIO`] over it (at the points of its mean, then at the cells') is sampled uniformly.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct TriangleTexture {
@@ -48,7 +48,7 @@ const CELLS: usize = 8;
 pub(super) const CELL_BYTES: usize = CELLS * CELLS * size_of::<f32>();
 /// The share of the probability spread uniformly over the cells.
 const UNIFORM_SHARE: f64 = 0.1;
-/// Cells whose weights differ by less than this factor are sampled uniformly.
+/// A triangle whose texture varies by less than this factor over it is sampled uniformly.
 const FLAT_RATIO: f32 = 1.5;
 
 impl TriangleTexture {
@@ -217,7 +217,8 @@ fn cell_distribution(tex: &TriangleTexture, width: f32) -> Option<Box<[f32]>> {
     }
     let total: f64 = lum.iter().map(|&l| l as f64).sum();
     let uniform = UNIFORM_SHARE / (CELLS * CELLS) as f64;
-    normalized_cdf(lum.iter().map(|&l| (1.0 - UNIFORM_SHARE) * l as f64 / total + uniform)).map(Vec::into_boxed_slice)
+    let weights: Vec<f64> = lum.iter().map(|&l| (1.0 - UNIFORM_SHARE) * l as f64 / total + uniform).collect();
+    normalized_cdf(weights.iter().copied(), weights.iter().sum()).map(Vec::into_boxed_slice)
 }
 
 /// The density over the unit square of a cell distribution `cdf` at the point whose

@@ -115,12 +115,12 @@ fn validated(json: gltf::json::Root) -> Result<gltf::Document, gltf::Error> {
         .collect();
     // Required extensions read here, which the crate may report as unsupported (it knows
     // neither the compression extensions nor KHR_mesh_quantization).
-    let decoded_here: Vec<String> = SUPPORTED
+    let read_here: Vec<String> = SUPPORTED
         .iter()
         .filter(|e| json.extensions_required.iter().any(|r| r == *e))
         .map(|e| format!("= \"{e}\""))
         .collect();
-    if compressed.is_empty() && decoded_here.is_empty() {
+    if compressed.is_empty() && read_here.is_empty() {
         return gltf::Document::from_json(json);
     }
     match gltf::Document::from_json(json.clone()) {
@@ -132,7 +132,7 @@ fn validated(json: gltf::json::Root) -> Result<gltf::Document, gltf::Error> {
                     !(matches!(e, Missing) && compressed.contains(p.as_str())
                         || matches!(e, Unsupported)
                             && p.as_str().starts_with("extensions")
-                            && decoded_here.iter().any(|d| p.as_str().ends_with(d.as_str())))
+                            && read_here.iter().any(|d| p.as_str().ends_with(d.as_str())))
                 })
                 .collect();
             if rest.is_empty() {

@@ -52,7 +52,7 @@ pub fn decode_views(doc: &gltf::Document, buffers: &mut [Vec<u8>]) -> Result<(),
             .ok_or_else(|| {
                 fail(format!("its bytes ({offset} + {length} of buffers[{source_buffer}]) are out of range"))
             })?
-            .to_vec();
+            .to_vec(); // a copy: the source may lie in the buffer the view is decoded into
         let decoded = count.checked_mul(stride).filter(|&n| n == view.length()).ok_or_else(|| {
             fail(format!("count {count} × byteStride {stride} is not the view's byteLength {}", view.length()))
         })?;
