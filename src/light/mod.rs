@@ -134,9 +134,10 @@ struct Group {
     prob: f32,
 }
 
-/// How a light is chosen at one shading point ([`LightSet::choice_at`]).
+/// How a light is chosen at one shading point ([`LightSet::choice_at`]), and which side of it
+/// the skies light ([`LightChoice::facing`]).
 #[derive(Clone, Copy, Debug)]
-pub struct LightChoice(How);
+pub struct LightChoice(How, Vec3);
 
 #[derive(Clone, Copy, Debug)]
 enum How {
@@ -151,7 +152,16 @@ enum How {
 
 impl LightChoice {
     /// In proportion to power, wherever the point.
-    pub const BY_POWER: LightChoice = LightChoice(How::Power);
+    pub const BY_POWER: LightChoice = LightChoice(How::Power, Vec3::ZERO);
+
+    /// The same at a point of an opaque surface lit on the side `n` faces (its geometric
+    /// normal, turned toward the viewer): the constant and gradient skies are sampled by the
+    /// cosine about it (`background.rs`). Without it, or with `n` zero (glass, lit from both
+    /// sides), they are sampled over the whole sphere.
+    #[inline]
+    pub fn facing(self, n: Vec3) -> LightChoice {
+        LightChoice(self.0, n)
+    }
 }
 
 /// All lights of a scene, and how one is chosen.
@@ -423,7 +433,7 @@ impl LightSet {
     /// Out of line, so that kernels for one light (or many) carry none of its code.
     #[inline(never)]
     fn local_choice(&self, p: Vec3) -> LightChoice {
-        LightChoice(LocalChoice::at(&self.bounds, p).map_or(How::Power, How::Groups))
+        LightChoice(LocalChoice::at(&self.bounds, p).map_or(How::Power, How::Groups), Vec3::ZERO)
     }
 
     /// The tree against the background at `p` (by power where neither can bring light).
@@ -434,7 +444,7 @@ impl LightSet {
         if !(total > 0.0 && total.is_finite()) {
             return LightChoice::BY_POWER;
         }
-        LightChoice(How::Tree { p, tree: t / total })
+        LightChoice(How::Tree { p, tree: t / total }, Vec3::ZERO)
     }
 
     /// A light of the tree (or the background) chosen at `p`, as [`LightSet::choose`].
@@ -522,7 +532,7 @@ impl LightSet {
             Emitter::Point(l) => l.sample(p, sel),
             Emitter::Triangle(t) => t.sample(p, sel, u),
             Emitter::Sphere(s) => s.sample(p, sel, u),
-            Emitter::Background => self.background.sample(sel, u),
+            Emitter::Background => self.background.sample(sel, u, choice.1),
         };
         sample.map(|s| LightSample { light: i as u32, ..s })
     }
@@ -578,7 +588,7 @@ impl LightSet {
     /// Density with which `sample` (with `choice`) picks the unit direction `d` toward the
     /// background.
     pub fn pdf_background(&self, choice: &LightChoice, d: Vec3) -> f32 {
-        self.background_index.map_or(0.0, |i| self.background.pdf(self.choice_probability(choice, i), d))
+        self.background_index.map_or(0.0, |i| self.background.pdf(self.choice_probability(choice, i), d, choice.1))
     }
 }
 

@@ -12,7 +12,7 @@
 //!   margin.
 //! - Metal at roughness 1, seen head-on, reflects 1 − ln 2 ≈ 0.3069 (the single-scattering
 //!   albedo of GGX with α = 1 at normal incidence, see `src/material/conductor.rs`): the
-//!   centre pixel must hold that within 4 standard errors + 1%.
+//!   3 × 3 pixels at the centre must hold that within 4 standard errors + 1%.
 
 use super::super::pixel::{blocks, grey};
 use super::super::scenes::CaseSceneBuilder;
@@ -52,11 +52,16 @@ pub fn check(run: &CaseRun) -> Result<Verdict, CheckError> {
         v.detail.push_str(&format!("; {name}: max (block − 1)/(4SE + 1%) = {worst:.2}"));
         v = v.require(worst <= 1.0, format!("{name} gains energy: the 5 × 5 block at ({x}, {y}) = {block_mean:.4}"));
         if i == 0 {
-            let c = (h / 2 * w + w / 2) as usize;
-            let (got, want) = (grey(mean.pixels[c]), 1.0 - std::f64::consts::LN_2);
+            // The 3 × 3 pixels at the centre (normals within ~6° of the view at the quick
+            // size, where they reflect 0.4% more than head-on), whose standard error pools 9
+            // pixels' estimates: one pixel's, from 4 seeds, can be several times too small.
+            let centre: Vec<usize> = (0..9).map(|k| ((h / 2 + k / 3 - 1) * w + w / 2 + k % 3 - 1) as usize).collect();
+            let got = centre.iter().map(|&c| grey(mean.pixels[c])).sum::<f64>() / 9.0;
+            let se_centre = centre.iter().map(|&c| se[c] * se[c]).sum::<f64>().sqrt() / 9.0;
+            let want = 1.0 - std::f64::consts::LN_2;
             v.detail.push_str(&format!(", centre {got:.4} (1 − ln 2 = {want:.4})"));
             v = v.require(
-                (got - want).abs() <= 4.0 * se[c] + 0.01 * want,
+                (got - want).abs() <= 4.0 * se_centre + 0.01 * want,
                 format!("metal r=1 head-on reflects {got:.4}, want 1 − ln 2 = {want:.4}"),
             );
         }
