@@ -9,7 +9,7 @@
 //! the image are the same, bit for bit, whether the auxiliary images are taken or not, and a
 //! render that does not take them runs exactly the code it ran before.
 
-use super::path::PathContext;
+use super::context::PathContext;
 use super::surface::surface_point;
 use crate::accel::Accel;
 use crate::geometry::{Frame, Hit, Ray, offset_ray_origin, offset_toward};

@@ -30,7 +30,8 @@
 //! identically in both.
 
 use super::aux::{AuxSample, aux_sample};
-use super::path::{PathContext, radiance};
+use super::context::PathContext;
+use super::path::radiance;
 use crate::accel::{Accel, AccelError, LANES};
 use crate::geometry::{Ray, RayPacket};
 use crate::sampler::{PixelSampler, SampleStream};

@@ -31,12 +31,12 @@
 //! ray. On Embree's Cornell box a sample traces about 1.2× the rays of a render without light
 //! vertices, for about half the relMSE (the figures: docs/performance.md, "Light vertices").
 
-use super::path::PathContext;
-use super::surface::surface_point;
+use super::surface::{FaceNormals, surface_point};
 use crate::accel::Accel;
 use crate::geometry::{Frame, Ray, offset_toward};
 use crate::light::{LightSample, LightSet, uniform_sphere};
 use crate::material::{Bsdf, BsdfModel};
+use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -133,7 +133,7 @@ impl LightVertexPool {
     /// through `accel` (errors deferred, as the path's queries are: the caller checks
     /// [`Accel::deferred_error`]). The same for every kernel, thread count and shard.
     pub fn build(
-        ctx: &PathContext,
+        (scene, normals, lights): (&Scene, &FaceNormals, &LightSet),
         accel: &dyn Accel,
         seed: u64,
         (width, height): (u32, u32),
@@ -145,7 +145,7 @@ impl LightVertexPool {
         let vertices = (0..index.size())
             .map(|i| {
                 let u = sobol_burley::sample_4d(i, 0, scramble);
-                trace(ctx, accel, u[2], Vec2::new(u[0], u[1]), &mut rays)
+                trace((scene, normals, lights), accel, u[2], Vec2::new(u[0], u[1]), &mut rays)
             })
             .collect();
         LightVertexPool { vertices, index, rays }
@@ -183,12 +183,18 @@ impl<'a> SampleLightVertices<'a> {
 /// direction `uniform_sphere(u)` from it: the surface the ray hits (`None` if it leaves the
 /// scene or lands on a mirror or glass, where no path could connect). Built with the general
 /// kernel's code (every switch on), whose results are the specialised kernels' bit for bit.
-fn trace(ctx: &PathContext, accel: &dyn Accel, u_choice: f32, u: Vec2, rays: &mut u64) -> Option<LightVertex> {
-    let e = ctx.lights.choose_point_by_power(u_choice)?;
+fn trace(
+    (scene, normals, lights): (&Scene, &FaceNormals, &LightSet),
+    accel: &dyn Accel,
+    u_choice: f32,
+    u: Vec2,
+    rays: &mut u64,
+) -> Option<LightVertex> {
+    let e = lights.choose_point_by_power(u_choice)?;
     let ray = Ray::new(e.position, uniform_sphere(u));
     *rays += 1;
     let hit = accel.intersect_deferred(&ray, 0.0, f32::INFINITY)?;
-    let sp = surface_point::<true>(ctx.scene, ctx.normals, &ray, &hit);
+    let sp = surface_point::<true>(scene, normals, &ray, &hit);
     let bsdf = sp.material.bsdf_at::<true>(&sp.tex);
     if bsdf.is_delta() {
         return None;
@@ -209,7 +215,7 @@ fn trace(ctx: &PathContext, accel: &dyn Accel, u_choice: f32, u: Vec2, rays: &mu
         to_light,
         scale: e.intensity * (4.0 * PI / (e.prob * cos_g)),
         p_conn: e.prob * cos_g / (4.0 * PI * r2),
-        p_choice: ctx.lights.choice_probability_at(sp.p, e.light),
+        p_choice: lights.choice_probability_at(sp.p, e.light),
     })
 }
 

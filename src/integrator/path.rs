@@ -2,16 +2,15 @@
 //! estimation and multiple importance sampling (power heuristic, Veach 1997) against BSDF
 //! sampling, and Russian roulette.
 
-use super::light_vertex::{self, LightVertexPool, PathVertex, SampleLightVertices};
-use super::surface::{FaceNormals, facing_shading_normal, surface_point};
+use super::context::PathContext;
+use super::light_vertex::{self, PathVertex, SampleLightVertices};
+use super::surface::{facing_shading_normal, surface_point};
 use crate::accel::Accel;
-use crate::camera::Camera;
 use crate::geometry::{Frame, Hit, Ray, offset_ray_origin, offset_toward};
-use crate::light::{LightChoice, LightSet};
+use crate::light::LightChoice;
 use crate::material::{Bsdf, BsdfModel, BsdfSample};
 use crate::sampler::SampleStream;
-use crate::scene::Scene;
-use crate::settings::{Estimator, RenderSettings};
+use crate::settings::Estimator;
 use glam::Vec3;
 
 /// Power heuristic with β = 2.
@@ -19,23 +18,6 @@ use glam::Vec3;
 fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
-}
-
-/// Everything one path needs, shared by all pixels.
-pub struct PathContext<'a> {
-    pub scene: &'a Scene,
-    pub accel: &'a dyn Accel,
-    pub lights: &'a LightSet,
-    pub normals: &'a FaceNormals,
-    pub camera: &'a Camera,
-    pub settings: &'a RenderSettings,
-    /// [`super::RenderPlan::path_depth`]: the most bounces a path takes.
-    pub path_depth: u32,
-    /// [`super::RenderPlan::roulette_start`]: Russian roulette runs after this many bounces
-    /// (`u32::MAX`: never).
-    pub roulette_start: u32,
-    /// The light vertices paths connect to, if [`super::RenderPlan::light_vertices`].
-    pub light_vertices: Option<&'a LightVertexPool>,
 }
 
 /// Radiance along the camera ray `ray`, whose closest hit `first` the caller traced, then

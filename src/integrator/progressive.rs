@@ -24,9 +24,9 @@
 
 use super::adaptive;
 use super::aux::AuxSample;
+use super::context::PathContext;
 use super::kernel::SampleFn;
 use super::light_vertex::LightVertexPool;
-use super::path::PathContext;
 use super::surface::FaceNormals;
 use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
@@ -289,7 +289,9 @@ pub(super) fn run(
         roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
         light_vertices: None,
     };
-    let pool = plan.light_vertices.then(|| LightVertexPool::build(&ctx, accel, settings.seed, (w, h), settings.spp));
+    let pool = plan
+        .light_vertices
+        .then(|| LightVertexPool::build((scene, &normals, &lights), accel, settings.seed, (w, h), settings.spp));
     accel.deferred_error()?;
     ctx.light_vertices = pool.as_ref();
     // A shard renders only its own tiles.

@@ -1,0 +1,29 @@
+//! What every path of a render reads: the scene, its accelerator and lights, the camera, the
+//! settings and what the render plan decided. Built once per render by the render loop
+//! (`progressive.rs`); the kernels (`kernel.rs`), the path tracer (`path.rs`) and the
+//! auxiliary images (`aux.rs`) take it.
+
+use super::light_vertex::LightVertexPool;
+use super::surface::FaceNormals;
+use crate::accel::Accel;
+use crate::camera::Camera;
+use crate::light::LightSet;
+use crate::scene::Scene;
+use crate::settings::RenderSettings;
+
+/// Everything one path needs, shared by all pixels.
+pub struct PathContext<'a> {
+    pub scene: &'a Scene,
+    pub accel: &'a dyn Accel,
+    pub lights: &'a LightSet,
+    pub normals: &'a FaceNormals,
+    pub camera: &'a Camera,
+    pub settings: &'a RenderSettings,
+    /// [`super::RenderPlan::path_depth`]: the most bounces a path takes.
+    pub path_depth: u32,
+    /// [`super::RenderPlan::roulette_start`]: Russian roulette runs after this many bounces
+    /// (`u32::MAX`: never).
+    pub roulette_start: u32,
+    /// The light vertices paths connect to, if [`super::RenderPlan::light_vertices`].
+    pub light_vertices: Option<&'a LightVertexPool>,
+}
