@@ -599,6 +599,26 @@ def textured_layers():
     export("ext_sheen_textured.glb")
 
 
+def coat_normal():
+    """A clear coat with its own normal map (Principled "Coat Normal" fed by a Normal Map node),
+    the base's normal left alone: 16 longitude sectors of 4 columns, alternately tilting the
+    coat's normal 20 degrees towards green + (the bitangent, up the image: v = 0, the north
+    pole) and green -; no TANGENT written (a renderer computes MikkTSpace tangents for it)."""
+    new_scene()
+    px = np.zeros((64, 64, 3), np.uint8)
+    for s in range(16):
+        px[:, 4 * s:4 * s + 4] = tilt_rgb(0.0, S if s % 2 == 0 else -S, C)
+    m = Mat("clearcoat_normal", base=(0.8, 0.05, 0.05), roughness=0.6)
+    m.set(**{"Coat Weight": 1.0, "Coat Roughness": 0.05})
+    t = m.tex(image("coat_normal_sectors", px, "Non-Color"))
+    nm = m.node("ShaderNodeNormalMap", uv_map="UVMap")
+    m.link(t.outputs["Color"], nm.inputs["Color"])
+    m.link(nm.outputs["Normal"], m.p.inputs["Coat Normal"])
+    ob = uv_sphere("clearcoat_normal", 32, 16)
+    ob.data.materials.append(m.m)
+    export("ext_clearcoat_normal.glb")
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     metal_rough_sphere()
@@ -612,6 +632,7 @@ def main():
     draco()
     extensions()
     textured_layers()
+    coat_normal()
     import io_scene_gltf2
     import trimesh
     print(f"Blender {bpy.app.version_string}, glTF add-on {'.'.join(map(str, io_scene_gltf2.bl_info['version']))}, "
