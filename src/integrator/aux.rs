@@ -70,6 +70,10 @@ pub(crate) fn aux_sample<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool,
         let transmissive = bsdf.is_transmissive();
         let (ng, ns) = if transmissive || facing { (sp.ng, sp.ns) } else { (-sp.ng, -sp.ns) };
         let frame = Frame::from_normal(ns);
+        let bsdf = match sp.coat_normal(ng) {
+            Some(n) => bsdf.with_coat_normal(frame.to_local(n)),
+            None => bsdf,
+        };
         let rng =
             rng.get_or_insert_with(|| PixelStreams::new(ctx.settings.seed ^ AUX_STREAM_KEY, pixel).sample(sample));
         let Some(bs) = bsdf.sample(frame.to_local(wo), rng.next_2d(), rng.next_f32()) else { return here };

@@ -200,6 +200,11 @@ fn trace(
         return None;
     }
     let (ng, ns) = if ray.d.dot(sp.ng) > 0.0 { (-sp.ng, -sp.ns) } else { (sp.ng, sp.ns) };
+    let frame = Frame::from_normal(ns);
+    let bsdf = match sp.coat_normal(ng) {
+        Some(n) => bsdf.with_coat_normal(frame.to_local(n)),
+        None => bsdf,
+    };
     let to_l = e.position - sp.p;
     let r2 = to_l.length_squared();
     let to_light = to_l / r2.sqrt();
@@ -210,7 +215,7 @@ fn trace(
     Some(LightVertex {
         p: sp.p,
         ng,
-        frame: Frame::from_normal(ns),
+        frame,
         bsdf,
         to_light,
         scale: e.intensity * (4.0 * PI / (e.prob * cos_g)),

@@ -118,6 +118,11 @@ pub(crate) fn radiance<
             ns = facing_shading_normal(wo, ng, ns);
         }
         let frame = Frame::from_normal(ns);
+        // A clear coat's own normal, turned and made to face `wo` as `ns` is.
+        let bsdf = match sp.coat_normal(ng) {
+            Some(n) => bsdf.with_coat_normal(frame.to_local(facing_shading_normal(wo, ng, n))),
+            None => bsdf,
+        };
         // Without glossy or glass materials every BSDF is Lambertian: evaluated and sampled
         // inline (the same arithmetic as through `Bsdf`'s dispatch), and only the cosines of
         // local directions matter to it.

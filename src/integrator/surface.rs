@@ -16,9 +16,22 @@ pub struct SurfacePoint<'a> {
     pub ng: Vec3,
     /// Unit shading normal, on the same side as `ng`.
     pub ns: Vec3,
+    /// A clear coat's own unit shading normal (from its normal map, in the tangent frame of
+    /// `ns` before the base's normal map), on the same side as `ng`; `None`: the coat, if
+    /// any, has `ns`.
+    pub coat_ns: Option<Vec3>,
     /// Where textures are looked up.
     pub tex: TexCoords,
     pub material: &'a Material,
+}
+
+impl SurfacePoint<'_> {
+    /// [`SurfacePoint::coat_ns`] on the side of `ng`, the geometric normal turned (or not) to
+    /// the side the surface is shaded from: turned over with it.
+    #[inline]
+    pub fn coat_normal(&self, ng: Vec3) -> Option<Vec3> {
+        self.coat_ns.map(|n| if ng.dot(self.ng) < 0.0 { -n } else { n })
+    }
 }
 
 /// The shading normal `ns` perturbed by a normal map's `local` normal (tangent space: x along
@@ -120,15 +133,18 @@ pub fn surface_point<'a, const TEX: bool>(
             let ng = if n != Vec3::ZERO { n } else { inst.to_object.transform_vector3(-ray.d) };
             let local = on_mesh::<TEX>(&inst.mesh, ng, hit, material);
             let ng = Some(inst.normal(local.ng)).filter(|n| *n != Vec3::ZERO).unwrap_or(-ray.d);
-            let ns = inst.normal(local.ns);
-            let ns = if ns == Vec3::ZERO {
-                ng
-            } else if ns.dot(ng) < 0.0 {
-                -ns
-            } else {
-                ns
+            let placed = |n: Vec3| {
+                let n = inst.normal(n);
+                if n == Vec3::ZERO {
+                    ng
+                } else if n.dot(ng) < 0.0 {
+                    -n
+                } else {
+                    n
+                }
             };
-            SurfacePoint { p: inst.to_world.transform_point3(local.p), ng, ns, ..local }
+            let (ns, coat_ns) = (placed(local.ns), local.coat_ns.map(placed));
+            SurfacePoint { p: inst.to_world.transform_point3(local.p), ng, ns, coat_ns, ..local }
         }
         Geometry::Spheres(s) => {
             let ng = hit.ng.normalize_or(-ray.d);
@@ -140,6 +156,7 @@ pub fn surface_point<'a, const TEX: bool>(
                 p: s.center + s.radius * n,
                 ng: n,
                 ns: n,
+                coat_ns: None,
                 tex: TexCoords::new(Vec2::new(hit.u, hit.v)),
                 material,
             }
@@ -148,7 +165,7 @@ pub fn surface_point<'a, const TEX: bool>(
             let ng = hit.ng.normalize_or(-ray.d);
             // o + t·d carries the rounding error of a distant origin: project onto the surface.
             let (p, _) = c[hit.prim as usize].project(ray.at(hit.t), ng);
-            SurfacePoint { p, ng, ns: ng, tex: TexCoords::new(Vec2::new(hit.u, hit.v)), material }
+            SurfacePoint { p, ng, ns: ng, coat_ns: None, tex: TexCoords::new(Vec2::new(hit.u, hit.v)), material }
         }
     }
 }
@@ -172,16 +189,17 @@ fn on_mesh<'a, const TEX: bool>(m: &TriMesh, ng: Vec3, hit: &Hit, material: &'a 
     let uv = if !TEX || m.uvs.is_empty() { Vec2::new(u, v) } else { at(&m.uvs) };
     let uv1 = if !TEX || m.uvs1.is_empty() { uv } else { at(&m.uvs1) };
     let tex = TexCoords { uv: [uv, uv1], width: 0.0 };
-    let ns = if TEX && !m.tangents.is_empty() {
+    // Both normal maps perturb the interpolated normal, in the same tangent frame.
+    let (ns, coat_ns) = if TEX && !m.tangents.is_empty() {
         let [t0, t1, t2] = m.tangents[hit.prim as usize];
-        match material.kind.normal_at::<TEX>(&tex) {
-            Some(local) => normal_mapped(ns, ng, w * t0 + u * t1 + v * t2, local),
-            None => ns,
-        }
+        let tangent = w * t0 + u * t1 + v * t2;
+        let mapped = |local: Option<Vec3>| local.map(|local| normal_mapped(ns, ng, tangent, local));
+        let coat_ns = mapped(material.kind.coat_normal_at::<TEX>(&tex));
+        (mapped(material.kind.normal_at::<TEX>(&tex)).unwrap_or(ns), coat_ns)
     } else {
-        ns
+        (ns, None)
     };
-    SurfacePoint { p, ng, ns, tex, material }
+    SurfacePoint { p, ng, ns, coat_ns, tex, material }
 }
 
 #[cfg(test)]

@@ -29,8 +29,11 @@
 //!   `wi` through its non-delta lobes (including the lobe-selection probability).
 //! - Delta lobes follow pbrt: `f = F / |cos θi|` and `pdf` = the discrete probability of picking
 //!   the lobe, so `f * |wi.z| / pdf` is the throughput multiplier.
-//! - Opaque BSDFs (diffuse, conductor, plastic) are zero when `wo` or `wi` lies below — or
-//!   within [`MIN_COS`] of — the surface plane; the caller flips the frame so that `wo.z > 0`.
+//! - Opaque BSDFs (diffuse, conductor, plastic, glTF's) are zero when `wo` or `wi` lies below
+//!   — or within [`MIN_COS`] of — the surface plane; the caller flips the frame so that
+//!   `wo.z > 0`. One exception: a clear coat with its own normal (`pbr.rs`) reflects about it,
+//!   bounded by its own plane, so its `wi` may lie below the shading plane (the caller keeps
+//!   only directions above the geometric surface).
 //! - No method returns NaN or infinity for unit-length inputs.
 
 mod albedo;
@@ -81,6 +84,14 @@ pub trait MaterialModel {
         None
     }
 
+    /// A clear coat's own normal, in the same tangent frame as [`MaterialModel::normal_at`]'s
+    /// (z along the interpolated normal, not the mapped one), if the kind has one (a coat
+    /// normal map); `None`: the coat, if any, has the shading normal.
+    #[inline(always)]
+    fn coat_normal_at<const TEX: bool>(&self, _at: &TexCoords) -> Option<Vec3> {
+        None
+    }
+
     /// The largest fraction of light it sends on in one bounce, for the best colour channel
     /// and where its colour is brightest (a texture's largest texel), at normal incidence: a
     /// guide rather than a bound (towards grazing angles metals and coatings reflect more).
@@ -98,8 +109,8 @@ pub trait MaterialModel {
         Vec::new()
     }
 
-    /// Whether it perturbs the shading normal ([`MaterialModel::normal_at`]): the surface
-    /// then needs tangents.
+    /// Whether it perturbs the shading normal or a layer's own ([`MaterialModel::normal_at`],
+    /// [`MaterialModel::coat_normal_at`]): the surface then needs tangents.
     fn has_normal_map(&self) -> bool {
         false
     }
@@ -191,6 +202,10 @@ macro_rules! material_kinds {
             #[inline(always)]
             fn normal_at<const TEX: bool>(&self, at: &TexCoords) -> Option<Vec3> {
                 match self { $(MaterialKind::$variant(m) => m.normal_at::<TEX>(at),)* }
+            }
+            #[inline(always)]
+            fn coat_normal_at<const TEX: bool>(&self, at: &TexCoords) -> Option<Vec3> {
+                match self { $(MaterialKind::$variant(m) => m.coat_normal_at::<TEX>(at),)* }
             }
             fn albedo(&self) -> f32 {
                 match self { $(MaterialKind::$variant(m) => m.albedo(),)* }
@@ -405,6 +420,16 @@ impl Bsdf {
     /// 1.5, without `KHR_materials_specular`.
     pub fn pbr(base: Vec3, metallic: f32, roughness: f32) -> Bsdf {
         Bsdf::Pbr(PbrBsdf::new(base, metallic, roughness, 1.5, 1.0, Vec3::ONE))
+    }
+
+    /// The same with a clear coat's own normal `n` (unit, in the shading frame, facing the
+    /// viewer: [`PbrBsdf::with_coat_normal`]); unchanged for a BSDF without a coat.
+    #[inline]
+    pub fn with_coat_normal(self, n: Vec3) -> Bsdf {
+        match self {
+            Bsdf::Pbr(b) => Bsdf::Pbr(b.with_coat_normal(n)),
+            b => b,
+        }
     }
 
     /// [`BsdfModel::eval`] where the caller knows every BSDF is Lambertian (kernels without

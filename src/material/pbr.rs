@@ -16,7 +16,7 @@
 //!   that depend on the view.
 //! - **Textures**: base colour (RGBA: alpha for `MASK` and `BLEND`), metallic-roughness
 //!   (B = metalness, G = roughness), normal map (tangent space, scaled in x and y by its
-//!   `scale`), the coat's weight (R) and roughness (G), the sheen's colour (RGB) and
+//!   `scale`), the coat's weight (R), roughness (G) and normal map, the sheen's colour (RGB) and
 //!   roughness (A) — each times its factor. Roughness 0 is a smooth layer: a delta reflection
 //!   over the diffuse base (a pure mirror where the metalness is 1).
 //! - **Sheen** (`KHR_materials_sheen`, `sheen.rs`): a back-scattering fibre lobe of colour
@@ -24,7 +24,12 @@
 //! - **Clear coat** (`KHR_materials_clearcoat`): a second dielectric GGX layer of index 1.5,
 //!   weight `clearcoat` and α = clearcoat roughness², over all of the above, which it scales
 //!   by 1 − the coat's directional albedo at the view (so the sum never exceeds what comes
-//!   in). It shares the shading normal (the spec's separate coat normal map is not read).
+//!   in). Its normal is the shading normal, or its own where it has a normal map
+//!   (`clearcoatNormalTexture`: tangent space, the base normal map's tangent frame, scaled by
+//!   its `scale`; applied to the interpolated normal, not to the base's mapped one): the coat's
+//!   lobe, its albedo and its cosine are then taken about that normal, its lobe bounded by its
+//!   own plane ([`PbrBsdf::with_coat_normal`]), while the layers under it keep the shading
+//!   normal and its hemisphere.
 //! - **Sampling**: the coat with the probability of its share of the albedo at this view,
 //!   then the sheen (cosine-weighted) likewise, then the specular lobe, else the
 //!   cosine-weighted base; the pdf is the mixture,
@@ -40,6 +45,7 @@ use super::fresnel::{fresnel_dielectric, fresnel_schlick};
 use super::microfacet::Ggx;
 use super::sheen;
 use super::{BsdfModel, BsdfSample, Lobes, MIN_COS, MaterialModel, coated, reflect, reflect_z, same_hemisphere_above};
+use crate::geometry::Frame;
 use crate::hash::Fingerprint;
 use crate::light::luminance;
 use crate::texture::{TexCoords, Texture};
@@ -63,6 +69,16 @@ pub struct NormalMap {
     pub texture: Texture,
     /// glTF `normalTexture.scale`: multiplies the map's x and y.
     pub scale: f32,
+}
+
+impl NormalMap {
+    /// The unit normal it gives at `at`, in the tangent frame (x along the tangent, y along
+    /// the bitangent, z along the interpolated normal).
+    #[inline(always)]
+    fn at(&self, at: &TexCoords) -> Vec3 {
+        let c = self.texture.eval(at) * 2.0 - Vec3::ONE;
+        Vec3::new(c.x * self.scale, c.y * self.scale, c.z).normalize_or(Vec3::Z)
+    }
 }
 
 /// The glTF metallic-roughness material: see the module documentation.
@@ -99,8 +115,8 @@ pub struct Sheen {
     pub roughness: Texture,
 }
 
-/// A clear coat's weight and roughness (glTF's `clearcoatFactor`, `clearcoatRoughnessFactor`
-/// and their textures).
+/// A clear coat's weight, roughness and normal (glTF's `clearcoatFactor`,
+/// `clearcoatRoughnessFactor`, their textures, and `clearcoatNormalTexture`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Clearcoat {
     /// The coat's weight in `x`: a map's red (`clearcoatTexture`) times the factor, or the factor.
@@ -108,6 +124,9 @@ pub struct Clearcoat {
     /// The coat's roughness in `y`: a map's green (`clearcoatRoughnessTexture`) times the
     /// factor, or the factor.
     pub roughness: Texture,
+    /// The coat's own normal map (`clearcoatNormalTexture`, in the tangent frame of the base's
+    /// normal map); `None`: the coat has the shading normal.
+    pub normal: Option<NormalMap>,
 }
 
 /// The index of refraction of a clear coat (glTF: F0 = 0.04).
@@ -157,9 +176,12 @@ impl MaterialModel for PbrMaterial {
 
     #[inline(always)]
     fn normal_at<const TEX: bool>(&self, at: &TexCoords) -> Option<Vec3> {
-        let n = self.normal.as_ref().filter(|_| TEX)?;
-        let c = n.texture.eval(at) * 2.0 - Vec3::ONE;
-        Some(Vec3::new(c.x * n.scale, c.y * n.scale, c.z).normalize_or(Vec3::Z))
+        Some(self.normal.as_ref().filter(|_| TEX)?.at(at))
+    }
+
+    #[inline(always)]
+    fn coat_normal_at<const TEX: bool>(&self, at: &TexCoords) -> Option<Vec3> {
+        Some(self.clearcoat.as_ref()?.normal.as_ref().filter(|_| TEX)?.at(at))
     }
 
     /// A metal's colour, or the dielectric's reflectance plus its base colour times what
@@ -203,7 +225,10 @@ impl MaterialModel for PbrMaterial {
 
     fn textures(&self) -> Vec<&Texture> {
         let normal = self.normal.as_ref().map(|n| &n.texture);
-        let coat = self.clearcoat.iter().flat_map(|c| [&c.factor, &c.roughness]);
+        let coat = self
+            .clearcoat
+            .iter()
+            .flat_map(|c| [&c.factor, &c.roughness].into_iter().chain(c.normal.as_ref().map(|n| &n.texture)));
         let sheen = self.sheen.iter().flat_map(|sh| [&sh.color, &sh.roughness]);
         [Some(&self.base), Some(&self.metal_rough), normal]
             .into_iter()
@@ -215,7 +240,7 @@ impl MaterialModel for PbrMaterial {
     }
 
     fn has_normal_map(&self) -> bool {
-        self.normal.is_some()
+        self.normal.is_some() || self.clearcoat.as_ref().is_some_and(|c| c.normal.is_some())
     }
 
     fn fingerprint(&self, h: &mut Fingerprint) {
@@ -240,6 +265,11 @@ impl MaterialModel for PbrMaterial {
             h.str("clearcoat");
             c.factor.fingerprint(h);
             c.roughness.fingerprint(h);
+            if let Some(n) = &c.normal {
+                h.str("clearcoat normal");
+                n.texture.fingerprint(h);
+                h.f32s(&[n.scale]);
+            }
         }
         if let Some(sh) = &self.sheen {
             h.str("sheen");
@@ -286,6 +316,9 @@ pub struct PbrBsdf {
     /// The clear coat's weight (0: none) and distribution.
     coat: f32,
     coat_ggx: Ggx,
+    /// The coat's unit normal in the shading frame: +Z (exactly) where it shares the shading
+    /// normal, and then no coat frame is ever built.
+    coat_normal: Vec3,
     /// The sheen's colour (zero: none), glTF roughness and lobe width.
     sheen: Vec3,
     sheen_roughness: f32,
@@ -312,6 +345,7 @@ impl PbrBsdf {
             spec_b: w * b0,
             coat: 0.0,
             coat_ggx: Ggx::from_roughness(0.0),
+            coat_normal: Vec3::Z,
             sheen: Vec3::ZERO,
             sheen_roughness: 0.0,
             sheen_alpha: 1.0,
@@ -352,11 +386,60 @@ impl PbrBsdf {
         PbrBsdf { coat, coat_ggx: Ggx::from_roughness(roughness), ..self }
     }
 
-    /// The coat's directional albedo at cos θo = `mu`, times its weight: what it reflects,
-    /// and so what it takes from the layers under it.
+    /// The same with the coat's own normal `n` (a unit vector in the shading frame, above its
+    /// plane: the caller turns it to face the viewer), from the coat's normal map; `Vec3::Z`
+    /// is the shading normal itself. Without a coat, or given a normal that is not usable
+    /// (not finite, zero, or below the shading plane), the BSDF is unchanged.
+    pub fn with_coat_normal(self, n: Vec3) -> PbrBsdf {
+        match n.try_normalize() {
+            Some(n) if self.coat > 0.0 && n.z > MIN_COS => PbrBsdf { coat_normal: n, ..self },
+            _ => self,
+        }
+    }
+
+    /// The coat's frame (z along its normal), where its normal is not the shading normal.
+    #[inline]
+    fn coat_frame(&self) -> Option<Frame> {
+        (self.coat_normal != Vec3::Z).then(|| Frame::from_normal(self.coat_normal))
+    }
+
+    /// [`BsdfModel::eval`] where the coat has its own normal (`frame`: the coat's frame). The
+    /// layers under the coat are bounded by the shading plane; the coat's lobe by its own,
+    /// and its cosine is to its own normal: f_coat(wo, wi) cos θi,coat / |cos θi|, since the
+    /// caller multiplies by |cos θi| (to the shading normal). So the coat reflects its albedo
+    /// at its own normal, as a smooth coat's mirror does, also toward directions just below
+    /// the shading plane (the caller keeps what leaves above the geometric surface).
+    fn eval_own_coat_normal(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> Vec3 {
+        if wo.z <= MIN_COS || wi.z.abs() <= MIN_COS {
+            return Vec3::ZERO;
+        }
+        let (wo_c, wi_c) = (frame.to_local(wo), frame.to_local(wi));
+        let coat = self.coat_eval(wo_c, wi_c) * (wi_c.z / wi.z.abs());
+        if wi.z <= MIN_COS {
+            return coat;
+        }
+        self.inner_eval(wo, wi, self.lost(wo.z)) * (1.0 - self.coat_albedo(wo_c.z)) + coat
+    }
+
+    /// [`BsdfModel::pdf`] where the coat has its own normal, bounded as
+    /// [`PbrBsdf::eval_own_coat_normal`] is.
+    fn pdf_own_coat_normal(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= MIN_COS || wi.z.abs() <= MIN_COS {
+            return 0.0;
+        }
+        let (wo_c, wi_c) = (frame.to_local(wo), frame.to_local(wi));
+        let lost = self.lost(wo.z);
+        let inner = if wi.z > MIN_COS { self.inner_pdf(wo, wi, lost) } else { 0.0 };
+        let pc = self.coat_probability(wo, self.coat_albedo(wo_c.z), lost);
+        pc * self.coat_pdf(wo_c, wi_c) + (1.0 - pc) * inner
+    }
+
+    /// The coat's directional albedo at cos θo = `mu` (to the coat's normal), times its
+    /// weight: what it reflects, and so what it takes from the layers under it. Nothing where
+    /// `wo` lies below the coat's plane (only a coat normal of its own can put it there).
     #[inline]
     fn coat_albedo(&self, mu: f32) -> f32 {
-        if self.coat <= 0.0 {
+        if self.coat <= 0.0 || mu <= MIN_COS {
             return 0.0;
         }
         let e = if self.coat_ggx.is_smooth() {
@@ -367,8 +450,9 @@ impl PbrBsdf {
         (self.coat * e).clamp(0.0, 1.0)
     }
 
-    /// The probability of sampling the coat at `wo`: its share of the albedo, against the
-    /// layers under it (scaled by what it leaves).
+    /// The probability of sampling the coat at `wo` (in the shading frame), given its
+    /// `coat_albedo` there: its share of the albedo, against the layers under it (scaled by
+    /// what it leaves).
     #[inline]
     fn coat_probability(&self, wo: Vec3, coat_albedo: f32, lost: f32) -> f32 {
         if coat_albedo <= 0.0 {
@@ -500,10 +584,11 @@ impl PbrBsdf {
         ps * cosine_hemisphere_pdf(wi) + (1.0 - ps) * base
     }
 
-    /// The rough coat's f(wo, wi) (0 for a smooth one: a delta reflection).
+    /// The rough coat's f(wo, wi), both in the coat's frame (0 for a smooth one: a delta
+    /// reflection; 0 where either lies below the coat's plane).
     #[inline]
     fn coat_eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if self.coat <= 0.0 || self.coat_ggx.is_smooth() {
+        if self.coat <= 0.0 || self.coat_ggx.is_smooth() || !same_hemisphere_above(wo, wi) {
             return Vec3::ZERO;
         }
         let Some(wm) = (wo + wi).try_normalize() else { return Vec3::ZERO };
@@ -511,9 +596,10 @@ impl PbrBsdf {
         Vec3::splat(self.coat * f * self.coat_ggx.d(wm) * self.coat_ggx.visibility(wo, wi))
     }
 
+    /// The pdf of sampling the rough coat's lobe, `wo` and `wi` in the coat's frame.
     #[inline]
     fn coat_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if self.coat_ggx.is_smooth() {
+        if self.coat_ggx.is_smooth() || !same_hemisphere_above(wo, wi) {
             return 0.0;
         }
         (wo + wi).try_normalize().map_or(0.0, |wm| self.coat_ggx.reflection_pdf(wo, wm))
@@ -522,6 +608,9 @@ impl PbrBsdf {
 
 impl BsdfModel for PbrBsdf {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        if let Some(frame) = self.coat_frame() {
+            return self.eval_own_coat_normal(&frame, wo, wi);
+        }
         if !same_hemisphere_above(wo, wi) {
             return Vec3::ZERO;
         }
@@ -534,6 +623,9 @@ impl BsdfModel for PbrBsdf {
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if let Some(frame) = self.coat_frame() {
+            return self.pdf_own_coat_normal(&frame, wo, wi);
+        }
         if !same_hemisphere_above(wo, wi) {
             return 0.0;
         }
@@ -551,14 +643,32 @@ impl BsdfModel for PbrBsdf {
             return None;
         }
         let lost = self.lost(wo.z);
-        let coat_albedo = self.coat_albedo(wo.z);
+        let frame = self.coat_frame();
+        let wo_c = frame.as_ref().map_or(wo, |f| f.to_local(wo));
+        let coat_albedo = self.coat_albedo(wo_c.z);
         let pc = self.coat_probability(wo, coat_albedo, lost);
         let wi = if uc < pc {
+            // In the coat's frame, kept where it leaves above the coat's plane (and off the
+            // shading plane, whose cosine the caller multiplies by).
             if self.coat_ggx.is_smooth() {
-                let f = self.coat * fresnel_dielectric(wo.z, COAT_IOR) / wo.z;
-                return Some(BsdfSample { wi: reflect_z(wo), f: Vec3::splat(f), pdf: pc, delta: true });
+                let wi = frame.as_ref().map_or_else(|| reflect_z(wo), |f| f.to_world(reflect_z(wo_c)));
+                if wi.z.abs() <= MIN_COS {
+                    return None;
+                }
+                let f = self.coat * fresnel_dielectric(wo_c.z, COAT_IOR) / wi.z.abs();
+                return Some(BsdfSample { wi, f: Vec3::splat(f), pdf: pc, delta: true });
             }
-            reflect(wo, self.coat_ggx.sample_visible_normal(wo, u))
+            let wi_c = reflect(wo_c, self.coat_ggx.sample_visible_normal(wo_c, u));
+            match &frame {
+                None => wi_c,
+                Some(f) => {
+                    let wi = f.to_world(wi_c);
+                    if wi_c.z <= MIN_COS || wi.z.abs() <= MIN_COS {
+                        return None;
+                    }
+                    return Some(BsdfSample { wi, f: self.eval(wo, wi), pdf: self.pdf(wo, wi), delta: false });
+                }
+            }
         } else {
             // What is left of `uc`, for the layers under the coat: the sheen, then the base.
             let rest = |uc: f32, p: f32| {
@@ -613,5 +723,109 @@ impl BsdfModel for PbrBsdf {
     fn denoise_albedo(&self) -> Vec3 {
         let dielectric = Vec3::splat(0.04) + 0.96 * self.base;
         dielectric.lerp(self.base, self.metallic)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A coat normal tilted 20° from the shading normal, off the axes.
+    fn tilted() -> Vec3 {
+        let (s, c) = 20f32.to_radians().sin_cos();
+        Vec3::new(s * 0.8, s * -0.6, c)
+    }
+
+    /// Directions above the shading plane, from straight up to grazing, off the axes.
+    fn directions() -> Vec<Vec3> {
+        let mut out = Vec::new();
+        for theta in [0.0f32, 10.0, 35.0, 60.0, 80.0, 89.0] {
+            for phi in [0.3f32, 1.9, 3.5, 5.2] {
+                let (st, ct) = theta.to_radians().sin_cos();
+                out.push(Vec3::new(st * phi.cos(), st * phi.sin(), ct));
+            }
+        }
+        out
+    }
+
+    fn coated(roughness: f32, coat_roughness: f32) -> PbrBsdf {
+        PbrBsdf::new(Vec3::new(0.8, 0.3, 0.1), 0.0, roughness, 1.5, 1.0, Vec3::ONE)
+            .with_sheen(Vec3::new(0.3, 0.2, 0.1), 0.4)
+            .with_clearcoat(0.9, coat_roughness)
+    }
+
+    #[test]
+    fn a_coat_normal_along_the_shading_normal_changes_nothing() {
+        for (roughness, coat_roughness) in [(0.6, 0.0), (0.0, 0.0), (0.5, 0.2), (0.0, 0.7)] {
+            let plain = coated(roughness, coat_roughness);
+            let same = plain.with_coat_normal(Vec3::Z);
+            assert_eq!(plain, same);
+            for &wo in &directions() {
+                for &wi in &directions() {
+                    assert_eq!(plain.eval(wo, wi), same.eval(wo, wi));
+                    assert_eq!(plain.pdf(wo, wi), same.pdf(wo, wi));
+                }
+                for k in 0..64 {
+                    let u = Vec2::new((k % 8) as f32 / 8.0 + 0.03, (k / 8) as f32 / 8.0 + 0.05);
+                    for uc in [0.0, 0.01, 0.2, 0.5, 0.9, 0.999] {
+                        assert_eq!(plain.sample(wo, u, uc), same.sample(wo, u, uc));
+                    }
+                }
+            }
+        }
+        // Without a coat a coat normal is ignored.
+        let bare = PbrBsdf::new(Vec3::ONE, 0.0, 0.4, 1.5, 1.0, Vec3::ONE);
+        assert_eq!(bare.with_coat_normal(tilted()), bare);
+    }
+
+    #[test]
+    fn a_smooth_coat_reflects_about_its_own_normal() {
+        let n = tilted();
+        let bsdf = coated(0.6, 0.0).with_coat_normal(n);
+        let mut delta = 0;
+        for &wo in directions().iter().filter(|wo| wo.dot(n) > 0.05) {
+            let want = reflect(wo, n);
+            let s = bsdf.sample(wo, Vec2::new(0.4, 0.7), 0.0).unwrap();
+            assert!(s.delta && (s.wi - want).length() < 1e-5, "wo {wo}: {s:?}, want {want}");
+            // The weight (f |cos θi| / pdf) is the coat's Fresnel at its own normal over the
+            // lobe's probability, wherever the mirror direction leaves (below the shading
+            // plane too: the caller keeps it if it is above the geometric surface).
+            let fresnel = 0.9 * fresnel_dielectric(wo.dot(n), COAT_IOR);
+            let weight = s.f.x * s.wi.z.abs();
+            assert!((weight - fresnel).abs() < 1e-5, "wo {wo}: {weight} vs {fresnel}");
+            // The layers under it keep what the coat leaves at its own normal.
+            let wi = Vec3::new(0.1, 0.5, 0.8).normalize();
+            let under = coated(0.6, 0.0);
+            let kept = under.eval(wo, wi) / (1.0 - 0.9 * fresnel_dielectric(wo.z, COAT_IOR));
+            let expected = kept * (1.0 - fresnel);
+            assert!((bsdf.eval(wo, wi) - expected).abs().max_element() < 1e-5 * expected.max_element().max(1.0));
+            delta += 1;
+        }
+        assert!(delta > 10, "{delta} directions checked");
+    }
+
+    #[test]
+    fn a_rough_coat_lobe_follows_its_own_normal() {
+        // A rough coat over a black base: its lobe peaks about the mirror direction of its own
+        // normal, far above the shading normal's.
+        let n = tilted();
+        let bsdf =
+            PbrBsdf::new(Vec3::ZERO, 0.0, 0.5, 1.5, 1.0, Vec3::ONE).with_clearcoat(1.0, 0.15).with_coat_normal(n);
+        let wo = Vec3::new(-0.3, 0.2, 0.9).normalize();
+        let (own, shading) = (reflect(wo, n), reflect_z(wo));
+        let (f_own, f_shading) = (bsdf.eval(wo, own).x, bsdf.eval(wo, shading).x);
+        assert!(f_own > 20.0 * f_shading, "{f_own} at its mirror direction, {f_shading} at the shading one");
+        assert!(bsdf.pdf(wo, own) > 20.0 * bsdf.pdf(wo, shading));
+        // Sampled directions gather about its own mirror direction.
+        let mut closer = 0;
+        for k in 0..256 {
+            let u = Vec2::new((k % 16) as f32 / 16.0 + 0.02, (k / 16) as f32 / 16.0 + 0.02);
+            if let Some(s) = bsdf.sample(wo, u, 0.0) {
+                closer += usize::from(s.wi.dot(own) > s.wi.dot(shading));
+                let (f, pdf) = (bsdf.eval(wo, s.wi), bsdf.pdf(wo, s.wi));
+                assert!((s.f - f).abs().max_element() <= 1e-4 * f.max_element() && (s.pdf - pdf).abs() <= 1e-4 * pdf);
+            }
+        }
+        assert!(closer > 200, "{closer} of 256 samples nearer the coat's mirror direction");
     }
 }

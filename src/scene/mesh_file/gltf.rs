@@ -292,14 +292,6 @@ impl Draco {
     }
 }
 
-/// Warns, once per kind, of each of an extension's `textures` present in `v` (its factor is
-/// used instead).
-fn ignore_textures(v: &serde_json::Value, textures: &[&str], at: &str, ignored: &mut Tally) {
-    for t in textures.iter().filter(|t| v.get(**t).is_some()) {
-        ignored.add(format!("{t} (its factor is used)"), at);
-    }
-}
-
 /// Problems of one kind, reported once: how many and the first place.
 #[derive(Default)]
 struct Tally(BTreeMap<String, (usize, String)>);
@@ -338,8 +330,8 @@ impl<'a> Loader<'a> {
     }
 
     /// `KHR_materials_clearcoat`: its weight and roughness, each a factor times its texture if
-    /// it has one; `None` without the extension or with a factor of 0. The coat's own normal
-    /// map is warned about and ignored (the coat shares the surface's shading normal).
+    /// it has one, and its own normal map (`clearcoatNormalTexture`, with its `scale`) if it
+    /// has one; `None` without the extension or with a factor of 0.
     fn clearcoat(
         &self,
         m: &gltf::Material,
@@ -351,17 +343,32 @@ impl<'a> Loader<'a> {
         let at = format!("{at}.extensions.KHR_materials_clearcoat");
         let factor = self.unit_factor(v, "clearcoatFactor", &at)?;
         let roughness = self.unit_factor(v, "clearcoatRoughnessFactor", &at)?;
-        ignore_textures(v, &["clearcoatNormalTexture"], &at, ignored);
         if factor <= 0.0 {
             return Ok(None);
         }
         let mut texture = |key: &str, factor: f32| {
             self.factor_texture(v, key, &at, Vec3::splat(factor), Encoding::Linear, map, ignored)
         };
-        Ok(Some(Clearcoat {
-            factor: texture("clearcoatTexture", factor)?,
-            roughness: texture("clearcoatRoughnessTexture", roughness)?,
-        }))
+        let (factor, roughness) =
+            (texture("clearcoatTexture", factor)?, texture("clearcoatRoughnessTexture", roughness)?);
+        let normal = match v.get("clearcoatNormalTexture") {
+            Some(info) => {
+                let at = format!("{at}.clearcoatNormalTexture");
+                let slot = TextureSlot::raw(self.doc, info).map_err(|m| self.err(&at, m))?;
+                let scale = match info.get("scale") {
+                    None => 1.0,
+                    Some(x) => x
+                        .as_f64()
+                        .map(|x| x as f32)
+                        .filter(|x| x.is_finite())
+                        .ok_or_else(|| self.err(&at, format!("scale must be a finite number, found {x}")))?,
+                };
+                let texture = Texture::Map { map: map(slot, &at, Encoding::Linear, ignored)?, factor: Vec3::ONE };
+                Some(NormalMap { texture, scale })
+            }
+            None => None,
+        };
+        Ok(Some(Clearcoat { factor, roughness, normal }))
     }
 
     /// An extension's factor `factor` times its texture `key` (a `textureInfo` in the
@@ -572,12 +579,16 @@ impl<'a> Loader<'a> {
             };
             for prim in inst.mesh.primitives() {
                 let at = format!("meshes[{}].primitives[{}]", inst.mesh.index(), prim.index());
-                // A normal-mapped material needs tangents, for its normal map's coordinate set.
+                // A normal-mapped material needs tangents, for its normal map's coordinate set
+                // (the base's, else the coat's: one frame serves both).
                 let tangents = prim.material().index().and_then(|i| match &materials[i].kind {
-                    MaterialKind::Pbr(PbrMaterial {
-                        normal: Some(NormalMap { texture: Texture::Map { map, .. }, .. }),
-                        ..
-                    }) => Some(map.set),
+                    MaterialKind::Pbr(PbrMaterial { normal, clearcoat, .. }) => {
+                        let coat = clearcoat.as_ref().and_then(|c| c.normal.as_ref());
+                        normal.iter().chain(coat).find_map(|n| match &n.texture {
+                            Texture::Map { map, .. } => Some(map.set),
+                            _ => None,
+                        })
+                    }
                     _ => None,
                 });
                 if let Some(mut m) =
