@@ -102,6 +102,8 @@ ASSETS = {
                     "KHR_draco_mesh_compression"),
     "ext_clearcoat": (os.path.join(DATA, "ext_clearcoat.glb"), *SPHERE, "KHR_materials_clearcoat"),
     "ext_sheen": (os.path.join(DATA, "ext_sheen.glb"), *SPHERE, "KHR_materials_sheen"),
+    "ext_clearcoat_normal": (os.path.join(DATA, "ext_clearcoat_normal.glb"), *SPHERE,
+                             "clear coat with its own normal map"),
     "ext_clearcoat_textured": (os.path.join(DATA, "ext_clearcoat_textured.glb"), *SPHERE,
                                "clear-coat weight and roughness textures"),
     "ext_sheen_textured": (os.path.join(DATA, "ext_sheen_textured.glb"), *SPHERE,
