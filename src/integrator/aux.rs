@@ -53,7 +53,7 @@ pub(crate) fn aux_sample<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool,
     for depth in 0.. {
         let Some(hit) = next_hit else { return AuxSample::default() };
         let sp = surface_point::<TEX>(ctx.scene, ctx.normals, &ray, &hit);
-        let bsdf = if GLOSSY || GLASS {
+        let mut bsdf = if GLOSSY || GLASS {
             sp.material.bsdf_at::<TEX>(&sp.tex)
         } else {
             Bsdf::Diffuse(sp.material.lambert_at::<TEX>(&sp.tex))
@@ -70,10 +70,9 @@ pub(crate) fn aux_sample<A: Accel + ?Sized, const TEX: bool, const GLOSSY: bool,
         let transmissive = bsdf.is_transmissive();
         let (ng, ns) = if transmissive || facing { (sp.ng, sp.ns) } else { (-sp.ng, -sp.ns) };
         let frame = Frame::from_normal(ns);
-        let bsdf = match sp.coat_normal(ng) {
-            Some(n) => bsdf.with_coat_normal(frame.to_local(n)),
-            None => bsdf,
-        };
+        if let Some(n) = sp.coat_normal(ng) {
+            bsdf.set_coat_normal(frame.to_local(n));
+        }
         let rng =
             rng.get_or_insert_with(|| PixelStreams::new(ctx.settings.seed ^ AUX_STREAM_KEY, pixel).sample(sample));
         let Some(bs) = bsdf.sample(frame.to_local(wo), rng.next_2d(), rng.next_f32()) else { return here };

@@ -195,16 +195,15 @@ fn trace(
     *rays += 1;
     let hit = accel.intersect_deferred(&ray, 0.0, f32::INFINITY)?;
     let sp = surface_point::<true>(scene, normals, &ray, &hit);
-    let bsdf = sp.material.bsdf_at::<true>(&sp.tex);
+    let mut bsdf = sp.material.bsdf_at::<true>(&sp.tex);
     if bsdf.is_delta() {
         return None;
     }
     let (ng, ns) = if ray.d.dot(sp.ng) > 0.0 { (-sp.ng, -sp.ns) } else { (sp.ng, sp.ns) };
     let frame = Frame::from_normal(ns);
-    let bsdf = match sp.coat_normal(ng) {
-        Some(n) => bsdf.with_coat_normal(frame.to_local(n)),
-        None => bsdf,
-    };
+    if let Some(n) = sp.coat_normal(ng) {
+        bsdf.set_coat_normal(frame.to_local(n));
+    }
     let to_l = e.position - sp.p;
     let r2 = to_l.length_squared();
     let to_light = to_l / r2.sqrt();

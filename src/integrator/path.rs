@@ -102,7 +102,7 @@ pub(crate) fn radiance<
         }
         // Only Lambertian surfaces: the BSDF's variant is known here, so its methods inline
         // without dispatch.
-        let bsdf = if GLOSSY || GLASS {
+        let mut bsdf = if GLOSSY || GLASS {
             sp.material.bsdf_at::<TEX>(&sp.tex)
         } else {
             Bsdf::Diffuse(sp.material.lambert_at::<TEX>(&sp.tex))
@@ -119,10 +119,14 @@ pub(crate) fn radiance<
         }
         let frame = Frame::from_normal(ns);
         // A clear coat's own normal, turned and made to face `wo` as `ns` is.
-        let bsdf = match sp.coat_normal(ng) {
-            Some(n) => bsdf.with_coat_normal(frame.to_local(facing_shading_normal(wo, ng, n))),
-            None => bsdf,
-        };
+        // (Set in place: rebinding `bsdf` would copy it at every vertex. Only textured
+        // kernels have coat normal maps.)
+        if TEX
+            && GLOSSY
+            && let Some(n) = sp.coat_normal(ng)
+        {
+            bsdf.set_coat_normal(frame.to_local(facing_shading_normal(wo, ng, n)));
+        }
         // Without glossy or glass materials every BSDF is Lambertian: evaluated and sampled
         // inline (the same arithmetic as through `Bsdf`'s dispatch), and only the cosines of
         // local directions matter to it.

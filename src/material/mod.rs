@@ -422,13 +422,12 @@ impl Bsdf {
         Bsdf::Pbr(PbrBsdf::new(base, metallic, roughness, 1.5, 1.0, Vec3::ONE))
     }
 
-    /// The same with a clear coat's own normal `n` (unit, in the shading frame, facing the
-    /// viewer: [`PbrBsdf::with_coat_normal`]); unchanged for a BSDF without a coat.
+    /// Gives a clear coat its own normal `n` (unit, in the shading frame, facing the viewer:
+    /// [`PbrBsdf::with_coat_normal`]); nothing changes for a BSDF without a coat.
     #[inline]
-    pub fn with_coat_normal(self, n: Vec3) -> Bsdf {
-        match self {
-            Bsdf::Pbr(b) => Bsdf::Pbr(b.with_coat_normal(n)),
-            b => b,
+    pub fn set_coat_normal(&mut self, n: Vec3) {
+        if let Bsdf::Pbr(b) = self {
+            *b = b.with_coat_normal(n);
         }
     }
 
