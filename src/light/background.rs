@@ -32,14 +32,6 @@ pub enum Background {
     Image(Arc<Environment>),
 }
 
-/// A direction about +z with density cos θ / π (Malley's method: uniform on the disk, lifted).
-#[inline]
-fn cosine_hemisphere(u: Vec2) -> Vec3 {
-    let r = u.x.sqrt();
-    let (sin_phi, cos_phi) = crate::fastmath::sin_cos_turns(u.y);
-    Vec3::new(r * cos_phi, r * sin_phi, (1.0 - u.x).max(0.0).sqrt())
-}
-
 impl Background {
     /// Radiance arriving from the unit direction `d` (the path tracer's ray directions and
     /// sampled directions are unit vectors).
@@ -99,7 +91,7 @@ impl Background {
         let (wi, pdf) = if n == Vec3::ZERO {
             (uniform_sphere(u), sel / (4.0 * PI))
         } else {
-            let local = cosine_hemisphere(u);
+            let local = crate::material::sample_cosine_hemisphere(u);
             if !(local.z > 0.0) {
                 return None; // on the horizon: density 0
             }

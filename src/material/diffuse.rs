@@ -61,7 +61,7 @@ impl BsdfModel for Lambert {
 /// A direction in the upper hemisphere with density cos θ / π, for `u` in [0, 1)².
 /// cos θ = √(1 − u.x) ≥ 2⁻¹² for f32 inputs below 1, so the result is never in the plane.
 #[inline(always)]
-pub(super) fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
+pub fn sample_cosine_hemisphere(u: Vec2) -> Vec3 {
     let r = u.x.sqrt();
     let (sin_phi, cos_phi) = sin_cos_turns(u.y);
     let z = (1.0 - u.x).max(0.0).sqrt();

@@ -54,7 +54,7 @@ use crate::texture::{TexCoords, Texture};
 
 pub use conductor::{Conductor, MetalMaterial};
 pub use dielectric::{Dielectric, GlassMaterial};
-pub use diffuse::{DiffuseMaterial, Lambert};
+pub use diffuse::{DiffuseMaterial, Lambert, sample_cosine_hemisphere};
 pub use emissive::EmissiveMaterial;
 pub use fresnel::fresnel_dielectric;
 pub use pbr::{AlphaMode, Clearcoat, NormalMap, PbrBsdf, PbrMaterial, Sheen};
