@@ -355,14 +355,7 @@ impl<'a> Loader<'a> {
             Some(info) => {
                 let at = format!("{at}.clearcoatNormalTexture");
                 let slot = TextureSlot::raw(self.doc, info).map_err(|m| self.err(&at, m))?;
-                let scale = match info.get("scale") {
-                    None => 1.0,
-                    Some(x) => x
-                        .as_f64()
-                        .map(|x| x as f32)
-                        .filter(|x| x.is_finite())
-                        .ok_or_else(|| self.err(&at, format!("scale must be a finite number, found {x}")))?,
-                };
+                let scale = self.number(info, "scale", &at, 1.0, |x| (x as f32).is_finite(), "a finite number")?;
                 let texture = Texture::Map { map: map(slot, &at, Encoding::Linear, ignored)?, factor: Vec3::ONE };
                 Some(NormalMap { texture, scale })
             }
@@ -400,13 +393,7 @@ impl<'a> Loader<'a> {
             ignored.add("KHR_materials_volume without transmission above 0.5 (opaque)", &at);
             return Ok(Vec3::ZERO);
         }
-        let distance = match v.get("attenuationDistance") {
-            None => f32::INFINITY,
-            Some(d) => match d.as_f64() {
-                Some(d) if d > 0.0 => d as f32,
-                _ => return Err(self.err(&at, format!("attenuationDistance must be a number > 0, found {d}"))),
-            },
-        };
+        let distance = self.number(v, "attenuationDistance", &at, f32::INFINITY, |d| d > 0.0, "a number > 0")?;
         let color = self.unit_color(v, "attenuationColor", &at, Vec3::ONE)?;
         if v.get("thicknessTexture").is_some() {
             ignored.add("thicknessTexture (ember traces the real geometry)", &at);
@@ -416,11 +403,25 @@ impl<'a> Loader<'a> {
 
     /// An extension's factor `key` in [0, 1] (0 where absent).
     fn unit_factor(&self, v: &serde_json::Value, key: &str, at: &str) -> Result<f32, SceneError> {
+        self.number(v, key, at, 0.0, |x| (0.0..=1.0).contains(&x), "a number in [0, 1]")
+    }
+
+    /// An extension's number `key` (`default` where absent), which must pass `valid`
+    /// (`what` names the range in the error).
+    fn number(
+        &self,
+        v: &serde_json::Value,
+        key: &str,
+        at: &str,
+        default: f32,
+        valid: impl Fn(f64) -> bool,
+        what: &str,
+    ) -> Result<f32, SceneError> {
         match v.get(key) {
-            None => Ok(0.0),
+            None => Ok(default),
             Some(x) => match x.as_f64() {
-                Some(x) if (0.0..=1.0).contains(&x) => Ok(x as f32),
-                _ => Err(self.err(at, format!("{key} must be a number in [0, 1], found {x}"))),
+                Some(y) if valid(y) => Ok(y as f32),
+                _ => Err(self.err(at, format!("{key} must be {what}, found {x}"))),
             },
         }
     }
