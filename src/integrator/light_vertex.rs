@@ -223,6 +223,15 @@ fn trace(
     })
 }
 
+/// A shadow query: `contribution` adds to a path's radiance if nothing lies on `ray` within
+/// `0..=tmax` (in units of `ray.d`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ShadowQuery {
+    pub ray: Ray,
+    pub tmax: f32,
+    pub contribution: Vec3,
+}
+
 /// A path vertex that connects to a light vertex: where it is and how it reflects.
 pub(super) struct PathVertex<'a> {
     /// The point, and the ray origin for leaving it on the side of `ng`.
@@ -236,45 +245,39 @@ pub(super) struct PathVertex<'a> {
     pub wo_l: Vec3,
 }
 
-/// The contribution of the path through `x` to the light vertex `y` and its light, throughput
-/// `beta` before x, MIS-weighted against the same path found by BSDF sampling at x (zero if
-/// y is on the wrong side of either surface, or hidden from x). `LAMBERT`: every BSDF is
+/// The shadow query connecting the path through `x` to the light vertex `y`, with the
+/// contribution of the path x → y → light if it is clear (throughput `beta` before x,
+/// MIS-weighted against the same path found by BSDF sampling at x); `None` if y is on the
+/// wrong side of either surface or the contribution is zero. `LAMBERT`: every BSDF is
 /// Lambertian, and only cosines to the normal are computed (as the path does).
 #[inline(always)]
-pub(super) fn connect<A: Accel + ?Sized, const LAMBERT: bool>(
-    accel: &A,
-    x: &PathVertex,
-    y: &LightVertex,
-    beta: Vec3,
-    rays: &mut u64,
-) -> Vec3 {
+pub(super) fn connection<const LAMBERT: bool>(x: &PathVertex, y: &LightVertex, beta: Vec3) -> Option<ShadowQuery> {
     let v = y.p - x.p;
     let d2 = v.length_squared();
     let dir = v / d2.sqrt();
     let cos_y = -dir.dot(y.ng);
     if !(d2 > 0.0 && cos_y > 0.0 && dir.dot(x.ng) > 0.0) {
-        return Vec3::ZERO;
+        return None;
     }
     let local = |f: &Frame, v: Vec3| if LAMBERT { Vec3::new(0.0, 0.0, v.dot(f.n)) } else { f.to_local(v) };
     let eval = |b: &Bsdf, wo: Vec3, wi: Vec3| if LAMBERT { b.eval_lambert(wo, wi) } else { b.eval(wo, wi) };
     let wi_x = local(x.frame, dir);
     let f_x = eval(x.bsdf, x.wo_l, wi_x) * wi_x.z.abs();
     if f_x == Vec3::ZERO {
-        return Vec3::ZERO;
+        return None;
     }
     let wi_y = local(&y.frame, y.to_light);
     let f_y = eval(&y.bsdf, local(&y.frame, -dir), wi_y) * wi_y.z.abs();
     if f_y == Vec3::ZERO {
-        return Vec3::ZERO;
+        return None;
     }
     let p_uni = y.p_choice * x.bsdf.pdf(x.wo_l, wi_x) * cos_y / d2;
     let c = beta * f_x * f_y * y.scale * (cos_y / d2 * balance_heuristic(y.p_conn, p_uni));
     if c == Vec3::ZERO || !c.is_finite() {
-        return Vec3::ZERO;
+        return None;
     }
     let q = offset_toward(y.p, y.ng, -dir);
-    *rays += 1;
-    if accel.occluded_deferred(&Ray::new(x.leave, q - x.leave), 0.0, 1.0) { Vec3::ZERO } else { c }
+    Some(ShadowQuery { ray: Ray::new(x.leave, q - x.leave), tmax: 1.0, contribution: c })
 }
 
 /// The MIS weight of next-event estimation's sample `ls` of a point light at `p` (geometric

@@ -3,6 +3,7 @@
 //! sampling, and Russian roulette.
 
 use super::context::PathContext;
+pub(crate) use super::light_vertex::ShadowQuery;
 use super::light_vertex::{self, PathVertex, SampleLightVertices};
 use super::surface::{facing_shading_normal, surface_point};
 use crate::accel::Accel;
@@ -20,13 +21,110 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
 
+/// How a render's paths count light, read once from its settings.
+#[derive(Clone, Copy)]
+pub(crate) struct PathRules {
+    use_nee: bool,
+    uniform_diffuse: bool,
+    mis: bool,
+    found: FoundEmission,
+}
+
+impl PathRules {
+    /// The rules of `ctx`'s render; `HIT_LIGHTS` as in [`shade`].
+    #[inline(always)]
+    pub fn new<const HIT_LIGHTS: bool>(ctx: &PathContext) -> PathRules {
+        let s = ctx.settings;
+        let use_nee = matches!(s.estimator, Estimator::NeeMis | Estimator::NeeOnly) && !ctx.lights.is_empty();
+        let mis = HIT_LIGHTS && s.estimator == Estimator::NeeMis;
+        PathRules {
+            use_nee,
+            uniform_diffuse: s.estimator == Estimator::BsdfUniform,
+            mis,
+            found: FoundEmission { use_nee, count: s.estimator != Estimator::NeeOnly, mis },
+        }
+    }
+}
+
+/// A path between two of its vertices: what it has gathered, what it carries, and how it
+/// came to its current ray.
+#[derive(Clone, Copy)]
+pub(crate) struct PathState {
+    /// The radiance gathered so far.
+    pub l: Vec3,
+    beta: Vec3,
+    /// The last bounce was specular (camera rays count as specular: emission seen directly
+    /// is kept).
+    specular: bool,
+    prev_pdf: f32,
+    prev_p: Vec3,
+    /// How next-event estimation chose its light at the last vertex where it ran: the
+    /// densities MIS weighs emission found by the next ray against (only needed after a
+    /// non-specular bounce, which always follows next-event estimation).
+    choice: LightChoice,
+    depth: u32,
+    /// The absorption of the medium `ray` travels in: that of the glass it last refracted
+    /// into (zero outside any, and without glass).
+    absorption: Vec3,
+    /// The ray the path travels along.
+    ray: Ray,
+}
+
+impl PathState {
+    /// A path starting along the camera ray `ray`.
+    #[inline(always)]
+    pub fn new(ray: Ray) -> PathState {
+        PathState {
+            l: Vec3::ZERO,
+            beta: Vec3::ONE,
+            specular: true,
+            prev_pdf: 0.0,
+            prev_p: ray.o,
+            choice: LightChoice::BY_POWER,
+            depth: 0,
+            absorption: Vec3::ZERO,
+            ray,
+        }
+    }
+
+    /// The ray the path travels along: after [`shade`] returned `Some`, the one it returned.
+    #[inline(always)]
+    pub fn ray(&self) -> Ray {
+        self.ray
+    }
+}
+
+/// Where [`shade`] sends the shadow rays it wants traced: traced at once (one path at a
+/// time) or queued with others'.
+pub(crate) trait ShadowRays {
+    /// Adds `contribution` to `l`, the path's radiance, if nothing lies on `ray` within
+    /// `0..=tmax` (in units of `ray.d`).
+    fn trace(&mut self, l: &mut Vec3, ray: Ray, tmax: f32, contribution: Vec3);
+}
+
+/// Shadow rays traced as they come, each against `accel` ([`radiance`]'s).
+struct TraceNow<'a, A: ?Sized> {
+    accel: &'a A,
+    rays: &'a mut u64,
+}
+
+impl<A: Accel + ?Sized> ShadowRays for TraceNow<'_, A> {
+    #[inline(always)]
+    fn trace(&mut self, l: &mut Vec3, ray: Ray, tmax: f32, contribution: Vec3) {
+        *self.rays += 1;
+        if !self.accel.occluded_deferred(&ray, 0.0, tmax) {
+            *l += contribution;
+        }
+    }
+}
+
 /// Radiance along the camera ray `ray`, whose closest hit `first` the caller traced, then
 /// through `accel` (`ctx.accel`, possibly as its concrete type), connecting to
-/// `light_vertices` (the sample's entries of `ctx.light_vertices`, if any); `rays` counts the rays traced
-/// after the first. Queries defer their errors: the caller checks
-/// [`Accel::deferred_error`] before using the result. The const switches are those of
-/// [`super::kernel::KernelChoice`]: each one off removes the code of an effect the scene
-/// lacks (see there).
+/// `light_vertices` (the sample's entries of `ctx.light_vertices`, if any); `rays` counts the
+/// rays traced after the first. Queries defer their errors: the caller checks
+/// [`Accel::deferred_error`] before using the result. One path at a time: each vertex is
+/// shaded ([`shade`]), then its queries traced. The const switches are those of
+/// [`super::kernel::KernelChoice`].
 #[inline(always)]
 pub(crate) fn radiance<
     A: Accel + ?Sized,
@@ -37,207 +135,219 @@ pub(crate) fn radiance<
 >(
     ctx: &PathContext,
     accel: &A,
-    mut ray: Ray,
+    ray: Ray,
     first: Option<Hit>,
     light_vertices: Option<SampleLightVertices>,
     rng: &mut SampleStream<'_>,
     rays: &mut u64,
 ) -> Vec3 {
-    let s = ctx.settings;
-    let use_nee = matches!(s.estimator, Estimator::NeeMis | Estimator::NeeOnly) && !ctx.lights.is_empty();
-    let uniform_diffuse = s.estimator == Estimator::BsdfUniform;
-    let mis = HIT_LIGHTS && s.estimator == Estimator::NeeMis;
-    let found = FoundEmission { use_nee, count: s.estimator != Estimator::NeeOnly, mis };
-    let mut l = Vec3::ZERO;
-    let mut beta = Vec3::ONE;
-    let mut specular = true; // camera rays count as specular: emission seen directly is kept
-    let mut prev_pdf = 0.0f32;
-    let mut prev_p = ray.o;
-    // How next-event estimation chose its light at the last vertex where it ran: the
-    // densities MIS weighs emission found by the next ray against (only needed after a
-    // non-specular bounce, which always follows next-event estimation).
-    let mut choice = LightChoice::BY_POWER;
-    let mut depth = 0u32;
-    // The absorption of the medium `ray` travels in: that of the glass it last refracted into
-    // (zero outside any, and without glass).
-    let mut absorption = Vec3::ZERO;
-    // The closest hit of `ray`: the caller's for the camera ray, then traced at each bounce.
-    let mut next_hit = first;
+    let rules = PathRules::new::<HIT_LIGHTS>(ctx);
+    let mut path = PathState::new(ray);
+    let mut hit = first;
     loop {
-        if GLASS && absorption != Vec3::ZERO {
-            // Beer–Lambert over the segment (a channel that absorbs nothing keeps all of its
-            // light even on an endless one).
-            let d = next_hit.as_ref().map_or(f32::INFINITY, |h| h.t * ray.d.length());
-            let kept = (-absorption * d).exp();
-            beta *= Vec3::select(absorption.cmpeq(Vec3::ZERO), Vec3::ONE, kept);
-            if beta == Vec3::ZERO {
-                break;
-            }
-        }
-        let Some(hit) = next_hit else {
-            // Without non-delta lights the background is black.
-            if HIT_LIGHTS {
-                let le = ctx.lights.background().radiance(ray.d);
-                if le != Vec3::ZERO
-                    && let Some(w) = found.weight(specular, prev_pdf, || ctx.lights.pdf_background(&choice, ray.d))
-                {
-                    l += beta * le * w;
-                }
-            }
-            break;
-        };
-        let sp = surface_point::<TEX>(ctx.scene, ctx.normals, &ray, &hit);
-        let wo = -ray.d;
-        let emission = sp.material.emission.at::<TEX>(&sp.tex);
-        // Without non-delta lights nothing emits.
-        if HIT_LIGHTS
-            && emission != Vec3::ZERO
-            && let Some(w) = found
-                .weight(specular, prev_pdf, || ctx.lights.pdf_emitter(&choice, hit.geom, hit.prim, prev_p, sp.p, sp.ng))
-        {
-            l += beta * emission * w;
-        }
-        if depth >= ctx.path_depth {
-            break;
-        }
-        // Only Lambertian surfaces: the BSDF's variant is known here, so its methods inline
-        // without dispatch.
-        let mut bsdf = if GLOSSY || GLASS {
-            sp.material.bsdf_at::<TEX>(&sp.tex)
-        } else {
-            Bsdf::Diffuse(sp.material.lambert_at::<TEX>(&sp.tex))
-        };
-        let transmissive = GLASS && bsdf.is_transmissive();
-        let (mut ng, mut ns) = (sp.ng, sp.ns);
-        if !transmissive {
-            if wo.dot(ng) < 0.0 {
-                // Opaque surfaces are shaded on the side they are seen from.
-                ng = -ng;
-                ns = -ns;
-            }
-            ns = facing_shading_normal(wo, ng, ns);
-        }
-        let frame = Frame::from_normal(ns);
-        // A clear coat's own normal, turned and made to face `wo` as `ns` is.
-        // (Set in place: rebinding `bsdf` would copy it at every vertex. Only textured
-        // kernels have coat normal maps.)
-        if TEX
-            && GLOSSY
-            && let Some(n) = sp.coat_normal(ng)
-        {
-            bsdf.set_coat_normal(frame.to_local(facing_shading_normal(wo, ng, n)));
-        }
-        // Without glossy or glass materials every BSDF is Lambertian: evaluated and sampled
-        // inline (the same arithmetic as through `Bsdf`'s dispatch), and only the cosines of
-        // local directions matter to it.
-        let lambert = !(GLOSSY || GLASS);
-        let local = |v: Vec3| if lambert { Vec3::new(0.0, 0.0, v.dot(frame.n)) } else { frame.to_local(v) };
-        let wo_l = local(wo);
-        // Both rays leave an opaque surface on the side of `ng` facing `wo` (checked below for
-        // each), so they share one origin.
-        let leave = if transmissive { sp.p } else { offset_ray_origin(sp.p, ng) };
-        let origin = |toward: Vec3| if transmissive { offset_toward(sp.p, ng, toward) } else { leave };
-
-        // Next-event estimation.
-        let nee_here = use_nee && !((GLOSSY || GLASS) && bsdf.is_delta());
-        if nee_here {
-            choice = ctx.lights.choice_at(sp.p).facing(if transmissive { Vec3::ZERO } else { ng });
-        }
-        // Only the numbers the light sample uses are drawn (see `LightNumbers`).
-        let draws = ctx.lights.numbers();
-        let light_sample = if nee_here {
-            let u_choice = if draws.choice { rng.next_f32() } else { 0.0 };
-            let u = if draws.position { rng.next_2d() } else { glam::Vec2::ZERO };
-            ctx.lights.sample(&choice, sp.p, u_choice, u)
-        } else {
-            None
-        };
-        if let Some(ls) = light_sample {
-            let wi_l = local(ls.wi);
-            let side = ls.wi.dot(ng);
-            let f = if lambert { bsdf.eval_lambert(wo_l, wi_l) } else { bsdf.eval(wo_l, wi_l) } * wi_l.z.abs();
-            if f != Vec3::ZERO && ls.radiance != Vec3::ZERO && (transmissive || side > 0.0) {
-                let o = origin(ls.wi);
-                let (d, tmax) = match ls.point {
-                    // Toward a point on a light: stop just short of it (the light's own
-                    // surface is not an occluder), measured in units of the full segment.
-                    Some(q) => {
-                        let q = if ls.delta { q } else { offset_toward(q, ls.normal, o - q) };
-                        (q - o, 1.0)
-                    }
-                    None => (ls.wi, f32::INFINITY),
-                };
-                *rays += 1;
-                if !accel.occluded_deferred(&Ray::new(o, d), 0.0, tmax) {
-                    let w = if ls.delta && ctx.light_vertices.is_some() && !specular {
-                        // After a bounce: against the light vertex the last vertex connected to.
-                        light_vertex::nee_weight(ctx.lights, &ls, sp.p, ng, prev_p, prev_pdf)
-                    } else if ls.delta || !mis {
-                        1.0
-                    } else {
-                        power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l))
-                    };
-                    l += beta * f * ls.radiance * (w / ls.pdf);
-                }
-            }
-        }
-
-        // Connect to this vertex's light vertex (a path as long as the depth allows ends at it).
-        if nee_here
-            && depth + 2 <= ctx.path_depth
-            && let Some(y) = light_vertices.and_then(|v| v.at(depth))
-        {
-            let x = PathVertex { p: sp.p, leave, ng, frame: &frame, bsdf: &bsdf, wo_l };
-            l += if lambert {
-                light_vertex::connect::<A, true>(accel, &x, y, beta, rays)
-            } else {
-                light_vertex::connect::<A, false>(accel, &x, y, beta, rays)
-            };
-        }
-
-        // Continue the path by sampling the BSDF.
-        let bs = if uniform_diffuse && bsdf.is_lambertian() {
-            sample_uniform_hemisphere(&bsdf, wo_l, rng.next_2d())
-        } else {
-            // A lobe number only for BSDFs that choose between lobes.
-            let u = rng.next_2d();
-            let uc = if bsdf.chooses_lobe() { rng.next_f32() } else { 0.0 };
-            if lambert { bsdf.sample_lambert(wo_l, u, uc) } else { bsdf.sample(wo_l, u, uc) }
-        };
-        let Some(bs) = bs else { break };
-        let wi = frame.to_world(bs.wi);
-        let side = wi.dot(ng);
-        if (!transmissive && side <= 0.0) || !(bs.pdf > 0.0) {
-            break; // below the geometric surface: the shading normal would leak light
-        }
-        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-        if transmissive {
-            // Against the outward normal: into the glass (by transmission, or reflected inside).
-            absorption = if side < 0.0 { sp.material.absorption() } else { Vec3::ZERO };
-        }
-        specular = bs.delta;
-        prev_pdf = bs.pdf;
-        prev_p = sp.p;
-        depth += 1;
-        if depth >= ctx.roulette_start {
-            let q = (1.0 - beta.max_element()).max(0.05);
-            if rng.next_f32() < q {
-                break;
-            }
-            beta /= 1.0 - q;
-        }
-        if beta == Vec3::ZERO || !beta.is_finite() {
-            break;
-        }
-        if !HIT_LIGHTS && depth >= ctx.path_depth {
-            // The next hit could only add emission, and nothing BSDF sampling can find emits.
-            break;
-        }
-        ray = Ray::new(origin(wi), wi);
+        let mut shadow = TraceNow { accel, rays: &mut *rays };
+        let next =
+            shade::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, &rules, &mut path, hit, light_vertices, rng, &mut shadow);
+        let Some(next) = next else { return path.l };
         *rays += 1;
-        next_hit = accel.intersect_deferred(&ray, 0.0, f32::INFINITY);
+        hit = accel.intersect_deferred(&next, 0.0, f32::INFINITY);
     }
-    l
+}
+
+/// Shades the vertex of `path` at `hit`, the closest hit of its ray (`None`: the ray left
+/// the scene): adds the emission found there to the path's radiance, sends `shadow` the
+/// shadow rays of next-event estimation and of the connection to the vertex's light vertex
+/// (from `light_vertices`) with what each adds if clear, in that order, and returns the ray
+/// the path continues along (the path's new ray; `None` if it ends). Draws the vertex's
+/// random numbers from `rng`. Traces nothing itself: the loop that calls it traces, one
+/// path at a time ([`radiance`]) or a batch together. The const switches are those of
+/// [`super::kernel::KernelChoice`]: each one off removes the code of an effect the scene
+/// lacks (see there).
+#[inline(always)]
+pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const HIT_LIGHTS: bool>(
+    ctx: &PathContext,
+    rules: &PathRules,
+    path: &mut PathState,
+    hit: Option<Hit>,
+    light_vertices: Option<SampleLightVertices>,
+    rng: &mut SampleStream<'_>,
+    shadow: &mut S,
+) -> Option<Ray> {
+    let ray = path.ray;
+    if GLASS && path.absorption != Vec3::ZERO {
+        // Beer–Lambert over the segment (a channel that absorbs nothing keeps all of its
+        // light even on an endless one).
+        let d = hit.as_ref().map_or(f32::INFINITY, |h| h.t * ray.d.length());
+        let kept = (-path.absorption * d).exp();
+        path.beta *= Vec3::select(path.absorption.cmpeq(Vec3::ZERO), Vec3::ONE, kept);
+        if path.beta == Vec3::ZERO {
+            return None;
+        }
+    }
+    let Some(hit) = hit else {
+        // Without non-delta lights the background is black.
+        if HIT_LIGHTS {
+            let le = ctx.lights.background().radiance(ray.d);
+            if le != Vec3::ZERO
+                && let Some(w) =
+                    rules.found.weight(path.specular, path.prev_pdf, || ctx.lights.pdf_background(&path.choice, ray.d))
+            {
+                path.l += path.beta * le * w;
+            }
+        }
+        return None;
+    };
+    let sp = surface_point::<TEX>(ctx.scene, ctx.normals, &ray, &hit);
+    let wo = -ray.d;
+    let emission = sp.material.emission.at::<TEX>(&sp.tex);
+    // Without non-delta lights nothing emits.
+    if HIT_LIGHTS
+        && emission != Vec3::ZERO
+        && let Some(w) = rules.found.weight(path.specular, path.prev_pdf, || {
+            ctx.lights.pdf_emitter(&path.choice, hit.geom, hit.prim, path.prev_p, sp.p, sp.ng)
+        })
+    {
+        path.l += path.beta * emission * w;
+    }
+    if path.depth >= ctx.path_depth {
+        return None;
+    }
+    // Only Lambertian surfaces: the BSDF's variant is known here, so its methods inline
+    // without dispatch.
+    let mut bsdf = if GLOSSY || GLASS {
+        sp.material.bsdf_at::<TEX>(&sp.tex)
+    } else {
+        Bsdf::Diffuse(sp.material.lambert_at::<TEX>(&sp.tex))
+    };
+    let transmissive = GLASS && bsdf.is_transmissive();
+    let (mut ng, mut ns) = (sp.ng, sp.ns);
+    if !transmissive {
+        if wo.dot(ng) < 0.0 {
+            // Opaque surfaces are shaded on the side they are seen from.
+            ng = -ng;
+            ns = -ns;
+        }
+        ns = facing_shading_normal(wo, ng, ns);
+    }
+    let frame = Frame::from_normal(ns);
+    // A clear coat's own normal, turned and made to face `wo` as `ns` is.
+    // (Set in place: rebinding `bsdf` would copy it at every vertex. Only textured
+    // kernels have coat normal maps.)
+    if TEX
+        && GLOSSY
+        && let Some(n) = sp.coat_normal(ng)
+    {
+        bsdf.set_coat_normal(frame.to_local(facing_shading_normal(wo, ng, n)));
+    }
+    // Without glossy or glass materials every BSDF is Lambertian: evaluated and sampled
+    // inline (the same arithmetic as through `Bsdf`'s dispatch), and only the cosines of
+    // local directions matter to it.
+    let lambert = !(GLOSSY || GLASS);
+    let local = |v: Vec3| if lambert { Vec3::new(0.0, 0.0, v.dot(frame.n)) } else { frame.to_local(v) };
+    let wo_l = local(wo);
+    // Both rays leave an opaque surface on the side of `ng` facing `wo` (checked below for
+    // each), so they share one origin.
+    let leave = if transmissive { sp.p } else { offset_ray_origin(sp.p, ng) };
+    let origin = |toward: Vec3| if transmissive { offset_toward(sp.p, ng, toward) } else { leave };
+    let beta = path.beta;
+
+    // Next-event estimation.
+    let nee_here = rules.use_nee && !((GLOSSY || GLASS) && bsdf.is_delta());
+    if nee_here {
+        path.choice = ctx.lights.choice_at(sp.p).facing(if transmissive { Vec3::ZERO } else { ng });
+    }
+    // Only the numbers the light sample uses are drawn (see `LightNumbers`).
+    let draws = ctx.lights.numbers();
+    let light_sample = if nee_here {
+        let u_choice = if draws.choice { rng.next_f32() } else { 0.0 };
+        let u = if draws.position { rng.next_2d() } else { glam::Vec2::ZERO };
+        ctx.lights.sample(&path.choice, sp.p, u_choice, u)
+    } else {
+        None
+    };
+    if let Some(ls) = light_sample {
+        let wi_l = local(ls.wi);
+        let side = ls.wi.dot(ng);
+        let f = if lambert { bsdf.eval_lambert(wo_l, wi_l) } else { bsdf.eval(wo_l, wi_l) } * wi_l.z.abs();
+        if f != Vec3::ZERO && ls.radiance != Vec3::ZERO && (transmissive || side > 0.0) {
+            let o = origin(ls.wi);
+            let (d, tmax) = match ls.point {
+                // Toward a point on a light: stop just short of it (the light's own
+                // surface is not an occluder), measured in units of the full segment.
+                Some(q) => {
+                    let q = if ls.delta { q } else { offset_toward(q, ls.normal, o - q) };
+                    (q - o, 1.0)
+                }
+                None => (ls.wi, f32::INFINITY),
+            };
+            let w = if ls.delta && ctx.light_vertices.is_some() && !path.specular {
+                // After a bounce: against the light vertex the last vertex connected to.
+                light_vertex::nee_weight(ctx.lights, &ls, sp.p, ng, path.prev_p, path.prev_pdf)
+            } else if ls.delta || !rules.mis {
+                1.0
+            } else {
+                power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l))
+            };
+            shadow.trace(&mut path.l, Ray::new(o, d), tmax, beta * f * ls.radiance * (w / ls.pdf));
+        }
+    }
+
+    // Connect to this vertex's light vertex (a path as long as the depth allows ends at it).
+    if nee_here
+        && path.depth + 2 <= ctx.path_depth
+        && let Some(y) = light_vertices.and_then(|v| v.at(path.depth))
+    {
+        let x = PathVertex { p: sp.p, leave, ng, frame: &frame, bsdf: &bsdf, wo_l };
+        let connection = if lambert {
+            light_vertex::connection::<true>(&x, y, beta)
+        } else {
+            light_vertex::connection::<false>(&x, y, beta)
+        };
+        if let Some(c) = connection {
+            shadow.trace(&mut path.l, c.ray, c.tmax, c.contribution);
+        }
+    }
+
+    // Continue the path by sampling the BSDF.
+    let bs = if rules.uniform_diffuse && bsdf.is_lambertian() {
+        sample_uniform_hemisphere(&bsdf, wo_l, rng.next_2d())
+    } else {
+        // A lobe number only for BSDFs that choose between lobes.
+        let u = rng.next_2d();
+        let uc = if bsdf.chooses_lobe() { rng.next_f32() } else { 0.0 };
+        if lambert { bsdf.sample_lambert(wo_l, u, uc) } else { bsdf.sample(wo_l, u, uc) }
+    };
+    let bs = bs?;
+    let wi = frame.to_world(bs.wi);
+    let side = wi.dot(ng);
+    if (!transmissive && side <= 0.0) || !(bs.pdf > 0.0) {
+        return None; // below the geometric surface: the shading normal would leak light
+    }
+    path.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+    if transmissive {
+        // Against the outward normal: into the glass (by transmission, or reflected inside).
+        path.absorption = if side < 0.0 { sp.material.absorption() } else { Vec3::ZERO };
+    }
+    path.specular = bs.delta;
+    path.prev_pdf = bs.pdf;
+    path.prev_p = sp.p;
+    path.depth += 1;
+    if path.depth >= ctx.roulette_start {
+        let q_rr = (1.0 - path.beta.max_element()).max(0.05);
+        if rng.next_f32() < q_rr {
+            return None;
+        }
+        path.beta /= 1.0 - q_rr;
+    }
+    if path.beta == Vec3::ZERO || !path.beta.is_finite() {
+        return None;
+    }
+    if !HIT_LIGHTS && path.depth >= ctx.path_depth {
+        // The next hit could only add emission, and nothing BSDF sampling can find emits.
+        return None;
+    }
+    path.ray = Ray::new(origin(wi), wi);
+    Some(path.ray)
 }
 
 /// How emission that a path's ray runs into (an emitter or the background) is counted.
