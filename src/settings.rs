@@ -146,6 +146,32 @@ impl fmt::Display for LightTreeMode {
     }
 }
 
+/// How the render loop advances its paths (`--path-loop`). Both compute the same image, bit
+/// for bit; they differ in speed (docs/performance.md, "Path loops").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PathLoop {
+    /// One path at a time, from its camera ray to its end (`crate::integrator`'s kernels).
+    #[default]
+    Scalar,
+    /// A tile's paths in a batch, advanced stage by stage (`crate::integrator`'s wavefront
+    /// loop).
+    Wavefront,
+}
+
+impl PathLoop {
+    pub const ALL: [PathLoop; 2] = [PathLoop::Scalar, PathLoop::Wavefront];
+
+    /// The name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            PathLoop::Scalar => "scalar",
+            PathLoop::Wavefront => "wavefront",
+        }
+    }
+}
+
+crate::choice::named_choice!(PathLoop, "path loop");
+
 /// Side of the square tiles an image is rendered in (the last row and column may be cut).
 pub const TILE: u32 = 16;
 
@@ -278,6 +304,8 @@ pub struct RenderSettings {
     /// scaled down to it, its hue kept ([`clamp_sample`]). Biased: it removes fireflies by
     /// removing energy. `None`: no clamp.
     pub clamp: Option<f32>,
+    /// How paths are advanced (the image does not depend on it).
+    pub path_loop: PathLoop,
 }
 
 /// Sample `v` under clamp `limit`: scaled by `limit / max channel` where its largest channel
@@ -337,6 +365,7 @@ impl Default for RenderSettings {
             light_vertices: LightVertices::Auto,
             light_tree: LightTreeMode::Auto,
             clamp: None,
+            path_loop: PathLoop::Scalar,
         }
     }
 }

@@ -477,6 +477,7 @@ fn a_stop_is_honoured_inside_a_pixel_and_resumes_exactly() {
         ("uniform", &["--spp", "400000", "--uniform"][..]),
         ("target", &["--spp", "400000", "--target-error", "0.0005"]),
         ("adaptive", &["--spp", "400000"]),
+        ("wavefront", &["--spp", "400000", "--path-loop", "wavefront"]),
     ] {
         let whole = dir.join(format!("{name}-whole.exr"));
         let o = render(&whole, &[&size[..], mode].concat()).output().unwrap();

@@ -68,19 +68,50 @@ impl KernelChoice {
 
     /// The compiled kernel for these switches.
     pub(crate) fn sample_fn(self) -> SampleFn {
-        fn lens<const L: bool>(k: KernelChoice) -> SampleFn {
-            if k.textures { tex::<L, true>(k) } else { tex::<L, false>(k) }
+        self.instance::<ScalarLoop>()
+    }
+
+    /// The compiled wavefront kernel for these switches ([`super::wavefront`]).
+    pub(crate) fn batch_fn(self) -> super::wavefront::BatchFn {
+        self.instance::<super::wavefront::WavefrontLoop>()
+    }
+
+    /// `F`'s instance for these switches.
+    fn instance<F: KernelFamily>(self) -> F::Fn {
+        fn lens<F: KernelFamily, const L: bool>(k: KernelChoice) -> F::Fn {
+            if k.textures { tex::<F, L, true>(k) } else { tex::<F, L, false>(k) }
         }
-        fn tex<const L: bool, const T: bool>(k: KernelChoice) -> SampleFn {
-            if k.glossy { glossy::<L, T, true>(k) } else { glossy::<L, T, false>(k) }
+        fn tex<F: KernelFamily, const L: bool, const T: bool>(k: KernelChoice) -> F::Fn {
+            if k.glossy { glossy::<F, L, T, true>(k) } else { glossy::<F, L, T, false>(k) }
         }
-        fn glossy<const L: bool, const T: bool, const G: bool>(k: KernelChoice) -> SampleFn {
-            if k.glass { glass::<L, T, G, true>(k) } else { glass::<L, T, G, false>(k) }
+        fn glossy<F: KernelFamily, const L: bool, const T: bool, const G: bool>(k: KernelChoice) -> F::Fn {
+            if k.glass { glass::<F, L, T, G, true>(k) } else { glass::<F, L, T, G, false>(k) }
         }
-        fn glass<const L: bool, const T: bool, const G: bool, const R: bool>(k: KernelChoice) -> SampleFn {
-            if k.hit_lights { sample::<L, T, G, R, true> } else { sample::<L, T, G, R, false> }
+        fn glass<F: KernelFamily, const L: bool, const T: bool, const G: bool, const R: bool>(
+            k: KernelChoice,
+        ) -> F::Fn {
+            if k.hit_lights { F::instance::<L, T, G, R, true>() } else { F::instance::<L, T, G, R, false>() }
         }
-        if self.lens { lens::<true>(self) } else { lens::<false>(self) }
+        if self.lens { lens::<F, true>(self) } else { lens::<F, false>(self) }
+    }
+}
+
+/// A kernel compiled once per combination of the switches of [`KernelChoice`].
+pub(crate) trait KernelFamily {
+    type Fn;
+    /// The instance for these switches (in [`KernelChoice`]'s order).
+    fn instance<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const HIT_LIGHTS: bool>()
+    -> Self::Fn;
+}
+
+/// The path-at-a-time kernels ([`SampleFn`]).
+struct ScalarLoop;
+
+impl KernelFamily for ScalarLoop {
+    type Fn = SampleFn;
+    fn instance<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bool, const HIT_LIGHTS: bool>()
+    -> SampleFn {
+        sample::<LENS, TEX, GLOSSY, GLASS, HIT_LIGHTS>
     }
 }
 
@@ -130,19 +161,43 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     aux: Option<&mut [AuxSample; LANES]>,
     rays: &mut u64,
 ) -> Result<(), AccelError> {
+    let n = samples.len();
+    let (camera_rays, mut rngs) = camera_stage::<LENS>(ctx, streams, (x, y), samples.clone());
+    let pixel = y as u64 * ctx.settings.width as u64 + x as u64;
+    let packet = CameraPacket {
+        rays: &camera_rays,
+        active: std::array::from_fn(|i| i < n),
+        pixel,
+        first_sample: samples.start as u64,
+    };
+    match ctx.accel.as_embree() {
+        Some(embree) => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, embree, &packet, &mut rngs, out, aux, rays),
+        None => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, ctx.accel, &packet, &mut rngs, out, aux, rays),
+    }
+}
+
+/// The camera stage of the samples `samples` (at most [`LANES`], within one group of `LANES`
+/// aligned on sample index 0) of pixel (x, y), whose streams are `streams`: their camera rays
+/// as a packet hinted coherent, lane i for sample `samples.start + i`, and each sample's
+/// stream after the numbers the camera drew. Lane by lane in structure-of-arrays form: each
+/// sample's first four numbers place it on the film, in pixels (drawn from the pixel filter,
+/// weight 1; for the box filter exactly x + u as always), and on the lens (drawn in every
+/// kernel, so that all kernels consume the same numbers). Idle lanes (a group cut short by
+/// the sample count) hold copies of the first lane's ray and stream, not their own: at 1 spp,
+/// seven of every eight lanes are idle.
+#[inline(always)]
+pub(super) fn camera_stage<'s, const LENS: bool>(
+    ctx: &PathContext,
+    streams: &'s PixelSampler,
+    (x, y): (u32, u32),
+    samples: Range<u32>,
+) -> (RayPacket, [SampleStream<'s>; LANES]) {
     let (w, h) = (ctx.settings.width, ctx.settings.height);
     let n = samples.len();
     debug_assert!(n <= LANES && (n == 0 || samples.start / LANES as u32 == (samples.end - 1) / LANES as u32));
-    let pixel = y as u64 * w as u64 + x as u64;
-    // The camera stage, lane by lane in structure-of-arrays form: each sample's first four
-    // numbers place it on the film, in pixels (drawn from the pixel filter, weight 1; for the
-    // box filter exactly x + u as always), and on the lens (drawn in every kernel, so that all
-    // kernels consume the same numbers). Idle lanes (a group cut short by the sample count)
-    // hold copies of the first lane's numbers and stream, not their own: at 1 spp, seven of
-    // every eight lanes are idle.
     let (u, first) = streams.sample_after_first_four(samples.start as u64);
     let mut numbers = [u; LANES];
-    let mut rngs: [SampleStream<'_>; LANES] = std::array::from_fn(|i| {
+    let rngs: [SampleStream<'_>; LANES] = std::array::from_fn(|i| {
         if i == 0 || i >= n {
             return first.clone();
         }
@@ -168,16 +223,7 @@ fn sample<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: bo
     } else {
         camera_rays.d = cam.pinhole_dirs(&fx, &fy);
     }
-    let packet = CameraPacket {
-        rays: &camera_rays,
-        active: std::array::from_fn(|i| i < n),
-        pixel,
-        first_sample: samples.start as u64,
-    };
-    match ctx.accel.as_embree() {
-        Some(embree) => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, embree, &packet, &mut rngs, out, aux, rays),
-        None => trace::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(ctx, ctx.accel, &packet, &mut rngs, out, aux, rays),
-    }
+    (camera_rays, rngs)
 }
 
 /// The camera rays of a pixel's samples `first_sample`.. in the `active` lanes.

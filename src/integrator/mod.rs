@@ -12,6 +12,7 @@ mod plan;
 mod progressive;
 pub mod roulette;
 mod surface;
+mod wavefront;
 
 pub use aux::AuxSample;
 pub use kernel::KernelChoice;

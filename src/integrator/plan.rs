@@ -191,11 +191,15 @@ fn light_vertices_apply(effects: &Effects, s: &RenderSettings, scene_depth: u32)
     }
 }
 
-/// `kernel: …; path depth N (why); russian roulette …`, then, where every light is a point
+/// `kernel: …; path depth N (why); russian roulette …` (and `; wavefront path loop` if so),
+/// then, where every light is a point
 /// light, `light vertices: on|off (why)` on a line of its own.
 impl fmt::Display for RenderPlan {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "kernel: {}; path depth {}; {}", self.kernel, self.depth_text(), self.roulette_text())?;
+        if self.settings.path_loop != crate::settings::PathLoop::Scalar {
+            write!(f, "; {} path loop", self.settings.path_loop)?;
+        }
         if self.effects.point_lights {
             match light_vertices_apply(&self.effects, &self.settings, self.scene_depth) {
                 Ok(why) => write!(f, "\nlight vertices: on ({why})")?,

@@ -28,14 +28,16 @@ use super::context::PathContext;
 use super::kernel::SampleFn;
 use super::light_vertex::LightVertexPool;
 use super::surface::FaceNormals;
+use super::wavefront::{BatchFn, GroupJob};
 use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
 use crate::film::{Accumulator, AuxSums, Checkpoint, PixelState};
 use crate::sampler::{PixelSampler, mix64};
 use crate::scene::Scene;
-use crate::settings::{TILE, clamp_sample};
+use crate::settings::{PathLoop, TILE, clamp_sample};
 use glam::DVec3;
 use rayon::prelude::*;
+use std::ops::Range;
 use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -276,7 +278,7 @@ pub(super) fn run(
         }
         return Ok(finish(accum, 0, (0, 0), true, Vec::new()));
     }
-    let sample = plan.kernel.sample_fn();
+    let kernel = Kernel::for_plan(plan);
     let normals = FaceNormals::of(scene);
     let mut ctx = PathContext {
         scene,
@@ -375,7 +377,7 @@ pub(super) fn run(
                 let a = shared.lock().unwrap_or_else(|e| e.into_inner());
                 TileFilm::take(&a, tile_rect(tx, ty, w, h), round, settings)
             };
-            let out = render_tile(&ctx, sample, &mut tile, &stop_requested)?;
+            let out = render_tile(&ctx, kernel, &mut tile, &stop_requested)?;
             if out.stopped {
                 stopped.store(true, Ordering::Relaxed);
             }
@@ -546,11 +548,40 @@ struct TileOutcome {
     stopped: bool,
 }
 
+/// The compiled kernel a render runs, for the path loop its settings name.
+#[derive(Clone, Copy)]
+enum Kernel {
+    Scalar(SampleFn),
+    Wavefront(BatchFn),
+}
+
+impl Kernel {
+    fn for_plan(plan: &RenderPlan) -> Kernel {
+        match plan.settings.path_loop {
+            PathLoop::Scalar => Kernel::Scalar(plan.kernel.sample_fn()),
+            PathLoop::Wavefront => Kernel::Wavefront(plan.kernel.batch_fn()),
+        }
+    }
+}
+
 /// Takes each pixel of `tile` to its round's target, in groups of [`LANES`] samples aligned
 /// on sample 0, whatever the rounds (a sample's packet mates never depend on when it is
 /// taken); a stop request is honoured between groups (a pixel of many samples can take
 /// minutes), the pixel's state kept as it is.
 fn render_tile(
+    ctx: &PathContext,
+    kernel: Kernel,
+    tile: &mut TileFilm,
+    stop_requested: &dyn Fn() -> bool,
+) -> Result<TileOutcome, RenderError> {
+    match kernel {
+        Kernel::Scalar(sample) => render_tile_scalar(ctx, sample, tile, stop_requested),
+        Kernel::Wavefront(batch) => render_tile_wavefront(ctx, batch, tile, stop_requested),
+    }
+}
+
+/// [`render_tile`] one pixel and one group of samples at a time.
+fn render_tile_scalar(
     ctx: &PathContext,
     sample: SampleFn,
     tile: &mut TileFilm,
@@ -569,7 +600,6 @@ fn render_tile(
         }
         let streams =
             PixelSampler::new(settings.sampler, settings.seed, t.y as u64 * settings.width as u64 + t.x as u64);
-        let rays_before = out.rays;
         let mut s = t.state.count;
         while s < target {
             if stop_requested() {
@@ -578,38 +608,146 @@ fn render_tile(
             }
             let end = target.min((s / LANES as u32 + 1) * LANES as u32);
             let aux_out = t.aux.is_some().then_some(&mut aux_values);
-            sample(ctx, &streams, (t.x, t.y), s..end, &mut values, aux_out, &mut out.rays)
-                .map_err(RenderError::from)?;
-            for &v in &values[..(end - s) as usize] {
-                if v.is_finite() {
-                    // The sample clamp acts on what the film receives: the path and its
-                    // numbers are those of an unclamped render.
-                    let v = match settings.clamp {
-                        Some(limit) => {
-                            let (v, scaled) = clamp_sample(v, limit);
-                            out.clamped += scaled as u64;
-                            v
-                        }
-                        None => v,
-                    };
-                    t.state.add(v);
-                    let v = v.as_dvec3();
-                    t.sum_sq += v * v;
-                } else {
-                    out.nonfinite += 1;
-                    t.state.add(glam::Vec3::ZERO);
-                }
-            }
-            if let Some(pa) = &mut t.aux {
-                // In sample order, like the radiance: the same sums whatever the threads,
-                // rounds or sessions.
-                for a in &aux_values[..(end - s) as usize] {
-                    pa.add(a.albedo, a.normal);
-                }
-            }
+            let mut rays = 0;
+            sample(ctx, &streams, (t.x, t.y), s..end, &mut values, aux_out, &mut rays).map_err(RenderError::from)?;
+            let n = (end - s) as usize;
+            t.add_group(settings, &values[..n], &aux_values[..n], rays, &mut out);
             s = end;
         }
-        t.rays += out.rays - rays_before;
     }
     Ok(out)
+}
+
+/// Groups of samples a wavefront batch takes (up to [`LANES`] paths each).
+const WAVEFRONT_GROUPS: usize = 64;
+
+/// [`render_tile`] by the wavefront loop: the tile's groups of samples, pixel by pixel and in
+/// sample order, in batches of [`WAVEFRONT_GROUPS`] (a batch may span pixels, and a pixel
+/// batches); a stop request is honoured between batches. Each group's values are added to its pixel in the order the scalar loop adds
+/// them, so the sums are the same.
+fn render_tile_wavefront(
+    ctx: &PathContext,
+    batch: BatchFn,
+    tile: &mut TileFilm,
+    stop_requested: &dyn Fn() -> bool,
+) -> Result<TileOutcome, RenderError> {
+    let settings = ctx.settings;
+    let mut out = TileOutcome { rays: 0, nonfinite: 0, clamped: 0, stopped: false };
+    let streams: Vec<Option<PixelSampler>> = tile
+        .pixels
+        .iter()
+        .map(|t| {
+            t.target.map(|_| {
+                PixelSampler::new(settings.sampler, settings.seed, t.y as u64 * settings.width as u64 + t.x as u64)
+            })
+        })
+        .collect();
+    // The next group to take: (pixel of the tile, its first sample), in the order the scalar
+    // loop takes them. Groups are cut as they are taken (a pixel may have billions).
+    let next_group = |k: &mut usize, s: &mut u32, pixels: &[TilePixel]| -> Option<(usize, Range<u32>)> {
+        while *k < pixels.len() {
+            if let Some(target) = pixels[*k].target {
+                *s = (*s).max(pixels[*k].state.count);
+                if *s < target {
+                    let end = target.min((*s / LANES as u32 + 1) * LANES as u32);
+                    let group = (*k, *s..end);
+                    *s = end;
+                    return Some(group);
+                }
+            }
+            (*k, *s) = (*k + 1, 0);
+        }
+        None
+    };
+    let aux = tile.pixels.iter().any(|t| t.target.is_some() && t.aux.is_some());
+    let mut values = vec![[glam::Vec3::ZERO; LANES]; WAVEFRONT_GROUPS];
+    let mut aux_values = vec![[AuxSample::default(); LANES]; if aux { WAVEFRONT_GROUPS } else { 0 }];
+    let mut rays = vec![0u64; WAVEFRONT_GROUPS];
+    let mut touched = vec![false; tile.pixels.len()];
+    let mut chunk = Vec::with_capacity(WAVEFRONT_GROUPS);
+    let (mut k, mut s) = (0, 0);
+    loop {
+        chunk.clear();
+        while chunk.len() < WAVEFRONT_GROUPS
+            && let Some(group) = next_group(&mut k, &mut s, &tile.pixels)
+        {
+            chunk.push(group);
+        }
+        if chunk.is_empty() {
+            break;
+        }
+        if stop_requested() {
+            out.stopped = true;
+            break;
+        }
+        let jobs: Vec<GroupJob> = chunk
+            .iter()
+            .map(|(k, samples)| GroupJob {
+                streams: streams[*k].as_ref().expect("a pixel with a target has streams"),
+                pixel: (tile.pixels[*k].x, tile.pixels[*k].y),
+                samples: samples.clone(),
+            })
+            .collect();
+        let n = chunk.len();
+        rays[..n].fill(0);
+        let aux_out = aux.then(|| &mut aux_values[..n]);
+        batch(ctx, &jobs, &mut values[..n], aux_out, &mut rays[..n]).map_err(RenderError::from)?;
+        for (g, (k, samples)) in chunk.iter().enumerate() {
+            let m = samples.len();
+            let aux_group = if aux { &aux_values[g][..m] } else { &[] };
+            tile.pixels[*k].add_group(settings, &values[g][..m], aux_group, rays[g], &mut out);
+            touched[*k] = true;
+        }
+    }
+    if out.stopped {
+        for (t, touched) in tile.pixels.iter_mut().zip(touched) {
+            if !touched {
+                t.target = None; // untouched: nothing to put back
+            }
+        }
+    }
+    Ok(out)
+}
+
+impl TilePixel {
+    /// Adds the values of a group of this pixel's samples, in sample order, and their
+    /// auxiliary samples (if the render makes auxiliary images); `rays` were traced for them.
+    fn add_group(
+        &mut self,
+        settings: &RenderSettings,
+        values: &[glam::Vec3],
+        aux: &[AuxSample],
+        rays: u64,
+        out: &mut TileOutcome,
+    ) {
+        for &v in values {
+            if v.is_finite() {
+                // The sample clamp acts on what the film receives: the path and its
+                // numbers are those of an unclamped render.
+                let v = match settings.clamp {
+                    Some(limit) => {
+                        let (v, scaled) = clamp_sample(v, limit);
+                        out.clamped += scaled as u64;
+                        v
+                    }
+                    None => v,
+                };
+                self.state.add(v);
+                let v = v.as_dvec3();
+                self.sum_sq += v * v;
+            } else {
+                out.nonfinite += 1;
+                self.state.add(glam::Vec3::ZERO);
+            }
+        }
+        if let Some(pa) = &mut self.aux {
+            // In sample order, like the radiance: the same sums whatever the threads,
+            // rounds or sessions.
+            for a in aux {
+                pa.add(a.albedo, a.normal);
+            }
+        }
+        self.rays += rays;
+        out.rays += rays;
+    }
 }

@@ -6,7 +6,7 @@ use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
 use crate::integrator::adaptive;
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
 use crate::scene::{CameraOverride, Orbit, Scene};
-use crate::settings::{Estimator, LightTreeMode, LightVertices, RenderSettings, RrDepth, SamplerKind, Shard};
+use crate::settings::{Estimator, LightTreeMode, LightVertices, PathLoop, RenderSettings, RrDepth, SamplerKind, Shard};
 use clap::Args;
 use glam::Vec3;
 use std::path::PathBuf;
@@ -127,6 +127,10 @@ pub struct RenderArgs {
     /// or independent [scene's render.sampler, else sobol].
     #[arg(long)]
     pub sampler: Option<SamplerKind>,
+    /// How paths are advanced: scalar (one at a time) or wavefront (a tile's paths in a
+    /// batch, stage by stage). The image is the same, bit for bit.
+    #[arg(long, default_value = "scalar")]
+    pub path_loop: PathLoop,
     /// Fail (exit 2, no image written) if any sample was NaN or infinite, or if nothing in the
     /// scene emits light (the image would be black).
     #[arg(long)]
@@ -384,6 +388,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         light_tree: args.light_tree,
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
         clamp: args.clamp,
+        path_loop: args.path_loop,
     })
 }
 
