@@ -598,8 +598,7 @@ fn render_tile_scalar(
             t.target = None; // untouched: nothing to put back
             continue;
         }
-        let streams =
-            PixelSampler::new(settings.sampler, settings.seed, t.y as u64 * settings.width as u64 + t.x as u64);
+        let streams = t.streams(settings);
         let mut s = t.state.count;
         while s < target {
             if stop_requested() {
@@ -623,8 +622,8 @@ const WAVEFRONT_GROUPS: usize = 64;
 
 /// [`render_tile`] by the wavefront loop: the tile's groups of samples, pixel by pixel and in
 /// sample order, in batches of [`WAVEFRONT_GROUPS`] (a batch may span pixels, and a pixel
-/// batches); a stop request is honoured between batches. Each group's values are added to its pixel in the order the scalar loop adds
-/// them, so the sums are the same.
+/// batches); a stop request is honoured between batches. Each group's values are added to its
+/// pixel in the order the scalar loop adds them, so the sums are the same.
 fn render_tile_wavefront(
     ctx: &PathContext,
     batch: BatchFn,
@@ -633,15 +632,8 @@ fn render_tile_wavefront(
 ) -> Result<TileOutcome, RenderError> {
     let settings = ctx.settings;
     let mut out = TileOutcome { rays: 0, nonfinite: 0, clamped: 0, stopped: false };
-    let streams: Vec<Option<PixelSampler>> = tile
-        .pixels
-        .iter()
-        .map(|t| {
-            t.target.map(|_| {
-                PixelSampler::new(settings.sampler, settings.seed, t.y as u64 * settings.width as u64 + t.x as u64)
-            })
-        })
-        .collect();
+    let streams: Vec<Option<PixelSampler>> =
+        tile.pixels.iter().map(|t| t.target.map(|_| t.streams(settings))).collect();
     // The next group to take: (pixel of the tile, its first sample), in the order the scalar
     // loop takes them. Groups are cut as they are taken (a pixel may have billions).
     let next_group = |k: &mut usize, s: &mut u32, pixels: &[TilePixel]| -> Option<(usize, Range<u32>)> {
@@ -710,6 +702,11 @@ fn render_tile_wavefront(
 }
 
 impl TilePixel {
+    /// The streams of this pixel's samples.
+    fn streams(&self, settings: &RenderSettings) -> PixelSampler {
+        PixelSampler::new(settings.sampler, settings.seed, self.y as u64 * settings.width as u64 + self.x as u64)
+    }
+
     /// Adds the values of a group of this pixel's samples, in sample order, and their
     /// auxiliary samples (if the render makes auxiliary images); `rays` were traced for them.
     fn add_group(
