@@ -36,7 +36,50 @@ pub struct RenderPlan {
     pub light_vertices: bool,
 }
 
+/// Samples every pixel takes before its error estimate is trusted (rounds with a target error).
+const MIN_ADAPTIVE_SPP: u32 = 16;
+
 impl RenderPlan {
+    /// How many rounds of samples the render takes: one (uniform), two (adaptive: the first
+    /// round everywhere, then the plan's), or with a target error the first round and the
+    /// doublings from it up to `spp`.
+    pub fn rounds(&self) -> u32 {
+        let settings = &self.settings;
+        if settings.adaptive {
+            return 2;
+        }
+        match settings.target_error {
+            None => 1,
+            Some(_) => {
+                let min = MIN_ADAPTIVE_SPP.min(settings.spp).max(1);
+                // Doublings from `min` until `spp` is reached, plus the first round.
+                1 + (settings.spp.div_ceil(min)).next_power_of_two().trailing_zeros()
+            }
+        }
+    }
+
+    /// How many samples pixel state `p` should have at the end of round `round`, or `None` if it
+    /// takes no part in that round.
+    pub(crate) fn round_target(&self, round: u32, p: &crate::film::PixelState, allocated: Option<u32>) -> Option<u32> {
+        let settings = &self.settings;
+        if settings.adaptive {
+            let target = if round == 0 { super::adaptive::first_round_spp(settings.spp) } else { allocated? };
+            return (p.count < target).then_some(target);
+        }
+        let Some(e) = settings.target_error else {
+            return (round == 0 && p.count < settings.spp).then_some(settings.spp);
+        };
+        let min = MIN_ADAPTIVE_SPP.min(settings.spp);
+        let target_of = |r: u32| min.saturating_mul(1u32.checked_shl(r).unwrap_or(u32::MAX)).min(settings.spp);
+        let target = target_of(round);
+        // A pixel with more samples than the last round's target was stopped inside this round
+        // (by a signal): it was taking part, decided at the round's start, so it goes on; its
+        // error estimate now would decide on other samples. (Never so in a render not stopped.)
+        let inside = round > 0 && p.count > target_of(round - 1);
+        let needs = p.count < min || inside || p.relative_error() > e as f64;
+        (p.count < target && needs).then_some(target)
+    }
+
     /// The plan for `scene` rendered with `settings` (analyses the scene).
     pub fn new(scene: &Scene, settings: &RenderSettings) -> RenderPlan {
         RenderPlan::for_effects(scene.effects(), settings)

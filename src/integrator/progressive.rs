@@ -5,7 +5,8 @@
 //! share of time spent (row by row, the cheap tiles of a sky come first and a progress bar
 //! runs ahead of the work). The order changes no pixel: a pixel's samples depend only on it.
 //!
-//! A uniform render has one round: every pixel goes to `spp`. An adaptive one
+//! The plan says how many rounds ([`RenderPlan::rounds`]) and each pixel's target in each
+//! ([`RenderPlan::round_target`]). A uniform render has one round: every pixel goes to `spp`. An adaptive one
 //! ([`super::adaptive`]) has two: the first round everywhere, then the plan made from the whole
 //! image's first round (a shard takes them in two stages: [`RenderControl::first_round_only`],
 //! then [`RenderControl::first_rounds`]). With a target error, rounds
@@ -15,7 +16,7 @@
 //! whether or not the render was interrupted and resumed: a stop request is honoured between
 //! groups of [`LANES`] samples (inside a pixel too, whose samples may take minutes), where the
 //! pixel's state — its sums, in sample order — is saved exactly, and a pixel stopped inside a
-//! round goes on with it when resumed (see [`round_target`]).
+//! round goes on with it when resumed (see [`RenderPlan::round_target`]).
 //!
 //! Each round is a parallel loop over tiles, in named steps: the task takes its tile's pixels
 //! out of the shared film ([`TileFilm::take`]), renders them ([`render_tile`]) and puts them
@@ -42,9 +43,6 @@ use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
-
-/// Samples every pixel takes before its error estimate is trusted (adaptive sampling).
-const MIN_ADAPTIVE_SPP: u32 = 16;
 
 /// Control over a long render.
 #[derive(Default)]
@@ -156,27 +154,6 @@ impl Periodic {
     }
 }
 
-/// How many samples pixel state `p` should have at the end of round `round`, or `None` if it
-/// takes no part in that round.
-fn round_target(settings: &RenderSettings, round: u32, p: &PixelState, allocated: Option<u32>) -> Option<u32> {
-    if settings.adaptive {
-        let target = if round == 0 { adaptive::first_round_spp(settings.spp) } else { allocated? };
-        return (p.count < target).then_some(target);
-    }
-    let Some(e) = settings.target_error else {
-        return (round == 0 && p.count < settings.spp).then_some(settings.spp);
-    };
-    let min = MIN_ADAPTIVE_SPP.min(settings.spp);
-    let target_of = |r: u32| min.saturating_mul(1u32.checked_shl(r).unwrap_or(u32::MAX)).min(settings.spp);
-    let target = target_of(round);
-    // A pixel with more samples than the last round's target was stopped inside this round
-    // (by a signal): it was taking part, decided at the round's start, so it goes on; its
-    // error estimate now would decide on other samples. (Never so in a render not stopped.)
-    let inside = round > 0 && p.count > target_of(round - 1);
-    let needs = p.count < min || inside || p.relative_error() > e as f64;
-    (p.count < target && needs).then_some(target)
-}
-
 /// The tiles of a `w`×`h` image, as (column, row) of 16×16 tiles, in the order they are
 /// rendered: shuffled by a fixed hash, the same for every render of that size.
 pub fn tile_order(w: u32, h: u32) -> Vec<(u32, u32)> {
@@ -184,20 +161,6 @@ pub fn tile_order(w: u32, h: u32) -> Vec<(u32, u32)> {
         (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
     tiles.sort_by_key(|&(tx, ty)| mix64(((ty as u64) << 32 | tx as u64) ^ 0x7469_6c65_6f72_6465));
     tiles
-}
-
-fn rounds(settings: &RenderSettings) -> u32 {
-    if settings.adaptive {
-        return 2;
-    }
-    match settings.target_error {
-        None => 1,
-        Some(_) => {
-            let min = MIN_ADAPTIVE_SPP.min(settings.spp).max(1);
-            // Doublings from `min` until `spp` is reached, plus the first round.
-            1 + (settings.spp.div_ceil(min)).next_power_of_two().trailing_zeros()
-        }
-    }
 }
 
 pub(super) fn run(
@@ -272,7 +235,7 @@ pub(super) fn run(
             }
             // As many exact zeros as the round takes: the sums stay 0 (and a huge spp takes no
             // time).
-            if let Some(t) = round_target(settings, 0, p, None) {
+            if let Some(t) = plan.round_target(0, p, None) {
                 p.count = p.count.max(t);
             }
         }
@@ -301,7 +264,7 @@ pub(super) fn run(
         tile_order(w, h).into_iter().filter(|&(tx, ty)| settings.shard.is_none_or(|s| s.owns_tile(tx, ty))).collect();
     // Stage 1 of an adaptive shard stops before the plan; every other render needs no other
     // shard, and stage 1 is all of it.
-    let n_rounds = if control.first_round_only && settings.adaptive { 1 } else { rounds(settings) };
+    let n_rounds = if control.first_round_only && settings.adaptive { 1 } else { plan.rounds() };
     let rays_total = AtomicU64::new(pool.as_ref().map_or(0, |p| p.rays));
     // Progress is counted in work ([`Progress`]): a sample of pixel `i` beyond an adaptive
     // render's first round weighs `costs[i]` once the plan is made.
@@ -359,7 +322,7 @@ pub(super) fn run(
                 let pixels = a.pixels.iter().enumerate().filter(|&(i, _)| owned(i));
                 pixels
                     .map(|(i, p)| {
-                        let end = round_target(settings, round, p, allocated(&a, i)).unwrap_or(p.count);
+                        let end = plan.round_target(round, p, allocated(&a, i)).unwrap_or(p.count);
                         work_of(&costs, i, end)
                     })
                     .sum()
@@ -375,7 +338,7 @@ pub(super) fn run(
             // film once, rendered, put back once.
             let mut tile = {
                 let a = shared.lock().unwrap_or_else(|e| e.into_inner());
-                TileFilm::take(&a, tile_rect(tx, ty, w, h), round, settings)
+                TileFilm::take(&a, tile_rect(tx, ty, w, h), round, plan)
             };
             let out = render_tile(&ctx, kernel, &mut tile, &stop_requested)?;
             if out.stopped {
@@ -475,7 +438,7 @@ struct TilePixel {
     state: PixelState,
     first: u32,
     aux: Option<AuxSums>,
-    /// The samples it takes this round ([`round_target`]; `None`: none).
+    /// The samples it takes this round ([`RenderPlan::round_target`]; `None`: none).
     target: Option<u32>,
     /// An adaptive render's first round: the squares of its samples, summed on from the
     /// film's (in sample order, whatever the sessions), and the rays its samples traced.
@@ -495,7 +458,7 @@ impl TileFilm {
         a: &Accumulator,
         (xs, ys): (std::ops::Range<u32>, std::ops::Range<u32>),
         round: u32,
-        settings: &RenderSettings,
+        plan: &RenderPlan,
     ) -> TileFilm {
         let w = a.width;
         let pixels = ys
@@ -511,7 +474,7 @@ impl TileFilm {
                     state,
                     first: state.count,
                     aux: a.aux.as_ref().map(|aux| aux[i]),
-                    target: round_target(settings, round, &state, planned),
+                    target: plan.round_target(round, &state, planned),
                     sum_sq: a.adaptive.as_ref().map_or(DVec3::ZERO, |plan| plan[i].sum_sq),
                     rays: 0,
                 }
