@@ -110,7 +110,7 @@ fn interrupted_and_resumed_renders_equal_the_uninterrupted_one() {
     // A crash (SIGKILL) after periodic checkpoints loses at most the interval.
     let out = dir.join("crashed.exr");
     let ckpt = dir.join("crashed.exr.checkpoint");
-    let run = start_and_signal(&out, &["--checkpoint-every", "0.2s"], Duration::from_millis(900), "KILL");
+    let run = start_and_signal(&out, &["--checkpoint-every", "0.2s"], Duration::from_millis(2000), "KILL");
     assert_eq!(run.status.code(), None, "killed by a signal");
     let saved = Checkpoint::load(&ckpt, &args_key()).expect("a periodic checkpoint");
     assert!(saved.accum.samples() > 0);
