@@ -6,17 +6,17 @@
 //! runs ahead of the work). The order changes no pixel: a pixel's samples depend only on it.
 //!
 //! The plan says how many rounds ([`RenderPlan::rounds`]) and each pixel's target in each
-//! ([`RenderPlan::round_target`]). A uniform render has one round: every pixel goes to `spp`. An adaptive one
-//! ([`super::adaptive`]) has two: the first round everywhere, then the plan made from the whole
-//! image's first round (a shard takes them in two stages: [`RenderControl::first_round_only`],
-//! then [`RenderControl::first_rounds`]). With a target error, rounds
-//! double the sample count (16, 32, 64, … up to `spp`) of the pixels whose estimated error is
-//! still above the target. A pixel's samples are always taken in index order and its decision
-//! depends only on its own samples, so the image is the same whatever the thread count, and
-//! whether or not the render was interrupted and resumed: a stop request is honoured between
-//! groups of [`LANES`] samples (inside a pixel too, whose samples may take minutes), where the
-//! pixel's state — its sums, in sample order — is saved exactly, and a pixel stopped inside a
-//! round goes on with it when resumed (see [`RenderPlan::round_target`]).
+//! ([`RenderPlan::round_target`]). A uniform render has one round: every pixel goes to `spp`. An
+//! adaptive one ([`super::adaptive`]) has two: the first round everywhere, then the plan made from
+//! the whole image's first round (a shard takes them in two stages:
+//! [`RenderControl::first_round_only`], then [`RenderControl::first_rounds`]). With a target error,
+//! rounds double the sample count (16, 32, 64, … up to `spp`) of the pixels whose estimated error
+//! is still above the target. A pixel's samples are always taken in index order and its decision
+//! depends only on its own samples, so the image is the same whatever the thread count, and whether
+//! or not the render was interrupted and resumed: a stop request is honoured between groups of
+//! [`LANES`] samples (inside a pixel too, whose samples may take minutes), where the pixel's state
+//! — its sums, in sample order — is saved exactly, and a pixel stopped inside a round goes on with
+//! it when resumed (see [`RenderPlan::round_target`]).
 //!
 //! Each round is a parallel loop over tiles, in named steps: the task takes its tile's pixels
 //! out of the shared film ([`TileFilm::take`]), renders them ([`render_tile`]) and puts them
@@ -618,7 +618,6 @@ fn render_tile_wavefront(
     let mut values = vec![[glam::Vec3::ZERO; LANES]; WAVEFRONT_GROUPS];
     let mut aux_values = vec![[AuxSample::default(); LANES]; if aux { WAVEFRONT_GROUPS } else { 0 }];
     let mut rays = vec![0u64; WAVEFRONT_GROUPS];
-    let mut touched = vec![false; tile.pixels.len()];
     let mut chunk = Vec::with_capacity(WAVEFRONT_GROUPS);
     let (mut k, mut s) = (0, 0);
     loop {
@@ -651,13 +650,14 @@ fn render_tile_wavefront(
             let m = samples.len();
             let aux_group = if aux { &aux_values[g][..m] } else { &[] };
             tile.pixels[*k].add_group(settings, &values[g][..m], aux_group, rays[g], &mut out);
-            touched[*k] = true;
         }
     }
     if out.stopped {
-        for (t, touched) in tile.pixels.iter_mut().zip(touched) {
-            if !touched {
-                t.target = None; // untouched: nothing to put back
+        for t in &mut tile.pixels {
+            // A pixel no batch reached still has the samples it started the round with:
+            // nothing to put back.
+            if t.state.count == t.first {
+                t.target = None;
             }
         }
     }
