@@ -53,7 +53,7 @@ pub fn register_live(path: &Path) -> LiveFile {
 }
 
 /// Removes every registered file, for a process about to exit without running destructors
-/// (`crate::process::exit_now`). The registry stays locked: a write that would rename its
+/// (`crate::posix::exit_now`). The registry stays locked: a write that would rename its
 /// temporary file into place waits (and never happens: the process exits), so no file is
 /// half-renamed while the process ends.
 pub fn remove_live_files() -> MutexGuard<'static, Vec<PathBuf>> {

@@ -24,7 +24,7 @@ pub mod material;
 pub mod memory;
 pub mod oidn;
 pub mod output_lock;
-pub mod process;
+pub mod posix;
 pub mod regular_file;
 pub mod sampler;
 pub mod scene;

@@ -88,7 +88,7 @@ pub(super) fn name(signal: i32) -> &'static str {
 fn quit(sig: i32) -> ! {
     // Held until the process is gone: no temporary file is renamed meanwhile.
     let _held = crate::atomic_write::remove_live_files();
-    crate::process::exit_now(128 + sig);
+    crate::posix::exit_now(128 + sig);
 }
 
 /// Catches SIGINT, SIGTERM and SIGHUP from here on, in [`Phase::Preparing`]; `output` is what

@@ -1,5 +1,6 @@
-//! The one call ember makes to the C library that std does not offer: ending the process at
-//! once. (Like `src/embree/` and `src/oidn/`, the module that holds its `unsafe`.)
+//! The FFI module for the C library (POSIX), as `src/embree/` and `src/oidn/` are for theirs:
+//! the one call ember makes to it that std does not offer, ending the process at once, and
+//! the `unsafe` it needs.
 
 /// Ends the process with `code` as `_exit(2)` does: no `atexit` handlers and no C++ static
 /// destructors run. A process quitting from its signal thread must end this way: other
