@@ -18,10 +18,13 @@
 //! — its sums, in sample order — is saved exactly, and a pixel stopped inside a round goes on with
 //! it when resumed (see [`RenderPlan::round_target`]).
 //!
-//! Each round is a parallel loop over tiles, in named steps: the task takes its tile's pixels
-//! out of the shared film ([`TileFilm::take`]), renders them ([`render_tile`]) and puts them
-//! back ([`TileFilm::put_back`]), then writes a due checkpoint or preview and reports progress.
-//! The film is locked twice per tile, not per pixel.
+//! [`run`] is a sequence of named steps: where the film starts ([`Earlier`]: a resumed
+//! checkpoint, stage 1 of a shard, or empty), the path context and light vertices, then the
+//! rounds. Each round is a parallel loop over tiles ([`Session::render_tile`]): the task takes
+//! its tile's pixels out of the shared film ([`TileFilm::take`]), renders them
+//! ([`render_tile`]) and puts them back ([`TileFilm::put_back`]), then writes a due checkpoint
+//! or preview and reports progress, counted in work ([`WorkMeter`]). The film is locked twice
+//! per tile, not per pixel.
 
 use super::adaptive;
 use super::aux::AuxSample;
@@ -32,7 +35,7 @@ use super::surface::FaceNormals;
 use super::wavefront::{BatchFn, GroupJob};
 use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
-use crate::film::{Accumulator, AuxSums, Checkpoint, PixelState};
+use crate::film::{Accumulator, AuxSums, Checkpoint, CheckpointKey, PixelState};
 use crate::sampler::{PixelSampler, mix64};
 use crate::scene::Scene;
 use crate::settings::{PathLoop, TILE, clamp_sample};
@@ -40,8 +43,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::ops::Range;
 use std::path::Path;
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 /// Control over a long render.
@@ -163,11 +166,12 @@ pub fn tile_order(w: u32, h: u32) -> Vec<(u32, u32)> {
     tiles
 }
 
+/// Renders `scene` through `accel` as `plan` says, under `control` (see the module's text).
 pub(super) fn run(
     scene: &Scene,
     accel: &dyn Accel,
     plan: &RenderPlan,
-    control: RenderControl,
+    mut control: RenderControl,
 ) -> Result<RenderResult, RenderError> {
     let start = Instant::now();
     let settings = &plan.settings;
@@ -177,71 +181,14 @@ pub(super) fn run(
     if settings.adaptive && settings.shard.is_some() && !staged {
         return Err(RenderError::AdaptiveShard);
     }
-    let (w, h) = (settings.width, settings.height);
-    // Hashing the scene reads all of its data: done only when a checkpoint is read or written.
-    let key = std::sync::OnceLock::new();
-    let key = || key.get_or_init(|| plan.checkpoint_key(scene.fingerprint(), &accel.image_key()));
-    let (mut accum, prior_elapsed, prior_nonfinite) = match (control.resume, control.first_rounds) {
-        (Some((path, c)), _) => {
-            c.check_matches(path, key())?;
-            if let Some(stored) = &c.accum.adaptive {
-                let rays = plan.max_rays_per_sample();
-                if let Some((_, why)) = adaptive::stored_plan_problem(&c.accum.pixels, stored, w, h, settings.spp, rays)
-                {
-                    return Err(crate::film::CheckpointError::Corrupt(path.to_path_buf(), why).into());
-                }
-            }
-            (c.accum, c.elapsed, c.nonfinite)
-        }
-        (None, Some(first)) => {
-            assert_eq!((first.accum.width, first.accum.height), (w, h), "the first rounds are the image's");
-            assert_eq!(
-                first.accum.adaptive.is_some(),
-                settings.adaptive,
-                "an adaptive render's first rounds have a plan"
-            );
-            (first.accum, first.elapsed, first.nonfinite)
-        }
-        (None, None) => (Accumulator::empty(w, h, settings.aux, settings.adaptive), Duration::ZERO, 0),
-    };
-    let camera = scene.camera(w as f32 / h as f32);
-    let lights = scene.light_set(settings.light_tree);
-    // The pixels this render takes: a shard's, or all.
-    let owned = |i: usize| settings.shard.is_none_or(|s| s.owns_pixel(i as u32 % w, i as u32 / w));
-    let finish = |accum: Accumulator, rays: u64, (nonfinite, clamped): (u64, u64), complete, warnings| {
-        let stats = RenderStats {
-            elapsed: start.elapsed(),
-            earlier_sessions: prior_elapsed,
-            rays,
-            samples: accum.samples_of(owned),
-            nonfinite: prior_nonfinite + nonfinite,
-            clamped,
-            added_sample_cost: accum
-                .adaptive
-                .as_ref()
-                .and_then(|p| adaptive::added_sample_cost(p, adaptive::first_round_spp(settings.spp), owned)),
-            plan: plan.clone(),
-            spp: accum.spp_range_of(owned),
-            error_estimate: accum.error_estimate_of(owned),
-        };
-        RenderResult { accum, stats, complete, warnings }
-    };
+    let key = LazyKey { scene, accel, plan, key: OnceLock::new() };
+    let earlier = Earlier::of(plan, control.resume.take(), control.first_rounds.take(), &key)?;
+    let owned = Owned::of(settings);
     if plan.traces_nothing() && !settings.aux {
-        // Nothing emits: every path carries zero radiance, so none is traced; each pixel's
-        // samples are all exactly zero. (The auxiliary images need the paths traced.)
-        for (i, p) in accum.pixels.iter_mut().enumerate() {
-            if !owned(i) {
-                continue;
-            }
-            // As many exact zeros as the round takes: the sums stay 0 (and a huge spp takes no
-            // time).
-            if let Some(t) = plan.round_target(0, p, None) {
-                p.count = p.count.max(t);
-            }
-        }
-        return Ok(finish(accum, 0, (0, 0), true, Vec::new()));
+        return Ok(earlier.traced_nothing(plan, owned, start));
     }
-    let kernel = Kernel::for_plan(plan);
+    let camera = scene.camera(settings.width as f32 / settings.height as f32);
+    let lights = scene.light_set(settings.light_tree);
     let normals = FaceNormals::of(scene);
     let mut ctx = PathContext {
         scene,
@@ -254,6 +201,7 @@ pub(super) fn run(
         roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
         light_vertices: None,
     };
+    let (w, h) = (settings.width, settings.height);
     let pool = plan
         .light_vertices
         .then(|| LightVertexPool::build((scene, &normals, &lights), accel, settings.seed, (w, h), settings.spp));
@@ -264,147 +212,366 @@ pub(super) fn run(
         tile_order(w, h).into_iter().filter(|&(tx, ty)| settings.shard.is_none_or(|s| s.owns_tile(tx, ty))).collect();
     // Stage 1 of an adaptive shard stops before the plan; every other render needs no other
     // shard, and stage 1 is all of it.
-    let n_rounds = if control.first_round_only && settings.adaptive { 1 } else { plan.rounds() };
-    let rays_total = AtomicU64::new(pool.as_ref().map_or(0, |p| p.rays));
-    // Progress is counted in work ([`Progress`]): a sample of pixel `i` beyond an adaptive
-    // render's first round weighs `costs[i]` once the plan is made.
-    let first_round = adaptive::first_round_spp(settings.spp);
-    let costs_of = |a: &Accumulator| -> Option<Vec<f64>> {
-        let plan = a.adaptive.as_ref()?;
-        plan.iter().all(|p| p.target > 0).then(|| adaptive::sample_costs(plan, first_round, owned))
-    };
-    let work_of = |costs: &Option<Vec<f64>>, i: usize, count: u32| match costs {
-        Some(c) => adaptive::work(count, first_round, c[i]),
-        None => count as f64,
-    };
-    let work_before = {
-        let costs = costs_of(&accum);
-        accum.pixels.iter().enumerate().filter(|&(i, _)| owned(i)).map(|(i, p)| work_of(&costs, i, p.count)).sum()
-    };
-    let work_done = Mutex::new(work_before);
-    let nonfinite = AtomicU64::new(0);
-    let clamped = AtomicU64::new(0);
-    let stopped = AtomicBool::new(false);
-    let shared = Mutex::new(accum);
-    let periodic = Periodic::new("periodic checkpoints");
-    let previews = Periodic::new("previews");
-    let stop_requested = || control.stop.is_some_and(|s| s.load(Ordering::Relaxed));
-    let save_checkpoint = |accum: &Accumulator, nonfinite: u64| -> Result<(), RenderError> {
-        if let Some((path, _)) = control.checkpoint {
-            let key = key();
+    let rounds = if control.first_round_only && settings.adaptive { 1 } else { plan.rounds() };
+    let session = Session::new(&ctx, Kernel::for_plan(plan), plan, &control, &key, earlier, owned, start);
+    session.rays.fetch_add(pool.as_ref().map_or(0, |p| p.rays), Ordering::Relaxed);
+    for round in 0..rounds {
+        // An adaptive render plans its second round once the first is done everywhere (a
+        // resumed render may have the plan from its checkpoint).
+        if round == 1 {
+            plan_second_round(&mut session.lock().film, settings.spp);
+        }
+        let meter = session.round_meter(round, rounds);
+        tiles.par_iter().try_for_each(|&tile| session.render_tile(tile, round, rounds, &meter))?;
+        if session.stopped.load(Ordering::Relaxed) {
+            break;
+        }
+    }
+    session.finish()
+}
+
+/// The render's checkpoint key ([`RenderPlan::checkpoint_key`]), made when first needed:
+/// hashing the scene reads all of its data, so it is done only when a checkpoint is read or
+/// written.
+struct LazyKey<'a> {
+    scene: &'a Scene,
+    accel: &'a dyn Accel,
+    plan: &'a RenderPlan,
+    key: OnceLock<CheckpointKey>,
+}
+
+impl LazyKey<'_> {
+    fn get(&self) -> &CheckpointKey {
+        self.key.get_or_init(|| self.plan.checkpoint_key(self.scene.fingerprint(), &self.accel.image_key()))
+    }
+}
+
+/// The pixels a render takes: a shard's, or all.
+#[derive(Clone, Copy)]
+struct Owned {
+    shard: Option<crate::settings::Shard>,
+    width: u32,
+}
+
+impl Owned {
+    fn of(settings: &RenderSettings) -> Owned {
+        Owned { shard: settings.shard, width: settings.width }
+    }
+
+    fn pixel(self, i: usize) -> bool {
+        self.shard.is_none_or(|s| s.owns_pixel(i as u32 % self.width, i as u32 / self.width))
+    }
+}
+
+/// What the render starts from: the film and what earlier sessions spent on it (a resumed
+/// checkpoint's, or stage 1's for stage 2 of a shard; an empty film otherwise).
+struct Earlier {
+    film: Accumulator,
+    elapsed: Duration,
+    nonfinite: u64,
+}
+
+impl Earlier {
+    fn of(
+        plan: &RenderPlan,
+        resume: Option<(&Path, Checkpoint)>,
+        first_rounds: Option<FirstRounds>,
+        key: &LazyKey,
+    ) -> Result<Earlier, RenderError> {
+        let settings = &plan.settings;
+        let (w, h) = (settings.width, settings.height);
+        Ok(match (resume, first_rounds) {
+            (Some((path, c)), _) => {
+                c.check_matches(path, key.get())?;
+                if let Some(stored) = &c.accum.adaptive {
+                    let rays = plan.max_rays_per_sample();
+                    if let Some((_, why)) =
+                        adaptive::stored_plan_problem(&c.accum.pixels, stored, w, h, settings.spp, rays)
+                    {
+                        return Err(crate::film::CheckpointError::Corrupt(path.to_path_buf(), why).into());
+                    }
+                }
+                Earlier { film: c.accum, elapsed: c.elapsed, nonfinite: c.nonfinite }
+            }
+            (None, Some(first)) => {
+                assert_eq!((first.accum.width, first.accum.height), (w, h), "the first rounds are the image's");
+                assert_eq!(
+                    first.accum.adaptive.is_some(),
+                    settings.adaptive,
+                    "an adaptive render's first rounds have a plan"
+                );
+                Earlier { film: first.accum, elapsed: first.elapsed, nonfinite: first.nonfinite }
+            }
+            (None, None) => Earlier {
+                film: Accumulator::empty(w, h, settings.aux, settings.adaptive),
+                elapsed: Duration::ZERO,
+                nonfinite: 0,
+            },
+        })
+    }
+
+    /// The render of a scene where nothing emits: every path carries zero radiance, so none is
+    /// traced; each pixel's samples are all exactly zero. (The auxiliary images need the paths
+    /// traced.)
+    fn traced_nothing(mut self, plan: &RenderPlan, owned: Owned, start: Instant) -> RenderResult {
+        for (i, p) in self.film.pixels.iter_mut().enumerate() {
+            if !owned.pixel(i) {
+                continue;
+            }
+            // As many exact zeros as the round takes: the sums stay 0 (and a huge spp takes no
+            // time).
+            if let Some(t) = plan.round_target(0, p, None) {
+                p.count = p.count.max(t);
+            }
+        }
+        let stats = self.stats(plan, owned, start, 0, (0, 0));
+        RenderResult { accum: self.film, stats, complete: true, warnings: Vec::new() }
+    }
+
+    /// The render's statistics, for its film `self.film` after this session's `rays` and
+    /// dropped and clamped samples.
+    fn stats(
+        &self,
+        plan: &RenderPlan,
+        owned: Owned,
+        start: Instant,
+        rays: u64,
+        (nonfinite, clamped): (u64, u64),
+    ) -> RenderStats {
+        let film = &self.film;
+        let pixel = |i: usize| owned.pixel(i);
+        RenderStats {
+            elapsed: start.elapsed(),
+            earlier_sessions: self.elapsed,
+            rays,
+            samples: film.samples_of(pixel),
+            nonfinite: self.nonfinite + nonfinite,
+            clamped,
+            added_sample_cost: film
+                .adaptive
+                .as_ref()
+                .and_then(|p| adaptive::added_sample_cost(p, adaptive::first_round_spp(plan.settings.spp), pixel)),
+            plan: plan.clone(),
+            spp: film.spp_range_of(pixel),
+            error_estimate: film.error_estimate_of(pixel),
+        }
+    }
+}
+
+/// Progress is counted in work ([`Progress`]): a sample of pixel `i` beyond an adaptive
+/// render's first round weighs `costs[i]` once the plan is made (`None` before, and in other
+/// renders: every sample weighs 1).
+struct WorkMeter {
+    first_round: u32,
+    owned: Owned,
+    costs: Option<Vec<f64>>,
+}
+
+impl WorkMeter {
+    fn new(film: &Accumulator, first_round: u32, owned: Owned) -> WorkMeter {
+        let costs = film.adaptive.as_ref().and_then(|plan| {
+            plan.iter().all(|p| p.target > 0).then(|| adaptive::sample_costs(plan, first_round, |i| owned.pixel(i)))
+        });
+        WorkMeter { first_round, owned, costs }
+    }
+
+    /// The work of pixel `i`'s first `count` samples.
+    fn of(&self, i: usize, count: u32) -> f64 {
+        match &self.costs {
+            Some(c) => adaptive::work(count, self.first_round, c[i]),
+            None => count as f64,
+        }
+    }
+
+    /// The work of the film's owned pixels as they stand.
+    fn done(&self, film: &Accumulator) -> f64 {
+        film.pixels.iter().enumerate().filter(|&(i, _)| self.owned.pixel(i)).map(|(i, p)| self.of(i, p.count)).sum()
+    }
+}
+
+/// A render session's state, shared by the tile tasks of every round.
+struct Session<'a> {
+    ctx: &'a PathContext<'a>,
+    kernel: Kernel,
+    plan: &'a RenderPlan,
+    control: &'a RenderControl<'a>,
+    key: &'a LazyKey<'a>,
+    start: Instant,
+    owned: Owned,
+    /// The film's pixels, and what earlier sessions spent on them.
+    earlier: Mutex<Earlier>,
+    /// The work done before this session ([`Progress::work_before`]) and up to now.
+    work_before: f64,
+    work_done: Mutex<f64>,
+    rays: AtomicU64,
+    nonfinite: AtomicU64,
+    clamped: AtomicU64,
+    stopped: AtomicBool,
+    periodic: Mutex<Periodic>,
+    previews: Mutex<Periodic>,
+}
+
+impl<'a> Session<'a> {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        ctx: &'a PathContext<'a>,
+        kernel: Kernel,
+        plan: &'a RenderPlan,
+        control: &'a RenderControl<'a>,
+        key: &'a LazyKey<'a>,
+        earlier: Earlier,
+        owned: Owned,
+        start: Instant,
+    ) -> Session<'a> {
+        let first_round = adaptive::first_round_spp(plan.settings.spp);
+        let work_before = WorkMeter::new(&earlier.film, first_round, owned).done(&earlier.film);
+        Session {
+            ctx,
+            kernel,
+            plan,
+            control,
+            key,
+            start,
+            owned,
+            earlier: Mutex::new(earlier),
+            work_before,
+            work_done: Mutex::new(work_before),
+            rays: AtomicU64::new(0),
+            nonfinite: AtomicU64::new(0),
+            clamped: AtomicU64::new(0),
+            stopped: AtomicBool::new(false),
+            periodic: Periodic::new("periodic checkpoints"),
+            previews: Periodic::new("previews"),
+        }
+    }
+
+    /// The film and what earlier sessions spent on it, locked.
+    fn lock(&self) -> std::sync::MutexGuard<'_, Earlier> {
+        self.earlier.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn stop_requested(&self) -> bool {
+        self.control.stop.is_some_and(|s| s.load(Ordering::Relaxed))
+    }
+
+    /// The work meter of round `round` (of `rounds`) and the work planned to its end
+    /// ([`Progress::work_planned`]).
+    fn round_meter(&self, round: u32, rounds: u32) -> (WorkMeter, f64) {
+        let settings = &self.plan.settings;
+        let earlier = self.lock();
+        let a = &earlier.film;
+        let meter = WorkMeter::new(a, adaptive::first_round_spp(settings.spp), self.owned);
+        let planned: f64 = if settings.adaptive && meter.costs.is_none() && rounds > 1 {
+            // Before the plan, its budget: the cost of `spp` samples in every pixel.
+            (0..a.pixels.len()).filter(|&i| self.owned.pixel(i)).count() as f64 * settings.spp as f64
+        } else {
+            // Pixel `i`'s planned total in an adaptive render (0 before the plan).
+            let allocated = |i: usize| a.adaptive.as_ref().map(|plan| plan[i].target);
+            let pixels = a.pixels.iter().enumerate().filter(|&(i, _)| self.owned.pixel(i));
+            pixels.map(|(i, p)| meter.of(i, self.plan.round_target(round, p, allocated(i)).unwrap_or(p.count))).sum()
+        };
+        (meter, planned)
+    }
+
+    /// One tile's part of round `round`: its pixels are taken out of the shared film once,
+    /// rendered, put back once; then a due checkpoint or preview is written and progress
+    /// reported.
+    fn render_tile(
+        &self,
+        (tx, ty): (u32, u32),
+        round: u32,
+        rounds: u32,
+        (meter, planned): &(WorkMeter, f64),
+    ) -> Result<(), RenderError> {
+        if self.stop_requested() {
+            self.stopped.store(true, Ordering::Relaxed);
+            return Ok(());
+        }
+        let settings = &self.plan.settings;
+        let mut tile =
+            TileFilm::take(&self.lock().film, tile_rect(tx, ty, settings.width, settings.height), round, self.plan);
+        let out = render_tile(self.ctx, self.kernel, &mut tile, &|| self.stop_requested())?;
+        if out.stopped {
+            self.stopped.store(true, Ordering::Relaxed);
+        }
+        let taken: f64 = tile.pixels.iter().map(|t| meter.of(t.i, t.state.count) - meter.of(t.i, t.first)).sum();
+        let mut a = self.lock();
+        tile.put_back(&mut a.film, round);
+        // Counted under the lock, so a checkpoint's count matches its pixels.
+        let total_bad = self.nonfinite.fetch_add(out.nonfinite, Ordering::Relaxed) + out.nonfinite;
+        self.clamped.fetch_add(out.clamped, Ordering::Relaxed);
+        // A periodic checkpoint that cannot be written (a full disk) does not stop the
+        // render: it is reported at the end, and tried again after `every`.
+        if let Some((_, Some(every))) = self.control.checkpoint
+            && let Ok(mut p) = self.periodic.try_lock()
+            && p.last.elapsed() >= every
+        {
+            p.attempt(|| self.save_checkpoint(&a, total_bad));
+        }
+        // A preview reads the pixels under the lock and is written without it.
+        if let Some((every, show)) = self.control.preview
+            && let Ok(mut p) = self.previews.try_lock()
+            && p.last.elapsed() >= every
+        {
+            let film = a.film.film();
+            drop(a);
+            p.attempt(|| show(&film));
+        } else {
+            drop(a);
+        }
+        let rays = self.rays.fetch_add(out.rays, Ordering::Relaxed) + out.rays;
+        let done = {
+            let mut done = self.work_done.lock().unwrap_or_else(|e| e.into_inner());
+            *done += taken;
+            *done
+        };
+        if let Some(report) = self.control.progress {
+            report(Progress {
+                work_done: done,
+                work_before: self.work_before,
+                work_planned: *planned,
+                rays,
+                elapsed: self.start.elapsed(),
+                round: round + 1,
+                rounds,
+            });
+        }
+        Ok(())
+    }
+
+    /// Writes the checkpoint of `earlier`'s film with this session's `nonfinite` samples, if
+    /// the render keeps one.
+    fn save_checkpoint(&self, earlier: &Earlier, nonfinite: u64) -> Result<(), RenderError> {
+        if let Some((path, _)) = self.control.checkpoint {
+            let key = self.key.get();
             let c = Checkpoint {
                 scene: key.scene,
                 settings: key.settings.clone(),
-                nonfinite: prior_nonfinite + nonfinite,
-                elapsed: prior_elapsed + start.elapsed(),
-                accum: accum.clone(),
+                nonfinite: earlier.nonfinite + nonfinite,
+                elapsed: earlier.elapsed + self.start.elapsed(),
+                accum: earlier.film.clone(),
             };
             c.save(path)?;
         }
         Ok(())
-    };
+    }
 
-    for round in 0..n_rounds {
-        // An adaptive render plans its second round once the first is done everywhere (a
-        // resumed render may have the plan from its checkpoint).
-        if round == 1 {
-            plan_second_round(&mut shared.lock().unwrap_or_else(|e| e.into_inner()), settings.spp);
+    /// The session's result; a stopped render's checkpoint is written first.
+    fn finish(self) -> Result<RenderResult, RenderError> {
+        let bad = self.nonfinite.load(Ordering::Relaxed);
+        let complete = !self.stopped.load(Ordering::Relaxed);
+        if !complete {
+            self.save_checkpoint(&self.lock(), bad)?;
         }
-        // Pixel `i`'s planned total in an adaptive render (0 before the plan).
-        let allocated = |a: &Accumulator, i: usize| a.adaptive.as_ref().map(|plan| plan[i].target);
-        let (costs, planned) = {
-            let a = shared.lock().unwrap_or_else(|e| e.into_inner());
-            let costs = costs_of(&a);
-            let planned: f64 = if settings.adaptive && costs.is_none() && n_rounds > 1 {
-                // Before the plan, its budget: the cost of `spp` samples in every pixel.
-                (0..a.pixels.len()).filter(|&i| owned(i)).count() as f64 * settings.spp as f64
-            } else {
-                let pixels = a.pixels.iter().enumerate().filter(|&(i, _)| owned(i));
-                pixels
-                    .map(|(i, p)| {
-                        let end = plan.round_target(round, p, allocated(&a, i)).unwrap_or(p.count);
-                        work_of(&costs, i, end)
-                    })
-                    .sum()
-            };
-            (costs, planned)
-        };
-        tiles.par_iter().try_for_each(|&(tx, ty)| -> Result<(), RenderError> {
-            if stop_requested() {
-                stopped.store(true, Ordering::Relaxed);
-                return Ok(());
-            }
-            // The tile's pixels belong to this task for the round: taken out of the shared
-            // film once, rendered, put back once.
-            let mut tile = {
-                let a = shared.lock().unwrap_or_else(|e| e.into_inner());
-                TileFilm::take(&a, tile_rect(tx, ty, w, h), round, plan)
-            };
-            let out = render_tile(&ctx, kernel, &mut tile, &stop_requested)?;
-            if out.stopped {
-                stopped.store(true, Ordering::Relaxed);
-            }
-            let taken: f64 =
-                tile.pixels.iter().map(|t| work_of(&costs, t.i, t.state.count) - work_of(&costs, t.i, t.first)).sum();
-            let mut a = shared.lock().unwrap_or_else(|e| e.into_inner());
-            tile.put_back(&mut a, round);
-            // Counted under the lock, so a checkpoint's count matches its pixels.
-            let total_bad = nonfinite.fetch_add(out.nonfinite, Ordering::Relaxed) + out.nonfinite;
-            clamped.fetch_add(out.clamped, Ordering::Relaxed);
-            // A periodic checkpoint that cannot be written (a full disk) does not stop the
-            // render: it is reported at the end, and tried again after `every`.
-            if let Some((_, Some(every))) = control.checkpoint
-                && let Ok(mut p) = periodic.try_lock()
-                && p.last.elapsed() >= every
-            {
-                p.attempt(|| save_checkpoint(&a, total_bad));
-            }
-            // A preview reads the pixels under the lock and is written without it.
-            if let Some((every, show)) = control.preview
-                && let Ok(mut p) = previews.try_lock()
-                && p.last.elapsed() >= every
-            {
-                let film = a.film();
-                drop(a);
-                p.attempt(|| show(&film));
-            } else {
-                drop(a);
-            }
-            let rays = rays_total.fetch_add(out.rays, Ordering::Relaxed) + out.rays;
-            let done = {
-                let mut done = work_done.lock().unwrap_or_else(|e| e.into_inner());
-                *done += taken;
-                *done
-            };
-            if let Some(report) = control.progress {
-                report(Progress {
-                    work_done: done,
-                    work_before,
-                    work_planned: planned,
-                    rays,
-                    elapsed: start.elapsed(),
-                    round: round + 1,
-                    rounds: n_rounds,
-                });
-            }
-            Ok(())
-        })?;
-        if stopped.load(Ordering::Relaxed) {
-            break;
-        }
+        let earlier = self.earlier.into_inner().unwrap_or_else(|e| e.into_inner());
+        let warnings = [self.periodic, self.previews]
+            .into_iter()
+            .filter_map(|p| p.into_inner().unwrap_or_else(|e| e.into_inner()).warning())
+            .collect();
+        let counts = (bad, self.clamped.load(Ordering::Relaxed));
+        let stats = earlier.stats(self.plan, self.owned, self.start, self.rays.load(Ordering::Relaxed), counts);
+        Ok(RenderResult { accum: earlier.film, stats, complete, warnings })
     }
-    let accum = shared.into_inner().unwrap_or_else(|e| e.into_inner());
-    let bad = nonfinite.load(Ordering::Relaxed);
-    let complete = !stopped.load(Ordering::Relaxed);
-    if !complete {
-        save_checkpoint(&accum, bad)?;
-    }
-    let warnings = [periodic, previews]
-        .into_iter()
-        .filter_map(|p| p.into_inner().unwrap_or_else(|e| e.into_inner()).warning())
-        .collect();
-    let counts = (bad, clamped.load(Ordering::Relaxed));
-    Ok(finish(accum, rays_total.load(Ordering::Relaxed), counts, complete, warnings))
 }
 
 /// An adaptive render's plan for its second round, made once the first is done everywhere
