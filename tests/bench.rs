@@ -180,7 +180,10 @@ fn render_section_takes_the_bvh_build_of_ember_render() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8_lossy(&o.stdout);
-    assert!(text.contains("Russian roulette, low BVH)"), "the table says which build it measured: {text}");
+    assert!(
+        text.contains("Russian roulette, low BVH, scalar path loop)"),
+        "the table says which build it measured: {text}"
+    );
     let (_, rows) = read_csv(&out.join("render.csv"));
     assert_eq!(rows.len(), 2);
     assert!(rows.iter().all(|r| r["bvh_quality"] == "low" && r["bvh_robust"] == "false"), "{rows:?}");
@@ -189,6 +192,34 @@ fn render_section_takes_the_bvh_build_of_ember_render() {
     let o = ember(&["bench", "--quick", "--no-robust", "--out", dir]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--render"), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn render_section_runs_the_path_loop_it_is_given() {
+    // The wavefront loop traces the scalar loop's paths: the same rays, recorded and replayed.
+    let rays_of = |path_loop: &str| {
+        let out = common::fresh_path("bench", &format!("render-{path_loop}"));
+        let dir = out.to_str().unwrap();
+        let o = ember(&[
+            "bench",
+            "--quick",
+            "--render",
+            "--path-loop",
+            path_loop,
+            "--out",
+            dir,
+            "--scenes-dir",
+            &scenes_dir(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(text.contains(&format!("{path_loop} path loop)")), "the table says which loop it measured: {text}");
+        let (_, rows) = read_csv(&out.join("render.csv"));
+        std::fs::remove_dir_all(&out).unwrap();
+        assert!(rows.iter().all(|r| r["path_loop"] == path_loop), "{rows:?}");
+        rows.iter().map(|r| (r["scene"].clone(), num(r, "rays"), num(r, "occlusion_queries"))).collect::<Vec<_>>()
+    };
+    assert_eq!(rays_of("wavefront"), rays_of("scalar"));
 }
 
 #[test]

@@ -18,6 +18,7 @@ use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
 use crate::integrator::{RenderSettings, render};
 use crate::scene::Scene;
+use crate::settings::PathLoop;
 use crate::tools::report::Table;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -29,22 +30,35 @@ pub struct RenderConfig {
     pub width: u32,
     pub spp: u32,
     pub timing: Timing,
+    /// How the renders advance their paths.
+    pub path_loop: PathLoop,
 }
 
 impl RenderConfig {
     pub fn full() -> Self {
-        RenderConfig { width: 128, spp: 16, timing: Timing { min_passes: 9, min_total: Duration::from_secs(2) } }
+        RenderConfig {
+            width: 128,
+            spp: 16,
+            timing: Timing { min_passes: 9, min_total: Duration::from_secs(2) },
+            path_loop: PathLoop::Scalar,
+        }
     }
 
     pub fn quick() -> Self {
-        RenderConfig { width: 48, spp: 2, timing: Timing { min_passes: 1, min_total: Duration::ZERO } }
+        RenderConfig {
+            width: 48,
+            spp: 2,
+            timing: Timing { min_passes: 1, min_total: Duration::ZERO },
+            path_loop: PathLoop::Scalar,
+        }
     }
 
-    /// Settings for `scene`: its own depth, Russian roulette and seed, the configured size.
+    /// Settings for `scene`: its own depth, Russian roulette and seed, the configured size and
+    /// path loop.
     pub fn settings(&self, scene: &Scene, threads: Option<usize>) -> RenderSettings {
         let s = RenderSettings::from_scene(&scene.render);
         let height = ((self.width as u64 * s.height as u64) / s.width.max(1) as u64).max(1) as u32;
-        RenderSettings { width: self.width, height, spp: self.spp, threads, ..s }
+        RenderSettings { width: self.width, height, spp: self.spp, threads, path_loop: self.path_loop, ..s }
     }
 }
 
@@ -62,6 +76,8 @@ pub struct RenderMeasurement {
     pub occlusion_queries: usize,
     /// The BVH the renders and the replay were built with.
     pub bvh: BuildOptions,
+    /// The path loop of the renders.
+    pub path_loop: PathLoop,
     /// The rounds measured, in order.
     pub rounds: Vec<Round>,
 }
@@ -226,6 +242,7 @@ pub fn measure_scene(
         closest_queries: queries.len() - occlusion_queries,
         occlusion_queries,
         bvh,
+        path_loop: cfg.path_loop,
         rounds,
     })
 }
@@ -262,7 +279,7 @@ pub fn summary_table(ms: &[RenderMeasurement]) -> Table {
 }
 
 /// Column names of render.csv.
-pub const CSV_COLUMNS: [&str; 21] = [
+pub const CSV_COLUMNS: [&str; 22] = [
     "scene",
     "width",
     "height",
@@ -284,6 +301,7 @@ pub const CSV_COLUMNS: [&str; 21] = [
     "path_tracer_percent_of_embree_cpu",
     "bvh_quality",
     "bvh_robust",
+    "path_loop",
 ];
 
 pub fn csv_table(ms: &[RenderMeasurement]) -> Table {
@@ -311,6 +329,7 @@ pub fn csv_table(ms: &[RenderMeasurement]) -> Table {
             m.cpu_efficiency_percent().map_or(String::new(), |p| format!("{p:.1}")),
             m.bvh.quality.to_string(),
             m.bvh.robust.to_string(),
+            m.path_loop.name().to_string(),
         ]);
     }
     t

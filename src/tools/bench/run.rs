@@ -10,6 +10,7 @@ use crate::accel::{EmbreeAccel, build_options_with};
 use crate::atomic_write::write_file;
 use crate::embree::{BuildOptions, BuildQuality, Device};
 use crate::geometry::Geometry;
+use crate::settings::PathLoop;
 use crate::tools::report::Table;
 use crate::tools::{out, say};
 use std::path::{Path, PathBuf};
@@ -38,6 +39,8 @@ pub struct Options {
     pub scenes_dir: PathBuf,
     /// The BVH build of the render section (its renders and the replay).
     pub render_bvh: RenderBvh,
+    /// The path loop of the render section's renders.
+    pub render_loop: PathLoop,
 }
 
 /// The BVH build of the render section: a quality, or for each scene the one `ember render`
@@ -170,9 +173,10 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
 
     if opts.sections.contains(&Section::Render) {
         let cfg = if opts.quick { RenderConfig::quick() } else { RenderConfig::full() };
+        let cfg = RenderConfig { path_loop: opts.render_loop, ..cfg };
         out!();
         out!(
-            "Path tracer vs Embree alone ({} spp, width {}, scene depth and Russian roulette, {}): the path tracer's rays/s \
+            "Path tracer vs Embree alone ({} spp, width {}, scene depth and Russian roulette, {}, {} path loop): the path tracer's rays/s \
              (2 threads) over Embree's on the same rays, recorded from the path tracer and replayed through \
              rtcIntersect1/rtcOccluded1 on 2 threads; samples/s with 2 threads over 1. >= {} rounds and >= {:.1} s \
              per scene, each a 1-thread render, a 2-thread render and the replay back to back; Mrays/s and samples/s \
@@ -180,6 +184,7 @@ pub fn run(opts: &Options) -> Result<(), BenchError> {
             cfg.spp,
             cfg.width,
             opts.render_bvh,
+            cfg.path_loop.name(),
             cfg.timing.min_passes,
             cfg.timing.min_total.as_secs_f64()
         );

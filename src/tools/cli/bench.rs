@@ -1,4 +1,5 @@
 use crate::embree::BuildQuality;
+use crate::settings::PathLoop;
 use crate::tools::bench::scenes::{BUILTIN, default_scenes_dir};
 use crate::tools::bench::{Options, RenderBvh, Section, run};
 use clap::Args;
@@ -35,6 +36,10 @@ pub struct BenchArgs {
     /// With --render: build without RTC_SCENE_FLAG_ROBUST, as in `ember render --no-robust`.
     #[arg(long, requires = "render")]
     pub no_robust: bool,
+    /// With --render: how the renders advance their paths, as in `ember render --path-loop`
+    /// (scalar or wavefront) [scalar].
+    #[arg(long, requires = "render")]
+    pub path_loop: Option<PathLoop>,
 }
 
 pub fn run_bench(args: BenchArgs) -> anyhow::Result<()> {
@@ -60,6 +65,7 @@ pub fn run_bench(args: BenchArgs) -> anyhow::Result<()> {
         threads: args.threads.map(|t| t as usize),
         scenes_dir: args.scenes_dir.unwrap_or_else(default_scenes_dir),
         render_bvh: RenderBvh { quality: args.bvh_quality, robust: !args.no_robust },
+        render_loop: args.path_loop.unwrap_or(PathLoop::Scalar),
     };
     run(&opts)?;
     Ok(())
