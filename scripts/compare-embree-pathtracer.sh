@@ -11,7 +11,8 @@
 #
 # Usage: scripts/compare-embree-pathtracer.sh [OUT_DIR]   (default: target/compare-embree)
 # Environment: SIZE (512), SPP (64), DEPTH (8), THREADS (2), ROUNDS (3: each round times the
-# tutorial and ember's three runs; medians and ranges of the ratios are printed at the end).
+# tutorial and ember's three runs; medians and ranges of the ratios are printed at the end),
+# PATH_LOOP (scalar: ember's --path-loop, scalar or wavefront; both render the same image).
 #
 # ember runs three times: with its defaults (robust; the low-quality BVH it builds for a scene
 # this small), with the tutorial's Embree settings (--no-robust --bvh-quality medium), and
@@ -29,6 +30,7 @@ spp=${SPP:-64}
 depth=${DEPTH:-8}
 threads=${THREADS:-2}
 rounds=${ROUNDS:-3}
+path_loop=${PATH_LOOP:-scalar}
 
 if ! command -v pathtracer >/dev/null; then
     echo "error: pathtracer not found (apt-get install embree-tools)" >&2
@@ -57,7 +59,8 @@ timed() {
     echo "$times"
 }
 
-echo "scene: $ecs = $root/scenes/cornell.toml; ${size}x${size}, $spp spp, path length $depth, $threads threads"
+echo "scene: $ecs = $root/scenes/cornell.toml; ${size}x${size}, $spp spp, path length $depth, $threads threads;" \
+    "ember's $path_loop path loop"
 echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 
 # ember three ways: its defaults (robust BVH, low quality: what `ember render` builds for at
@@ -86,7 +89,7 @@ for round in $(seq "$rounds"); do
         # shellcheck disable=SC2086
         em_times=$(timed "$out/ember$tag.log" \
             "$ember" render "$root/scenes/cornell.toml" -o "$out/ember$tag.png" --width "$size" --height "$size" \
-            --spp "$spp" --max-depth "$depth" --rr-depth off --light-vertices off --uniform --threads "$threads" $flags)
+            --spp "$spp" --max-depth "$depth" --rr-depth off --light-vertices off --uniform --threads "$threads" --path-loop "$path_loop" $flags)
         read -r em_wall em_user em_sys <<<"$em_times"
         em_cpu=$(echo "$em_user $em_sys" | awk '{print $1 + $2}')
         wall_ratio=$(echo "$pt_wall $em_wall" | awk '{print $1 / $2}')
