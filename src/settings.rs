@@ -306,6 +306,12 @@ pub struct RenderSettings {
     pub clamp: Option<f32>,
     /// How paths are advanced (the image does not depend on it).
     pub path_loop: PathLoop,
+    /// The Embree BVH's build quality (`--bvh-quality`; `None`: the one the scene's geometry
+    /// calls for, [`crate::accel::build_quality_for`]) and whether it is built robust
+    /// (`RTC_SCENE_FLAG_ROBUST`; `--no-robust` clears it). The plan decides the build
+    /// ([`crate::integrator::RenderPlan::bvh`]).
+    pub bvh_quality: Option<crate::embree::BuildQuality>,
+    pub robust: bool,
 }
 
 /// Sample `v` under clamp `limit`: scaled by `limit / max channel` where its largest channel
@@ -366,6 +372,8 @@ impl Default for RenderSettings {
             light_tree: LightTreeMode::Auto,
             clamp: None,
             path_loop: PathLoop::Scalar,
+            bvh_quality: None,
+            robust: true,
         }
     }
 }

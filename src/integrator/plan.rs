@@ -10,7 +10,10 @@
 
 use super::kernel::KernelChoice;
 use super::roulette::{auto_start, throughput_depth};
+use crate::accel::build_options_with;
+use crate::embree::BuildOptions;
 use crate::film::CheckpointKey;
+use crate::geometry::Geometry;
 use crate::scene::{DepthLimit, Effects, Scene};
 use crate::settings::{Estimator, LightVertices, RenderSettings, RrDepth};
 use std::fmt;
@@ -34,6 +37,9 @@ pub struct RenderPlan {
     pub roulette_start: Option<u32>,
     /// Paths connect to light vertices (`super::light_vertex`).
     pub light_vertices: bool,
+    /// How the Embree BVH is built: the requested quality, else the one the geometry calls for
+    /// ([`crate::accel::build_quality_for`]), robust unless told otherwise.
+    pub bvh: BuildOptions,
 }
 
 /// Samples every pixel takes before its error estimate is trusted (rounds with a target error).
@@ -82,11 +88,11 @@ impl RenderPlan {
 
     /// The plan for `scene` rendered with `settings` (analyses the scene).
     pub fn new(scene: &Scene, settings: &RenderSettings) -> RenderPlan {
-        RenderPlan::for_effects(scene.effects(), settings)
+        RenderPlan::for_effects(scene.effects(), &scene.geometry, settings)
     }
 
-    /// The plan for a scene with `effects` rendered with `settings`.
-    pub fn for_effects(effects: Effects, settings: &RenderSettings) -> RenderPlan {
+    /// The plan for a scene with `effects` and `geometry` rendered with `settings`.
+    pub fn for_effects(effects: Effects, geometry: &[Geometry], settings: &RenderSettings) -> RenderPlan {
         let max_depth = settings.max_depth;
         let scene_depth = effects.depth_limit().apply(max_depth);
         let (kernel, path_depth) = if settings.specialize {
@@ -109,6 +115,7 @@ impl RenderPlan {
             scene_depth,
             roulette_start,
             light_vertices,
+            bvh: build_options_with(geometry, settings.bvh_quality, settings.robust),
         }
     }
 
@@ -262,7 +269,25 @@ mod tests {
     }
 
     fn plan(e: Effects, rr_depth: RrDepth, specialize: bool) -> RenderPlan {
-        RenderPlan::for_effects(e, &RenderSettings { rr_depth, specialize, ..RenderSettings::default() })
+        RenderPlan::for_effects(e, &[], &RenderSettings { rr_depth, specialize, ..RenderSettings::default() })
+    }
+
+    #[test]
+    fn the_plan_decides_the_bvh_build_from_the_geometry_and_the_request() {
+        use crate::embree::BuildQuality;
+        let build = |geometry: &[Geometry], bvh_quality, robust| {
+            let settings = RenderSettings { bvh_quality, robust, ..RenderSettings::default() };
+            RenderPlan::for_effects(scattering(0.5), geometry, &settings).bvh
+        };
+        // Unasked, the quality the geometry calls for (low for a small scene), robust.
+        let small = build(&[], None, true);
+        assert_eq!((small.quality, small.robust, small.compact), (BuildQuality::Low, true, false));
+        // A sphere is user geometry: medium.
+        let sphere = Geometry::Spheres(vec![crate::geometry::Sphere::new(glam::Vec3::ZERO, 1.0)].into());
+        assert_eq!(build(&[sphere], None, true).quality, BuildQuality::Medium);
+        // Asked for, as `ember render --bvh-quality high --no-robust`.
+        let asked = build(&[], Some(BuildQuality::High), false);
+        assert_eq!((asked.quality, asked.robust), (BuildQuality::High, false));
     }
 
     #[test]
@@ -311,11 +336,11 @@ mod tests {
         assert_eq!(plan(scattering(0.75), RrDepth::After(3), false).checkpoint_key(7, "accel=naive"), key);
         // The pixel filter does.
         let gaussian = RenderSettings { filter: crate::film::PixelFilter::Gaussian, ..RenderSettings::default() };
-        let other = RenderPlan::for_effects(scattering(0.75), &gaussian).checkpoint_key(7, "accel=naive");
+        let other = RenderPlan::for_effects(scattering(0.75), &[], &gaussian).checkpoint_key(7, "accel=naive");
         assert!(other.settings.contains(" filter=gaussian "), "{}", other.settings);
         // So does a sample clamp.
         let clamped = RenderSettings { clamp: Some(10.0), ..RenderSettings::default() };
-        let other = RenderPlan::for_effects(scattering(0.75), &clamped).checkpoint_key(7, "accel=naive");
+        let other = RenderPlan::for_effects(scattering(0.75), &[], &clamped).checkpoint_key(7, "accel=naive");
         assert!(other.settings.ends_with(" clamp=10"), "{}", other.settings);
     }
 }

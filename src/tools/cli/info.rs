@@ -35,9 +35,9 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let device = Device::new()?;
     // Warm-up: the first commit in a process also starts Embree's threads.
     drop(EmbreeAccel::new(&device, &[], BuildOptions::default())?);
-    // The build `ember render` would make of this scene.
-    let options = crate::accel::build_options_for(&scene.geometry);
-    let accel = EmbreeAccel::new(&device, &scene.geometry, options)?;
+    // The plan `ember render` would make of this scene, and its build.
+    let plan = RenderPlan::new(&scene, &RenderSettings::from_scene(&scene.render));
+    let accel = EmbreeAccel::new(&device, &scene.geometry, plan.bvh)?;
     out!("scene:      {}", args.scene.display());
     out!("geometries: {}", scene.geometry.len() - scene.ground.is_some() as usize);
     out!("triangles:  {tris}");
@@ -74,14 +74,13 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         );
     }
     out!("embree:     {} ({} bindings, {})", device.version(), device.backend(), device.ray_hit_layout());
-    let plan = RenderPlan::new(&scene, &RenderSettings::from_scene(&scene.render));
     out!("{}", plan.effects);
     out!("{plan}");
     out!("lights:     {}", scene.light_set(crate::settings::LightTreeMode::Auto).describe());
     out!(
         "bvh build:  {:.2} ms ({} quality, as ember render builds it); Embree holds {}",
         accel.build_time().as_secs_f64() * 1e3,
-        options.quality,
+        plan.bvh.quality,
         crate::memory::format_bytes(device.memory_in_use())
     );
     let settings = RenderSettings::from_scene(&scene.render);

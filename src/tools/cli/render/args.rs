@@ -389,6 +389,8 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
         clamp: args.clamp,
         path_loop: args.path_loop,
+        bvh_quality: args.bvh_quality,
+        robust: !args.no_robust,
     })
 }
 

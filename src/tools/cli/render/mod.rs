@@ -140,8 +140,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     // Held until this function returns, whichever way; removes OUT.lock then.
     let _lock = OutputLock::acquire(&args.output)?;
-    // The build quality the scene calls for unless told: see `build_quality_for`.
-    let bvh = crate::accel::build_options_with(&scene.geometry, args.bvh_quality, !args.no_robust);
+    // The plan's build: the quality the scene calls for unless told (`build_quality_for`).
+    let bvh = plan.bvh;
     let resume = if args.resume {
         // Checked against this render before anything is read: size, scene, settings,
         // accelerator, contents.
