@@ -162,34 +162,32 @@ fn specialize_table_has_every_scene_file() {
     std::fs::remove_dir_all(&out).unwrap();
 }
 
+/// `ember bench --quick --render` with `args`, into a fresh folder `name` (removed after):
+/// what it printed and the rows of its render.csv.
+fn quick_render_section(name: &str, args: &[&str]) -> (String, Vec<HashMap<String, String>>) {
+    let out = common::fresh_path("bench", name);
+    let scenes = scenes_dir();
+    let mut argv = vec!["bench", "--quick", "--render", "--out", out.to_str().unwrap(), "--scenes-dir", &scenes];
+    argv.extend_from_slice(args);
+    let o = ember(&argv);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_, rows) = read_csv(&out.join("render.csv"));
+    std::fs::remove_dir_all(&out).unwrap();
+    (String::from_utf8_lossy(&o.stdout).into_owned(), rows)
+}
+
 #[test]
 fn render_section_takes_the_bvh_build_of_ember_render() {
-    let out = common::fresh_path("bench", "render-bvh");
-    let dir = out.to_str().unwrap();
-    let o = ember(&[
-        "bench",
-        "--quick",
-        "--render",
-        "--no-robust",
-        "--bvh-quality",
-        "low",
-        "--out",
-        dir,
-        "--scenes-dir",
-        &scenes_dir(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let text = String::from_utf8_lossy(&o.stdout);
+    let (text, rows) = quick_render_section("render-bvh", &["--no-robust", "--bvh-quality", "low"]);
     assert!(
         text.contains("Russian roulette, low BVH, scalar path loop)"),
         "the table says which build it measured: {text}"
     );
-    let (_, rows) = read_csv(&out.join("render.csv"));
     assert_eq!(rows.len(), 2);
     assert!(rows.iter().all(|r| r["bvh_quality"] == "low" && r["bvh_robust"] == "false"), "{rows:?}");
-    std::fs::remove_dir_all(&out).unwrap();
     // The build is a setting of the render section only.
-    let o = ember(&["bench", "--quick", "--no-robust", "--out", dir]);
+    let out = common::fresh_path("bench", "render-bvh-only");
+    let o = ember(&["bench", "--quick", "--no-robust", "--out", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--render"), "{}", String::from_utf8_lossy(&o.stderr));
 }
@@ -198,24 +196,8 @@ fn render_section_takes_the_bvh_build_of_ember_render() {
 fn render_section_runs_the_path_loop_it_is_given() {
     // The wavefront loop traces the scalar loop's paths: the same rays, recorded and replayed.
     let rays_of = |path_loop: &str| {
-        let out = common::fresh_path("bench", &format!("render-{path_loop}"));
-        let dir = out.to_str().unwrap();
-        let o = ember(&[
-            "bench",
-            "--quick",
-            "--render",
-            "--path-loop",
-            path_loop,
-            "--out",
-            dir,
-            "--scenes-dir",
-            &scenes_dir(),
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let text = String::from_utf8_lossy(&o.stdout);
+        let (text, rows) = quick_render_section(&format!("render-{path_loop}"), &["--path-loop", path_loop]);
         assert!(text.contains(&format!("{path_loop} path loop)")), "the table says which loop it measured: {text}");
-        let (_, rows) = read_csv(&out.join("render.csv"));
-        std::fs::remove_dir_all(&out).unwrap();
         assert!(rows.iter().all(|r| r["path_loop"] == path_loop), "{rows:?}");
         rows.iter().map(|r| (r["scene"].clone(), num(r, "rays"), num(r, "occlusion_queries"))).collect::<Vec<_>>()
     };

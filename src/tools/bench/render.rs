@@ -16,7 +16,7 @@ use super::record::{RecordedQuery, RecordingAccel, replay, replay_chunks};
 use super::run::RenderBvh;
 use crate::accel::EmbreeAccel;
 use crate::embree::{BuildOptions, Device};
-use crate::integrator::{RenderSettings, render};
+use crate::integrator::{RenderPlan, RenderSettings, render};
 use crate::scene::Scene;
 use crate::settings::PathLoop;
 use crate::tools::report::Table;
@@ -178,9 +178,10 @@ pub fn measure_scene(
     bvh: RenderBvh,
 ) -> Result<RenderMeasurement, BenchError> {
     let scene = Scene::load(path)?;
-    let bvh = bvh.for_geometry(&scene.geometry);
+    let settings = RenderSettings { bvh_quality: bvh.quality, robust: bvh.robust, ..cfg.settings(&scene, None) };
+    // The build `ember render` makes with these requests: the plan's.
+    let bvh = RenderPlan::new(&scene, &settings).bvh;
     let accel = EmbreeAccel::new(device, &scene.geometry, bvh)?;
-    let settings = cfg.settings(&scene, None);
     let (one, two) = (pool(1)?, pool(2)?);
 
     let recorder = RecordingAccel::new(&accel, 2);

@@ -6,10 +6,9 @@ use super::matrix::{self, MatrixConfig};
 use super::render::{self, RenderConfig};
 use super::scenes::{BenchScene, DEFAULT_SET, QUICK_SET};
 use super::specialize;
-use crate::accel::{EmbreeAccel, build_options_with};
+use crate::accel::EmbreeAccel;
 use crate::atomic_write::write_file;
 use crate::embree::{BuildOptions, BuildQuality, Device};
-use crate::geometry::Geometry;
 use crate::settings::PathLoop;
 use crate::tools::report::Table;
 use crate::tools::{out, say};
@@ -44,18 +43,11 @@ pub struct Options {
 }
 
 /// The BVH build of the render section: a quality, or for each scene the one `ember render`
-/// builds ([`build_options_with`]), so that the section measures the renderer as it runs.
+/// builds (`RenderPlan::bvh`), so that the section measures the renderer as it runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RenderBvh {
     pub quality: Option<BuildQuality>,
     pub robust: bool,
-}
-
-impl RenderBvh {
-    /// The build for a scene of this geometry.
-    pub fn for_geometry(self, geometry: &[Geometry]) -> BuildOptions {
-        build_options_with(geometry, self.quality, self.robust)
-    }
 }
 
 /// `low BVH, robust`, or `ember render's BVH, robust` when the quality is the scene's.
