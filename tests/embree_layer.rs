@@ -213,7 +213,7 @@ fn rays_embree_refuses_are_answered_without_calling_it() {
     let active = [true, true, true, true, true, true, true, false];
     let rays = RayPacket::from_rays(&rays);
     let hits = scene.intersect8_deferred(&rays, active, 0.0, f32::INFINITY);
-    let blocked = scene.occluded8_deferred(&rays, active, 0.0, f32::INFINITY);
+    let blocked = scene.occluded8_deferred(&rays, active, 0.0, [f32::INFINITY; 8]);
     for i in 0..8 {
         let expect_hit = active[i] && i != 1 && i != 5;
         assert_eq!(hits[i].is_some(), expect_hit, "lane {i}");

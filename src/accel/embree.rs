@@ -110,7 +110,13 @@ impl Accel for EmbreeAccel {
     }
 
     #[inline(always)]
-    fn occluded_packet_deferred(&self, rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
+    fn occluded_packet_deferred(
+        &self,
+        rays: &RayPacket,
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: [f32; LANES],
+    ) -> [bool; LANES] {
         self.scene.occluded8_deferred(rays, active, tmin, tmax)
     }
 

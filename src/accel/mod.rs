@@ -64,9 +64,16 @@ pub trait Accel: Send + Sync {
     ) -> [Option<Hit>; LANES] {
         std::array::from_fn(|i| if active[i] { self.intersect_deferred(&rays.ray(i), tmin, tmax) } else { None })
     }
-    /// [`Accel::occluded_deferred`] for a packet (inactive lanes give `false`).
-    fn occluded_packet_deferred(&self, rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
-        std::array::from_fn(|i| active[i] && self.occluded_deferred(&rays.ray(i), tmin, tmax))
+    /// [`Accel::occluded_deferred`] for a packet, lane i on `[tmin, tmax[i]]` (inactive lanes
+    /// give `false`).
+    fn occluded_packet_deferred(
+        &self,
+        rays: &RayPacket,
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: [f32; LANES],
+    ) -> [bool; LANES] {
+        std::array::from_fn(|i| active[i] && self.occluded_deferred(&rays.ray(i), tmin, tmax[i]))
     }
     /// The error of any deferred query so far (errors are sticky).
     fn deferred_error(&self) -> Result<(), AccelError>;

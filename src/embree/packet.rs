@@ -27,15 +27,15 @@ pub(super) struct RayHit8Mem {
 #[repr(C, align(32))]
 pub(super) struct Valid8(pub(super) [i32; LANES]);
 
-/// The ray block of a query for the `active` lanes of `rays` on `[tmin, tmax]`, and its valid
-/// mask: the active lanes whose ray Embree accepts ([`accepts`]); a lane left out holds a
+/// The ray block of a query for the `active` lanes of `rays`, lane i on `[tmin, tmax[i]]`, and
+/// its valid mask: the active lanes whose ray Embree accepts ([`accepts`]); a lane left out holds a
 /// harmless ray (origin 0, direction +z: Embree does not read it). Both blocks are
 /// structure-of-arrays, so this is six selects of eight floats, built where it is returned
 /// (a query's memory made apart and then moved cost a copy of its 672 bytes).
 ///
 /// [`accepts`]: super::scene::accepts
 #[inline(always)]
-pub(super) fn ray8(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> (ffi::RTCRay8, Valid8) {
+pub(super) fn ray8(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: [f32; LANES]) -> (ffi::RTCRay8, Valid8) {
     let valid = valid8(rays, active, tmin, tmax);
     let lanes = |x: &[f32; LANES], idle: f32| -> [f32; LANES] {
         std::array::from_fn(|i| if valid.0[i] != 0 { x[i] } else { idle })
@@ -49,7 +49,7 @@ pub(super) fn ray8(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32
         dir_y: lanes(&rays.d[1], 0.0),
         dir_z: lanes(&rays.d[2], 1.0),
         time: [0.0; LANES],
-        tfar: [tmax; LANES],
+        tfar: tmax,
         // A mask of 0 would hit nothing; every geometry keeps Embree's default mask.
         mask: [u32::MAX; LANES],
         id: [0; LANES],
@@ -63,12 +63,11 @@ pub(super) fn ray8(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32
 ///
 /// [`accepts`]: super::scene::accepts
 #[inline(always)]
-fn valid8(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> Valid8 {
-    let interval = accepts_interval(tmin, tmax);
+fn valid8(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: [f32; LANES]) -> Valid8 {
     let within = accepts_component;
     Valid8(std::array::from_fn(|i| {
         let ok = active[i]
-            & interval
+            & accepts_interval(tmin, tmax[i])
             & within(rays.o[0][i])
             & within(rays.o[1][i])
             & within(rays.o[2][i])
@@ -85,7 +84,7 @@ impl RayHit8Mem {
     #[inline(always)]
     pub(super) fn new(rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> (RayHit8Mem, Valid8) {
         let none = ffi::INVALID_GEOMETRY_ID;
-        let (ray, valid) = ray8(rays, active, tmin, tmax);
+        let (ray, valid) = ray8(rays, active, tmin, [tmax; LANES]);
         let mem = RayHit8Mem {
             ray,
             ng: [[0.0; LANES]; 3],

@@ -430,11 +430,17 @@ impl Scene {
         hits
     }
 
-    /// Whether each `active` lane of 8 rays is blocked on `[tmin, tmax]`, with one
+    /// Whether each `active` lane i of 8 rays is blocked on `[tmin, tmax[i]]`, with one
     /// `rtcOccluded8` (inactive lanes give `false`, rays Embree would refuse `true`); errors
     /// deferred; the packet's coherence hint as in [`Scene::intersect8_deferred`].
     #[inline]
-    pub fn occluded8_deferred(&self, rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: f32) -> [bool; LANES] {
+    pub fn occluded8_deferred(
+        &self,
+        rays: &RayPacket,
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: [f32; LANES],
+    ) -> [bool; LANES] {
         let (mut ray, valid) = ray8(rays, active, tmin, tmax);
         // SAFETY: committed scene; `ray` is an initialised, 32-byte aligned RTCRay8 (the same
         // 384 bytes in every Embree version); `valid` is a 32-byte aligned mask.

@@ -14,6 +14,11 @@
 //! 4. extend: paths that ended hand in their radiance and leave the batch (compacted, so the
 //!    next stages run over live paths only); the others' continuation rays are traced.
 //!
+//! The shadow and extend stages trace a group's rays (a pixel's paths, which start near one
+//! another) 8 at a time as one packet, without Embree's coherence hint: on the scenes measured
+//! that costs less than one query per ray, and the hint costs more (docs/performance.md, "Path
+//! loops").
+//!
 //! Shading, the queue of queries and tracing are apart, which is what lets a stage run over
 //! many paths at once (in SIMD lanes, or with rays traced together). Every path computes
 //! exactly what the scalar loop computes for it, the same arithmetic in the same order on the
@@ -27,7 +32,7 @@ use super::kernel::{KernelFamily, camera_stage};
 use super::path::{PathRules, PathState, ShadowQuery, ShadowRays, shade};
 use crate::accel::{Accel, AccelError, LANES};
 use crate::geometry::Hit;
-use crate::geometry::Ray;
+use crate::geometry::{Ray, RayPacket};
 use crate::sampler::{PixelSampler, SampleStream};
 use glam::Vec3;
 use std::ops::Range;
@@ -87,19 +92,43 @@ struct Lane<'s, 'c> {
     slot: (u32, u8),
 }
 
-/// The shadow rays of a shade stage, in the order the stage made them: each with the lane
-/// whose radiance its contribution adds to (a path's add in the order it made them, as the
-/// scalar loop's do).
-struct ShadowQueue {
-    queries: Vec<(u32, ShadowQuery)>,
+/// A shadow ray of a shade stage, with the lane whose radiance its contribution adds to and
+/// that lane's group.
+struct Queued {
     lane: u32,
+    group: u32,
+    query: ShadowQuery,
+}
+
+/// The shadow rays of a shade stage, in the order the stage made them (a path's add in the
+/// order it made them, as the scalar loop's do).
+struct ShadowQueue {
+    queries: Vec<Queued>,
+    lane: u32,
+    group: u32,
 }
 
 impl ShadowRays for ShadowQueue {
     #[inline(always)]
     fn trace(&mut self, _l: &mut Vec3, ray: Ray, tmax: f32, contribution: Vec3) {
-        self.queries.push((self.lane, ShadowQuery { ray, tmax, contribution }));
+        self.queries.push(Queued {
+            lane: self.lane,
+            group: self.group,
+            query: ShadowQuery { ray, tmax, contribution },
+        });
     }
+}
+
+/// The end of the packet that starts at item `start` of `len`: the items from `start` on that
+/// are in its group (`group(i)` is item i's), at most [`LANES`] of them.
+#[inline(always)]
+fn packet_end(start: usize, len: usize, group: impl Fn(usize) -> u32) -> usize {
+    let g = group(start);
+    let mut end = start + 1;
+    while end < len && end - start < LANES && group(end) == g {
+        end += 1;
+    }
+    end
 }
 
 #[inline(always)]
@@ -149,12 +178,13 @@ fn run<
             }
         }
     }
-    let mut shadow = ShadowQueue { queries: Vec::with_capacity(2 * lanes.len()), lane: 0 };
+    let mut shadow = ShadowQueue { queries: Vec::with_capacity(2 * lanes.len()), lane: 0, group: 0 };
     while !lanes.is_empty() {
         // Shade stage.
         shadow.queries.clear();
         for (i, lane) in lanes.iter_mut().enumerate() {
             shadow.lane = i as u32;
+            shadow.group = lane.slot.0;
             lane.goes_on = shade::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
                 ctx,
                 &rules,
@@ -167,23 +197,54 @@ fn run<
             .is_some();
         }
         // Shadow stage.
-        for (i, s) in &shadow.queries {
-            let lane = &mut lanes[*i as usize];
-            rays[lane.slot.0 as usize] += 1;
-            if !accel.occluded_deferred(&s.ray, 0.0, s.tmax) {
-                lane.path.l += s.contribution;
+        let queries = &shadow.queries;
+        let mut start = 0;
+        while start < queries.len() {
+            let end = packet_end(start, queries.len(), |i| queries[i].group);
+            let packet = &queries[start..end];
+            let mut rays_of = RayPacket::splat(&packet[0].query.ray);
+            let mut tmax = [0.0; LANES];
+            for (i, q) in packet.iter().enumerate() {
+                rays_of.set(i, &q.query.ray);
+                tmax[i] = q.query.tmax;
             }
+            let blocked =
+                accel.occluded_packet_deferred(&rays_of, std::array::from_fn(|i| i < packet.len()), 0.0, tmax);
+            rays[packet[0].group as usize] += packet.len() as u64;
+            for (q, blocked) in packet.iter().zip(blocked) {
+                if !blocked {
+                    lanes[q.lane as usize].path.l += q.query.contribution;
+                }
+            }
+            start = end;
         }
         // Extend stage: finished paths leave, the others' rays are traced.
-        lanes.retain_mut(|lane| {
+        lanes.retain(|lane| {
             if !lane.goes_on {
                 out[lane.slot.0 as usize][lane.slot.1 as usize] = lane.path.l;
-                return false;
             }
-            rays[lane.slot.0 as usize] += 1;
-            lane.hit = accel.intersect_deferred(&lane.path.ray(), 0.0, f32::INFINITY);
-            true
+            lane.goes_on
         });
+        let mut start = 0;
+        while start < lanes.len() {
+            let end = packet_end(start, lanes.len(), |i| lanes[i].slot.0);
+            let packet = &mut lanes[start..end];
+            let mut rays_of = RayPacket::splat(&packet[0].path.ray());
+            for (i, lane) in packet.iter().enumerate().skip(1) {
+                rays_of.set(i, &lane.path.ray());
+            }
+            let hits = accel.intersect_packet_deferred(
+                &rays_of,
+                std::array::from_fn(|i| i < packet.len()),
+                0.0,
+                f32::INFINITY,
+            );
+            rays[packet[0].slot.0 as usize] += packet.len() as u64;
+            for (lane, hit) in packet.iter_mut().zip(hits) {
+                lane.hit = hit;
+            }
+            start = end;
+        }
     }
     // Queries report errors (a panicked user-geometry callback) once per batch.
     accel.deferred_error()

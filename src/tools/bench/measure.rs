@@ -119,7 +119,7 @@ fn packet_answers(
     Ok(if closest {
         accel.intersect_packet_deferred(&rays, active, 0.0, tmax).map(Answer::Closest)
     } else {
-        accel.occluded_packet_deferred(&rays, active, 0.0, tmax).map(Answer::Occluded)
+        accel.occluded_packet_deferred(&rays, active, 0.0, [tmax; LANES]).map(Answer::Occluded)
     })
 }
 

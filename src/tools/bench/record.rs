@@ -46,6 +46,17 @@ impl<'a> RecordingAccel<'a> {
     }
 
     /// Every query recorded, worker by worker.
+    fn record_packet(&self, rays: &RayPacket, active: [bool; LANES], tmin: f32, tmax: [f32; LANES], occlusion: bool) {
+        let n = active.iter().take_while(|&&a| a).count();
+        assert!(active[n..].iter().all(|&a| !a), "recorded packets have their active lanes first");
+        let mut list = self.list().lock().unwrap_or_else(|e| e.into_inner());
+        for (i, &tmax) in tmax.iter().enumerate().take(n) {
+            let packet = if i == 0 { n as u8 } else { 0 };
+            let coherent = i == 0 && rays.coherent;
+            list.push(RecordedQuery { ray: rays.ray(i), tmin, tmax, occlusion, packet, coherent });
+        }
+    }
+
     pub fn into_queries(self) -> Vec<RecordedQuery> {
         self.lists.into_iter().flat_map(|l| l.into_inner().unwrap_or_else(|e| e.into_inner())).collect()
     }
@@ -79,16 +90,20 @@ impl Accel for RecordingAccel<'_> {
         tmin: f32,
         tmax: f32,
     ) -> [Option<Hit>; LANES] {
-        let n = active.iter().take_while(|&&a| a).count();
-        assert!(active[n..].iter().all(|&a| !a), "recorded packets have their active lanes first");
-        let mut list = self.list().lock().unwrap_or_else(|e| e.into_inner());
-        for i in 0..n {
-            let packet = if i == 0 { n as u8 } else { 0 };
-            let coherent = i == 0 && rays.coherent;
-            list.push(RecordedQuery { ray: rays.ray(i), tmin, tmax, occlusion: false, packet, coherent });
-        }
-        drop(list);
+        self.record_packet(rays, active, tmin, [tmax; LANES], false);
         self.inner.intersect_packet_deferred(rays, active, tmin, tmax)
+    }
+
+    /// Recorded as a closest-hit packet is, with each lane's `tmax`.
+    fn occluded_packet_deferred(
+        &self,
+        rays: &RayPacket,
+        active: [bool; LANES],
+        tmin: f32,
+        tmax: [f32; LANES],
+    ) -> [bool; LANES] {
+        self.record_packet(rays, active, tmin, tmax, true);
+        self.inner.occluded_packet_deferred(rays, active, tmin, tmax)
     }
 
     fn deferred_error(&self) -> Result<(), AccelError> {
@@ -148,8 +163,14 @@ fn replay_on<A: Accel + ?Sized>(
                             rays.set(lane, &p.ray);
                         }
                         let active = std::array::from_fn(|lane| lane < n);
-                        let found = accel.intersect_packet_deferred(&rays, active, q.tmin, q.tmax);
-                        hits += found.iter().filter(|h| h.is_some()).count();
+                        hits += if q.occlusion {
+                            let tmax = std::array::from_fn(|lane| chunk.get(i + lane).map_or(0.0, |p| p.tmax));
+                            let blocked = accel.occluded_packet_deferred(&rays, active, q.tmin, tmax);
+                            blocked.iter().filter(|&&b| b).count()
+                        } else {
+                            let found = accel.intersect_packet_deferred(&rays, active, q.tmin, q.tmax);
+                            found.iter().filter(|h| h.is_some()).count()
+                        };
                         i += n;
                         continue;
                     }
@@ -199,6 +220,25 @@ mod tests {
         let chunks = replay_chunks(&q);
         assert_eq!(chunks, vec![0..5]);
         assert_eq!(replay(&naive, &q, &chunks).unwrap(), 3);
+    }
+
+    #[test]
+    fn records_shadow_packets_with_each_lane_s_end() {
+        let g = [Geometry::Spheres(vec![Sphere::new(Vec3::ZERO, 1.0)].into())];
+        let naive = NaiveAccel::new(&g);
+        let rec = RecordingAccel::new(&naive, 1);
+        // Two shadow rays toward the sphere (4 away): the first stops short of it.
+        let r = Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::Z);
+        let rays = RayPacket::splat(&r);
+        let active = std::array::from_fn(|i| i < 2);
+        let mut tmax = [0.0; LANES];
+        tmax[..2].copy_from_slice(&[3.0, 10.0]);
+        assert_eq!(rec.occluded_packet_deferred(&rays, active, 0.0, tmax)[..2], [false, true]);
+        let q = rec.into_queries();
+        let recorded: Vec<_> = q.iter().map(|q| (q.occlusion, q.packet, q.tmax)).collect();
+        assert_eq!(recorded, [(true, 2, 3.0), (true, 0, 10.0)]);
+        // Replayed as one packet, each lane on its own interval: one blocked.
+        assert_eq!(replay(&naive, &q, &replay_chunks(&q)).unwrap(), 1);
     }
 
     #[test]
