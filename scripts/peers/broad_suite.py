@@ -83,6 +83,8 @@ ROOT = os.path.normpath(os.path.join(HERE, "..", ".."))
 PEERS_DIR = os.environ.get("PEERS_DIR") or os.path.normpath(os.path.join(ROOT, "..", "shared", "peers"))
 os.environ.setdefault("SCRATCH", os.path.join(os.environ.get("TMPDIR") or "/tmp", "peers", "broad"))
 os.environ.setdefault("RESULTS_DIR", os.path.join(os.environ["SCRATCH"], "results"))
+# compare_all.py falls back to $TMPDIR/peers/results when RESULTS_DIR's parent does not exist yet.
+os.makedirs(os.environ["SCRATCH"], exist_ok=True)
 os.environ.setdefault("IDLE_MAX_S", "60")
 os.environ.setdefault("MITSUBA_PYTHON", sys.executable)
 sys.path.insert(0, PEERS_DIR)  # compare_all.py imports run_mitsuba from beside itself
