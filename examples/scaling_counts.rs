@@ -57,7 +57,7 @@ fn main() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     let scene = BenchScene::load(scene, &dir).unwrap_or_else(|e| panic!("{e}"));
     let device = Device::new().expect("Embree device");
-    let options = BuildOptions { quality: BuildQuality::Medium, robust: false, compact: false };
+    let options = BuildOptions { quality: BuildQuality::Medium, robust: false, ..BuildOptions::default() };
     let accel = EmbreeAccel::new(&device, &scene.geometry, options).expect("BVH build");
     let bounds = bounds_of(&scene.geometry);
     let camera = rays::coherent(&bounds, 512);

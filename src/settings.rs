@@ -312,6 +312,8 @@ pub struct RenderSettings {
     /// ([`crate::integrator::RenderPlan::bvh`]).
     pub bvh_quality: Option<crate::embree::BuildQuality>,
     pub robust: bool,
+    /// Embree's kernel set (`--embree-kernels`; `None`: the widest the CPU runs).
+    pub embree_kernels: Option<crate::embree::Kernels>,
 }
 
 /// Sample `v` under clamp `limit`: scaled by `limit / max channel` where its largest channel
@@ -374,6 +376,7 @@ impl Default for RenderSettings {
             path_loop: PathLoop::Scalar,
             bvh_quality: None,
             robust: true,
+            embree_kernels: None,
         }
     }
 }

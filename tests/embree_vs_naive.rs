@@ -140,7 +140,8 @@ fn robust_and_all_build_qualities_agree_with_naive() {
     let rays: Vec<Ray> = rays(&geometry, 7).into_iter().take(5_000.min(ray_count())).collect();
     let expected: Vec<Option<Hit>> = rays.par_iter().map(|r| naive.intersect(r, 0.0, f32::INFINITY).unwrap()).collect();
     for (quality, robust) in [(Low, false), (Medium, false), (High, false), (Medium, true)] {
-        let accel = EmbreeAccel::new(&device, &geometry, BuildOptions { quality, robust, compact: false }).unwrap();
+        let accel =
+            EmbreeAccel::new(&device, &geometry, BuildOptions { quality, robust, ..BuildOptions::default() }).unwrap();
         let mismatches = rays
             .iter()
             .zip(&expected)

@@ -7,7 +7,7 @@
 mod common;
 
 use ember::accel::{Accel, NaiveAccel};
-use ember::embree::{BuildOptions, Device};
+use ember::embree::{BuildOptions, Device, Kernels};
 use ember::integrator::{RenderControl, RenderPlan, RenderSettings, RenderStats, render_controlled};
 use ember::scene::Scene;
 use ember::settings::PathLoop;
@@ -94,23 +94,7 @@ fn both_loops_give_the_same_image_through_the_naive_loop() {
     }
 }
 
-/// The Embree kernels this CPU runs, by Embree's configuration name: 4 lanes (SSE4.2), 8
-/// (AVX2) and 16 (AVX-512, Embree's needs five of its extensions), as far as the CPU has them.
-#[cfg(target_arch = "x86_64")]
-fn embree_isas() -> Vec<&'static str> {
-    use std::arch::is_x86_feature_detected as has;
-    let mut isas = vec!["sse4.2"];
-    if has!("avx2") && has!("fma") {
-        isas.push("avx2");
-    }
-    if has!("avx512f") && has!("avx512cd") && has!("avx512dq") && has!("avx512bw") && has!("avx512vl") {
-        isas.push("avx512");
-    }
-    isas
-}
-
 #[test]
-#[cfg(target_arch = "x86_64")]
 fn each_embree_vector_width_gives_both_loops_one_image() {
     // Embree runs the kernels of the widest vectors the CPU has, and packets (the camera
     // stage's, the wavefront loop's shadow and continuation rays) go through other kernels
@@ -119,16 +103,17 @@ fn each_embree_vector_width_gives_both_loops_one_image() {
     // differently in the last bits (Embree does not promise otherwise). Here 0.1% (bunny.obj)
     // to 67% (teapot.toml) of the pixels differ, mostly in their last bits; now and then a
     // path takes another way (bunny.obj's one pixel moves its mean by 6e-5). So an image is
-    // reproducible bit for bit on CPUs of one vector width (docs/distributed.md); across
-    // widths the images agree in the mean, checked here to 1e-3 relative.
-    let isas = embree_isas();
+    // reproducible bit for bit between machines that run one kernel set, which the image's
+    // settings name (`--embree-kernels`, docs/distributed.md); across sets the images agree
+    // in the mean, checked here to 1e-3 relative.
+    let sets: Vec<Kernels> = Kernels::ALL.into_iter().filter(|k| k.runs_here()).collect();
     let settings = RenderSettings { width: 40, height: 24, ..small(9) };
     for (name, scene) in scenes().into_iter().filter(|(n, _)| n != &"helmet.toml") {
         let default = Device::new().unwrap();
         let accel = ember::accel::EmbreeAccel::new(&default, &scene.geometry, BuildOptions::default()).unwrap();
         let reference = render(&scene, &accel, &settings).0.film().mean();
-        for isa in &isas {
-            let device = Device::with_config(&format!("isa={isa}")).unwrap();
+        for isa in &sets {
+            let device = Device::with_kernels(*isa).unwrap();
             let accel = ember::accel::EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
             assert_loops_agree(&format!("{name}, Embree's {isa} kernels"), &scene, &accel, &settings);
             let mean = render(&scene, &accel, &settings).0.film().mean();

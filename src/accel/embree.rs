@@ -13,8 +13,10 @@ pub struct EmbreeAccel {
 }
 
 impl EmbreeAccel {
-    /// Registers `geometry` (geometry id = list index) and builds the BVH.
+    /// Registers `geometry` (geometry id = list index) and builds the BVH. The kernel set is
+    /// `device`'s, whatever `options` says.
     pub fn new(device: &Device, geometry: &[Geometry], options: BuildOptions) -> Result<Self, EmbreeError> {
+        let options = BuildOptions { kernels: device.kernels(), ..options };
         let start = Instant::now();
         let mut b = SceneBuilder::new(device, options)?;
         for (i, g) in geometry.iter().enumerate() {

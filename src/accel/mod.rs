@@ -121,7 +121,7 @@ impl AccelKind {
     ) -> Result<Box<dyn Accel>, crate::embree::EmbreeError> {
         Ok(match self {
             AccelKind::Embree => {
-                let device = crate::embree::Device::new()?;
+                let device = crate::embree::Device::with_kernels(options.kernels)?;
                 Box::new(EmbreeAccel::new(&device, geometry, options)?)
             }
             AccelKind::Naive => Box::new(NaiveAccel::new(geometry)),
@@ -131,16 +131,18 @@ impl AccelKind {
 
 impl AccelKind {
     /// What about this accelerator built with `options` can change the image, as `key=value`
-    /// words: `accel=embree bvh=medium robust=on compact=off`, or `accel=naive` (which has no
-    /// build options). [`Accel::image_key`] of what [`AccelKind::build_with`] returns.
+    /// words: `accel=embree bvh=medium robust=on compact=off kernels=avx2`, or `accel=naive`
+    /// (which has no build options). [`Accel::image_key`] of what [`AccelKind::build_with`]
+    /// returns.
     pub fn image_key(self, options: crate::embree::BuildOptions) -> String {
         let on = |b: bool| if b { "on" } else { "off" };
         match self {
             AccelKind::Embree => format!(
-                "accel=embree bvh={} robust={} compact={}",
+                "accel=embree bvh={} robust={} compact={} kernels={}",
                 options.quality,
                 on(options.robust),
-                on(options.compact)
+                on(options.compact),
+                options.kernels
             ),
             AccelKind::Naive => "accel=naive".to_string(),
         }

@@ -1,5 +1,6 @@
 use super::error::{EmbreeError, ErrorCode};
 use super::ffi;
+use super::kernels::Kernels;
 use super::layout::{EmbreeVersion, RayHitLayout};
 use std::ffi::{CStr, CString, c_char, c_void};
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -18,6 +19,8 @@ pub(super) struct DeviceInner {
     /// The running library's version and, decided from it, its ray-hit layout.
     version: EmbreeVersion,
     pub(super) layout: RayHitLayout,
+    /// The kernel set the configuration names (`isa=…`), the widest the CPU runs if none.
+    kernels: Kernels,
     /// Where the error callback records errors. Boxed: Embree holds a pointer to it.
     sink: Box<ErrorSink>,
     /// The bytes Embree holds for this device's scenes (BVHs, geometry buffers), kept by the
@@ -85,12 +88,26 @@ unsafe extern "C" fn on_memory(user: *mut c_void, bytes: isize, _post: bool) -> 
 }
 
 impl Device {
-    /// A device with Embree's default configuration.
+    /// A device running the widest kernel set the CPU has (the one Embree picks by itself),
+    /// named in its configuration.
     pub fn new() -> Result<Device, EmbreeError> {
-        Device::with_config("")
+        Device::with_kernels(Kernels::widest())
     }
 
-    /// A device with an Embree configuration string such as `"threads=2,verbose=0"`.
+    /// A device running the kernel set `kernels` (which the CPU must run:
+    /// [`Kernels::runs_here`]).
+    pub fn with_kernels(kernels: Kernels) -> Result<Device, EmbreeError> {
+        // Elsewhere than x86-64 Embree has one set of its own (Kernels::widest names it SSE4.2).
+        Device::with_config(&if cfg!(target_arch = "x86_64") { format!("isa={kernels}") } else { String::new() })
+    }
+
+    /// The kernel set the device runs.
+    pub fn kernels(&self) -> Kernels {
+        self.inner.kernels
+    }
+
+    /// A device with an Embree configuration string such as `"threads=2,isa=avx2"`; without
+    /// `isa=`, Embree runs the widest kernel set the CPU has.
     ///
     /// Fails with [`EmbreeError::UnsupportedVersion`] if the running library is not a version
     /// whose ray-hit layout this build knows (see [`RayHitLayout::for_library`]).
@@ -136,7 +153,11 @@ impl Device {
             ffi::rtcSetDeviceErrorFunction(raw, Some(on_error), &*sink as *const ErrorSink as *mut c_void);
             ffi::rtcSetDeviceMemoryMonitorFunction(raw, Some(on_memory), &*memory as *const AtomicI64 as *mut c_void);
         }
-        Ok(Device { inner: Arc::new(DeviceInner { raw, version, layout, sink, memory }) })
+        let kernels = config
+            .split(',')
+            .find_map(|word| word.trim().strip_prefix("isa=").and_then(Kernels::from_name))
+            .unwrap_or_else(Kernels::widest);
+        Ok(Device { inner: Arc::new(DeviceInner { raw, version, layout, kernels, sink, memory }) })
     }
 
     /// Takes the first error Embree reported since the last call, if any.

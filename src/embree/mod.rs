@@ -21,6 +21,7 @@
 mod device;
 mod error;
 mod ffi;
+mod kernels;
 mod layout;
 mod packet;
 mod probe;
@@ -29,6 +30,7 @@ mod user;
 
 pub use device::Device;
 pub use error::{EmbreeError, ErrorCode};
+pub use kernels::Kernels;
 pub use layout::{EmbreeVersion, RayHitLayout};
 pub use packet::LANES;
 pub use probe::{GUARD, GuardProbe, PACKET_COMMON_WORDS, PROBE_WORDS, PacketProbe};

@@ -1,6 +1,7 @@
 use super::device::Device;
 use super::error::EmbreeError;
 use super::ffi;
+use super::kernels::Kernels;
 use super::layout::{RayHitLayout, RayHitMem, rtc_ray};
 use super::packet::{LANES, RayHit8Mem, ray8};
 use super::user::{self, CallbackFailure, CutoutData, UserData};
@@ -44,11 +45,15 @@ pub struct BuildOptions {
     pub robust: bool,
     /// `RTC_SCENE_FLAG_COMPACT`: a smaller BVH at some tracing cost.
     pub compact: bool,
+    /// The kernel set of the device to build on (by default the widest the CPU runs): a
+    /// property of the device, carried here so that the build's settings name it
+    /// (`crate::accel::AccelKind::image_key`).
+    pub kernels: Kernels,
 }
 
 impl Default for BuildOptions {
     fn default() -> Self {
-        BuildOptions { quality: BuildQuality::default(), robust: true, compact: false }
+        BuildOptions { quality: BuildQuality::default(), robust: true, compact: false, kernels: Kernels::widest() }
     }
 }
 

@@ -115,7 +115,10 @@ impl RenderPlan {
             scene_depth,
             roulette_start,
             light_vertices,
-            bvh: build_options_with(geometry, settings.bvh_quality, settings.robust),
+            bvh: BuildOptions {
+                kernels: settings.embree_kernels.unwrap_or_else(crate::embree::Kernels::widest),
+                ..build_options_with(geometry, settings.bvh_quality, settings.robust)
+            },
         }
     }
 

@@ -74,7 +74,11 @@ impl Strategy {
         Ok(match self {
             Strategy::Naive => (Box::new(NaiveAccel::new(geometry)), None),
             Strategy::Embree { quality, robust, .. } => {
-                let a = EmbreeAccel::new(device, geometry, BuildOptions { quality, robust, compact: false })?;
+                let a = EmbreeAccel::new(
+                    device,
+                    geometry,
+                    BuildOptions { quality, robust, compact: false, kernels: device.kernels() },
+                )?;
                 let t = a.build_time();
                 (Box::new(a), Some(t))
             }

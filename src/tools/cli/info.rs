@@ -73,7 +73,13 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
             "studio:     a sky and a ground plane under the model ({ground_triangles} triangles more): nothing in the file lights it"
         );
     }
-    out!("embree:     {} ({} bindings, {})", device.version(), device.backend(), device.ray_hit_layout());
+    out!(
+        "embree:     {} ({} bindings, {}; {} kernels)",
+        device.version(),
+        device.backend(),
+        device.ray_hit_layout(),
+        device.kernels()
+    );
     out!("{}", plan.effects);
     out!("{plan}");
     out!("lights:     {}", scene.light_set(crate::settings::LightTreeMode::Auto).describe());

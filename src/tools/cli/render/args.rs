@@ -1,7 +1,7 @@
 //! `ember render`'s arguments, and the settings they give with a scene's own.
 
 use crate::accel::AccelKind;
-use crate::embree::BuildQuality;
+use crate::embree::{BuildQuality, Kernels};
 use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
 use crate::integrator::adaptive;
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
@@ -67,6 +67,11 @@ pub struct RenderArgs {
     /// (hard case axis-parallel-rays).
     #[arg(long)]
     pub no_robust: bool,
+    /// Embree's kernel set: sse4.2, avx, avx2 or avx512 [the widest this CPU runs]. The sets
+    /// round hit points differently in the last bits, so shards and checkpoints of different
+    /// sets are refused: give every machine of a mixed cluster the widest set they all run.
+    #[arg(long, value_parser = parse_kernels)]
+    pub embree_kernels: Option<Kernels>,
     /// Adaptive sampling: stop sampling a pixel once its estimated relative error is below
     /// this (e.g. 0.01); --spp is then the most a pixel gets [scene's render.spp, else 1024].
     /// With --denoise, sampling stops on the noisy image's estimated error: that image meets
@@ -349,6 +354,15 @@ fn parse_clamp(s: &str) -> Result<f32, String> {
     }
 }
 
+fn parse_kernels(s: &str) -> Result<Kernels, String> {
+    let names = || Kernels::ALL.map(Kernels::name).join(", ");
+    let k = Kernels::from_name(s).ok_or_else(|| format!("expected one of {}, found {s:?}", names()))?;
+    if !k.runs_here() {
+        return Err(format!("this CPU cannot run Embree's {k} kernels (the widest it runs: {})", Kernels::widest()));
+    }
+    Ok(k)
+}
+
 fn parse_target_error(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(e) if e > 0.0 && e < 1.0 => Ok(e),
@@ -391,6 +405,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         path_loop: args.path_loop,
         bvh_quality: args.bvh_quality,
         robust: !args.no_robust,
+        embree_kernels: args.embree_kernels,
     })
 }
 
