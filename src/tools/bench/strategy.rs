@@ -74,11 +74,8 @@ impl Strategy {
         Ok(match self {
             Strategy::Naive => (Box::new(NaiveAccel::new(geometry)), None),
             Strategy::Embree { quality, robust, .. } => {
-                let a = EmbreeAccel::new(
-                    device,
-                    geometry,
-                    BuildOptions { quality, robust, compact: false, kernels: device.kernels() },
-                )?;
+                let a =
+                    EmbreeAccel::new(device, geometry, BuildOptions { quality, robust, ..BuildOptions::default() })?;
                 let t = a.build_time();
                 (Box::new(a), Some(t))
             }
