@@ -235,6 +235,43 @@ impl Camera {
         o
     }
 
+    /// Where the camera sees the point `p` through the lens point drawn with `lens` (in
+    /// [0, 1]², ignored by a pinhole), for light splatted onto the film by a path traced from a
+    /// light: the inverse of [`Camera::ray`]. `None` if `p` is behind the lens or outside the
+    /// image, and for an orthographic camera (its rays reach a point from one direction only).
+    #[inline]
+    pub fn sees(&self, p: Vec3, lens: Vec2) -> Option<CameraView> {
+        if self.orthographic {
+            return None;
+        }
+        let o = if self.aperture_radius > 0.0 {
+            let disk = concentric_disk(lens) * self.aperture_radius;
+            self.position + disk.x * self.right + disk.y * self.up
+        } else {
+            self.position
+        };
+        let v = p - o;
+        let depth = v.dot(self.forward);
+        let d2 = v.length_squared();
+        if !(depth > 0.0 && d2 > 0.0) {
+            return None;
+        }
+        // The pinhole direction of the film position whose lens ray this is: through the point
+        // where `v` crosses the plane of focus.
+        let d = if self.aperture_radius > 0.0 { o + v * (self.focus_distance / depth) - self.position } else { v };
+        let dz = d.dot(self.forward);
+        let sx = d.dot(self.right) / (dz * self.half_w);
+        let sy = d.dot(self.up) / (dz * self.half_h);
+        let film = Vec2::new(0.5 * (sx + 1.0), 0.5 * (1.0 - sy));
+        if !(film.x >= 0.0 && film.x < 1.0 && film.y >= 0.0 && film.y < 1.0) {
+            return None;
+        }
+        let cos = depth / d2.sqrt();
+        let area = 4.0 * self.half_w * self.half_h;
+        let weight = 1.0 / (area * cos * cos * cos * d2);
+        weight.is_finite().then_some(CameraView { lens: o, film, weight })
+    }
+
     /// Thin-lens ray for a pinhole direction `d`: the ray through the lens point that reaches
     /// the same point on the plane of focus.
     #[inline]
@@ -244,6 +281,20 @@ impl Camera {
         let o = self.position + disk.x * self.right + disk.y * self.up;
         Ray::new(o, (focus - o).normalize())
     }
+}
+
+/// How the camera sees a point ([`Camera::sees`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraView {
+    /// The lens point (the camera's position for a pinhole).
+    pub lens: Vec3,
+    /// The film position, in [0, 1)² as [`Camera::ray`] takes it.
+    pub film: Vec2,
+    /// 1 / (A cos³θ r²): A the image's area on the plane at distance 1, θ the angle of the ray
+    /// to the view direction, r its length. Radiance leaving the point toward the lens, times
+    /// this, times the cosine at the point and the image's pixel count, is the point's
+    /// contribution (per unit of its area) to the mean of the pixel it lands in, a box filter's.
+    pub weight: f32,
 }
 
 /// Shirley–Chiu concentric map of [0,1]² onto the unit disk.
@@ -264,6 +315,45 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_point_is_seen_where_the_cameras_ray_through_it_starts() {
+        let mut rng = crate::sampler::Rng::new(5, 2);
+        for aperture in [0.0, 0.3] {
+            let c =
+                Camera::look_at(Vec3::new(1.0, 2.0, 6.0), Vec3::new(0.2, 0.5, 0.0), Vec3::Y, 40.0, 1.5, aperture, 5.0);
+            for _ in 0..200 {
+                let (film, lens) = (rng.next_2d(), rng.next_2d());
+                let ray = c.ray(film, lens);
+                let p = ray.o + ray.d * (1.0 + 9.0 * rng.next_f32());
+                let seen = c.sees(p, lens).expect("in view");
+                assert!((seen.film - film).abs().max_element() < 2e-4, "{film} seen at {}", seen.film);
+                assert!((seen.lens - ray.o).length() < 1e-5);
+            }
+            assert!(c.sees(Vec3::new(1.0, 2.0, 9.0), Vec2::splat(0.5)).is_none(), "behind the camera");
+        }
+        // At distance 1 the weight is the image's density per solid angle, 1 / (A cos³θ): over
+        // the directions the image spans it integrates to 1.
+        let c = Camera::look_at(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 60.0, 2.0, 0.0, 1.0);
+        let n = 400;
+        let mut total = 0.0f64;
+        for i in 0..n {
+            for j in 0..n {
+                // Points on the unit sphere around the camera, in the image's quarter-sphere.
+                let (u, v) = ((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                let z = -u; // cos θ over (0, 1]: the half-space in front
+                let r = (1.0 - z * z).sqrt();
+                let phi = 2.0 * std::f64::consts::PI * v;
+                let p = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
+                if let Some(s) = c.sees(p, Vec2::ZERO) {
+                    // dω = dz dφ over the hemisphere: 2π / n² per cell.
+                    total += s.weight as f64 * 2.0 * std::f64::consts::PI / (n * n) as f64;
+                }
+            }
+        }
+        // ∫ dω / (A cos³θ) over the image = (film area at distance 1) / A = 1.
+        assert!((total - 1.0).abs() < 0.01, "{total}");
+    }
 
     #[test]
     fn pinhole_directions_in_lanes_are_the_single_ones_bit_for_bit() {

@@ -337,6 +337,15 @@ pub const ADAPTIVE_BYTES_PER_PIXEL: u64 = 64;
 /// copies (24) and the output (12).
 pub const DENOISE_BYTES_PER_PIXEL: u64 = 72;
 
+/// Bytes per pixel more in a render that traces caustic light paths: their sums while traced
+/// (24), kept (24) and in a checkpoint (24).
+pub const LIGHT_PATHS_BYTES_PER_PIXEL: u64 = 72;
+
+/// Memory a `width` x `height` render's caustic light paths take beside its film.
+pub fn light_paths_bytes(width: u32, height: u32) -> u64 {
+    (width as u64 * height as u64).saturating_mul(LIGHT_PATHS_BYTES_PER_PIXEL)
+}
+
 /// The scratch memory Open Image Denoise is told it may use (its `maxMemoryMB`; it tiles the
 /// image to stay near it): what the limit leaves (`available`), at most 3 GB (about what it
 /// takes untold: 2.8 GB for 2000x2000), at least 200 MB. `None`: not even that fits.

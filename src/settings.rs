@@ -104,6 +104,38 @@ impl FromStr for LightVertices {
     }
 }
 
+/// Whether light paths from the lights carry the caustics (`--caustics`): light that reaches
+/// a surface seen by the camera through mirrors and glass only, which paths from the camera find
+/// only by chance (see `crate::integrator::caustic`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Caustics {
+    /// Where the scene has mirrors or glass, surfaces that are neither, and lights that emit
+    /// from a place (area and point lights), seen by a perspective camera; not in a shard.
+    #[default]
+    Auto,
+    Off,
+}
+
+impl FromStr for Caustics {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Caustics::Auto),
+            "off" => Ok(Caustics::Off),
+            _ => Err(format!("expected \"auto\" or \"off\", found {s:?}")),
+        }
+    }
+}
+
+impl fmt::Display for Caustics {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Caustics::Auto => "auto",
+            Caustics::Off => "off",
+        })
+    }
+}
+
 impl fmt::Display for LightVertices {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
@@ -298,6 +330,8 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     /// Whether paths connect to light vertices.
     pub light_vertices: LightVertices,
+    /// Whether light paths carry the caustics.
+    pub caustics: Caustics,
     /// Whether many lights are chosen through a light tree.
     pub light_tree: LightTreeMode,
     /// A sample clamp, as Cycles' (`--clamp`): a sample whose largest channel is above this is
@@ -340,6 +374,7 @@ impl RenderSettings {
             filter: r.filter.unwrap_or(d.filter),
             sampler: r.sampler.unwrap_or(d.sampler),
             light_vertices: r.light_vertices.unwrap_or(d.light_vertices),
+            caustics: r.caustics.unwrap_or(d.caustics),
             ..d
         }
     }
@@ -371,6 +406,7 @@ impl Default for RenderSettings {
             shard: None,
             sampler: SamplerKind::default(),
             light_vertices: LightVertices::Auto,
+            caustics: Caustics::Auto,
             light_tree: LightTreeMode::Auto,
             clamp: None,
             path_loop: PathLoop::Scalar,
@@ -398,6 +434,7 @@ pub struct RenderDefaults {
     pub filter: Option<crate::film::PixelFilter>,
     pub sampler: Option<SamplerKind>,
     pub light_vertices: Option<LightVertices>,
+    pub caustics: Option<Caustics>,
 }
 
 #[cfg(test)]

@@ -46,6 +46,8 @@ fn box_renders_are_bit_identical_to_before_filters() {
             spp: 8,
             sampler: SamplerKind::Independent,
             light_vertices: LightVertices::Off,
+            // Pinned before the caustics' light paths.
+            caustics: ember::settings::Caustics::Off,
             ..RenderSettings::from_scene(&scene.render)
         };
         assert_eq!(settings.filter, PixelFilter::Box);

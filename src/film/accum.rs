@@ -100,6 +100,38 @@ pub struct Accumulator {
     /// pixel's first round cost and how many samples it takes in all, pixel by pixel as
     /// `pixels`.
     pub adaptive: Option<Vec<AdaptivePixel>>,
+    /// What light paths traced from the lights add to each pixel's mean (the caustics of
+    /// `crate::integrator::caustic`), when the render traces them.
+    pub light: Option<LightSums>,
+}
+
+/// What light paths add to each pixel's mean, pixel by pixel as [`Accumulator::pixels`],
+/// r, g, b in 32.32 fixed point: integers add in any order to the same sum, so the light paths
+/// of any thread, and of any shard, add up to the same bits.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightSums(pub Vec<[i64; 3]>);
+
+impl LightSums {
+    /// Steps per unit: 2³².
+    pub const ONE: f64 = 4_294_967_296.0;
+
+    /// Nothing added yet, for `pixels` pixels.
+    pub fn new(pixels: usize) -> LightSums {
+        LightSums(vec![[0; 3]; pixels])
+    }
+
+    /// Pixel `i`'s value.
+    #[inline]
+    pub fn value(&self, i: usize) -> Vec3 {
+        Vec3::from_array(self.0[i].map(|s| (s as f64 / Self::ONE) as f32))
+    }
+
+    /// Adds `other`'s sums (wrapping, so that any order of additions gives the same sums).
+    pub fn add(&mut self, other: &LightSums) {
+        for (a, b) in self.0.iter_mut().zip(&other.0) {
+            *a = std::array::from_fn(|c| a[c].wrapping_add(b[c]));
+        }
+    }
 }
 
 /// A pixel's part in an adaptive render's plan ([`crate::integrator::adaptive`]).
@@ -122,6 +154,7 @@ impl Accumulator {
             pixels: vec![PixelState::default(); width as usize * height as usize],
             aux: None,
             adaptive: None,
+            light: None,
         }
     }
 
@@ -166,9 +199,15 @@ impl Accumulator {
         self.pixels.iter().map(|p| p.count).collect()
     }
 
-    /// The image: each pixel's mean.
+    /// The image: each pixel's mean, and what light paths add to it.
     pub fn film(&self) -> Film {
-        Film { width: self.width, height: self.height, pixels: self.pixels.iter().map(PixelState::mean).collect() }
+        let mut pixels: Vec<Vec3> = self.pixels.iter().map(PixelState::mean).collect();
+        if let Some(light) = &self.light {
+            for (i, p) in pixels.iter_mut().enumerate() {
+                *p += light.value(i);
+            }
+        }
+        Film { width: self.width, height: self.height, pixels }
     }
 
     /// Total samples taken.

@@ -16,9 +16,11 @@
 //! auxiliary images (its settings then hold `aux=albedo+normal`), by the sums of its albedo
 //! r, g, b and normal x, y, z (f64), then, in an adaptive render (its settings then hold
 //! `adaptive=relmse-5x5`), the rays of its first round and its planned sample count (u32, 0 before
-//! the plan) and its first round's sums of squares r, g, b (f64) — and the FNV-1a hash of all that (u64).
+//! the plan) and its first round's sums of squares r, g, b (f64) — then, in a render that traces
+//! caustic light paths (its settings then hold `caustics=light-paths`), what they add to each
+//! pixel (r, g, b as i64, [`LightSums`]), and the FNV-1a hash of all that (u64).
 
-use super::accum::{Accumulator, AdaptivePixel, AuxSums, LUMINANCE, PixelState};
+use super::accum::{Accumulator, AdaptivePixel, AuxSums, LUMINANCE, LightSums, PixelState};
 use crate::hash::Fnv1a;
 use glam::DVec3;
 use std::io::{Read, Write};
@@ -33,6 +35,8 @@ pub(super) const AUX_BYTES: u64 = 48;
 /// Bytes of a pixel's part in an adaptive render's plan: first-round rays and target (u32),
 /// first-round sums of squares (three f64).
 pub(super) const ADAPTIVE_BYTES: u64 = 32;
+/// Bytes of a pixel's light-path sums ([`LightSums`]): three i64.
+pub(super) const LIGHT_BYTES: u64 = 24;
 /// Magic, scene and settings length: what comes before the settings text.
 const PREFIX_BYTES: u64 = 8 + 8 + 4;
 /// Non-finite count, elapsed time, width and height: between the settings and the pixels.
@@ -70,6 +74,8 @@ pub struct CheckpointKey {
     pub aux: bool,
     /// Whether the render is adaptive (and its checkpoint holds each pixel's plan).
     pub adaptive: bool,
+    /// Whether the render traces light paths (and its checkpoint holds their sums).
+    pub light: bool,
 }
 
 impl CheckpointKey {
@@ -78,7 +84,7 @@ impl CheckpointKey {
         PREFIX_BYTES
             + self.settings.len() as u64
             + FIELDS_BYTES
-            + self.width as u64 * self.height as u64 * self.pixel_bytes()
+            + self.width as u64 * self.height as u64 * (self.pixel_bytes() + if self.light { LIGHT_BYTES } else { 0 })
             + CHECKSUM_BYTES
     }
 
@@ -139,6 +145,7 @@ impl Checkpoint {
             spp,
             aux: self.accum.aux.is_some(),
             adaptive: self.accum.adaptive.is_some(),
+            light: self.accum.light.is_some(),
         }
     }
 
@@ -161,6 +168,9 @@ impl Checkpoint {
             if let Some(plan) = &self.accum.adaptive {
                 w.write_all(&encode_plan(&plan[i]))?;
             }
+        }
+        if let Some(light) = &self.accum.light {
+            write_light(&mut w, light)?;
         }
         let sum = w.hash.finish();
         w.inner.write_all(&sum.to_le_bytes())?;
@@ -276,6 +286,11 @@ impl Checkpoint {
                 }
             }
         }
+        if key.light {
+            let mut light = LightSums::new(accum.pixels.len());
+            read_light(r, &mut hash, &mut light).map_err(io)?;
+            accum.light = Some(light);
+        }
         let mut tail = [0u8; CHECKSUM_BYTES as usize];
         r.read_exact(&mut tail).map_err(io)?;
         if hash.finish() != u64::from_le_bytes(tail) {
@@ -364,6 +379,33 @@ impl Checkpoint {
 
 /// Whether a pixel's auxiliary sums could come from `count` samples: finite, each albedo in
 /// [0, 1] and each normal component in [−1, 1] (with room for rounding in the sums).
+/// Writes `light`'s sums, pixel by pixel.
+pub(super) fn write_light(w: &mut impl Write, light: &LightSums) -> std::io::Result<()> {
+    let mut buf = Vec::with_capacity(4096 * LIGHT_BYTES as usize);
+    for chunk in light.0.chunks(4096) {
+        buf.clear();
+        for s in chunk.iter().flatten() {
+            buf.extend_from_slice(&s.to_le_bytes());
+        }
+        w.write_all(&buf)?;
+    }
+    Ok(())
+}
+
+/// Reads the sums [`write_light`] wrote into `light` (sized for them), hashing the bytes.
+pub(super) fn read_light(r: &mut dyn Read, hash: &mut Fnv1a, light: &mut LightSums) -> std::io::Result<()> {
+    let mut buf = vec![0u8; 4096 * LIGHT_BYTES as usize];
+    for chunk in light.0.chunks_mut(4096) {
+        let bytes = &mut buf[..chunk.len() * LIGHT_BYTES as usize];
+        r.read_exact(bytes)?;
+        hash.write(bytes);
+        for (s, b) in chunk.iter_mut().zip(bytes.chunks_exact(LIGHT_BYTES as usize)) {
+            *s = std::array::from_fn(|c| i64::from_le_bytes(b[8 * c..8 * c + 8].try_into().unwrap()));
+        }
+    }
+    Ok(())
+}
+
 pub(super) fn check_aux(a: &AuxSums, count: u32) -> Result<(), String> {
     let n = count as f64 * (1.0 + 1e-9);
     if !(a.albedo.is_finite() && a.normal.is_finite()) {

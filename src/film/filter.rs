@@ -66,6 +66,45 @@ impl PixelFilter {
             }
         }
     }
+
+    /// The pixels a value seen at film position `p` (in pixels) counts in, each with the
+    /// filter's density there (per pixel²): what [`PixelFilter::film_position`] draws around
+    /// that pixel, so that light splatted onto the film from elsewhere (a path from a light)
+    /// counts in a pixel's mean as a sample of the pixel would. Calls `add(x, y, weight)` for
+    /// each pixel inside the `width` × `height` film.
+    pub fn splat(self, p: Vec2, (width, height): (u32, u32), mut add: impl FnMut(u32, u32, f32)) {
+        let inside = |x: f32, y: f32| x >= 0.0 && y >= 0.0 && x < width as f32 && y < height as f32;
+        match self {
+            PixelFilter::Box => {
+                if inside(p.x, p.y) {
+                    add((p.x as u32).min(width - 1), (p.y as u32).min(height - 1), 1.0);
+                }
+            }
+            PixelFilter::Gaussian => {
+                let r = GAUSSIAN_RADIUS;
+                // The truncated Gaussian's density along one axis.
+                let norm = 1.0 / (GAUSSIAN_SIGMA * (2.0 * std::f32::consts::PI).sqrt() * ERF_RADIUS);
+                let density = |t: f32| {
+                    if t.abs() <= r { norm * (-0.5 * (t / GAUSSIAN_SIGMA).powi(2)).exp() } else { 0.0 }
+                };
+                let (x0, x1) = ((p.x - 0.5 - r).ceil().max(0.0), (p.x - 0.5 + r).floor().min(width as f32 - 1.0));
+                let (y0, y1) = ((p.y - 0.5 - r).ceil().max(0.0), (p.y - 0.5 + r).floor().min(height as f32 - 1.0));
+                let mut y = y0;
+                while y <= y1 {
+                    let wy = density(p.y - (y + 0.5));
+                    let mut x = x0;
+                    while x <= x1 {
+                        let w = density(p.x - (x + 0.5)) * wy;
+                        if w > 0.0 {
+                            add(x as u32, y as u32, w);
+                        }
+                        x += 1.0;
+                    }
+                    y += 1.0;
+                }
+            }
+        }
+    }
 }
 
 crate::choice::named_choice!(PixelFilter, "pixel filter");
@@ -172,6 +211,28 @@ mod tests {
             let tolerance = 1e-6 * y + 6e-8 * 0.9 * (y * y).exp();
             assert!((erf_inv(x as f32) as f64 - y).abs() < tolerance, "erf_inv(erf({y}))");
         }
+    }
+
+    #[test]
+    fn a_splat_spreads_over_the_pixels_as_their_samples_do() {
+        let splats = |f: PixelFilter, p: Vec2| {
+            let mut v = Vec::new();
+            f.splat(p, (20, 10), |x, y, w| v.push((x, y, w)));
+            v
+        };
+        assert_eq!(splats(PixelFilter::Box, Vec2::new(7.25, 3.999)), vec![(7, 3, 1.0)]);
+        assert!(splats(PixelFilter::Box, Vec2::new(20.0, 3.0)).is_empty());
+        assert!(splats(PixelFilter::Box, Vec2::new(-0.1, 3.0)).is_empty());
+        // Inside the film, the Gaussian's weights sum to 1 (a density per pixel², summed over
+        // unit pixels), and the nearest centre weighs most.
+        let g = splats(PixelFilter::Gaussian, Vec2::new(7.3, 4.6));
+        let total: f32 = g.iter().map(|s| s.2).sum();
+        assert!((total - 1.0).abs() < 0.03, "{total}");
+        let best = g.iter().max_by(|a, b| a.2.total_cmp(&b.2)).unwrap();
+        assert_eq!((best.0, best.1), (7, 4));
+        assert!(g.iter().all(|s| (5..=9).contains(&s.0) && (3..=6).contains(&s.1)));
+        // At the film's corner only the pixels on it.
+        assert!(splats(PixelFilter::Gaussian, Vec2::new(0.2, 0.2)).iter().all(|s| s.0 <= 1 && s.1 <= 1));
     }
 
     #[test]

@@ -10,7 +10,7 @@ mod layers;
 mod look;
 pub mod shard;
 
-pub use accum::{Accumulator, AdaptivePixel, AuxSums, PixelState, REL_MSE_EPSILON, RELATIVE_ERROR_FLOOR};
+pub use accum::{Accumulator, AdaptivePixel, AuxSums, LightSums, PixelState, REL_MSE_EPSILON, RELATIVE_ERROR_FLOOR};
 pub use checkpoint::{Checkpoint, CheckpointError, CheckpointKey, checkpoint_path};
 pub use denoise::{AuxMode, denoise};
 pub use filter::{GAUSSIAN_RADIUS, GAUSSIAN_SIGMA, PixelFilter};

@@ -22,14 +22,16 @@
 //! (u32: 1 = auxiliary sums, 2 = denoising asked for, 4 = a first round, 8 = with the plan's
 //! data), then per pixel of the shard its count (u32) and sums r, g, b and of squared luminance
 //! (f64), with auxiliary sums those of the albedo and normal (six f64), with the plan's data
-//! the first round's rays and target (u32, target 0) and sums of squares r, g, b (f64), and
-//! the FNV-1a hash of all that (u64). A file is read only if it is a regular file of exactly
+//! the first round's rays and target (u32, target 0) and sums of squares r, g, b (f64), then
+//! with light paths (flag 16) what the shard's light paths add to every pixel of the image (r,
+//! g, b as i64, [`super::LightSums`]: the merge adds the shards'), and the FNV-1a hash of all
+//! that (u64). A file is read only if it is a regular file of exactly
 //! the size its header implies, and every pixel must be one the render could have produced.
 
-use super::accum::{Accumulator, PixelState};
+use super::accum::{Accumulator, LightSums, PixelState};
 use super::checkpoint::{
-    ADAPTIVE_BYTES, AUX_BYTES, Hashing, PIXEL_BYTES, check_aux, decode_aux, decode_pixel, decode_plan, encode_aux,
-    encode_pixel, encode_plan, pixel_problem, sum_sq_problem, words_diff,
+    ADAPTIVE_BYTES, AUX_BYTES, Hashing, LIGHT_BYTES, PIXEL_BYTES, check_aux, decode_aux, decode_pixel, decode_plan,
+    encode_aux, encode_pixel, encode_plan, pixel_problem, read_light, sum_sq_problem, words_diff, write_light,
 };
 use crate::hash::Fnv1a;
 use crate::settings::Shard;
@@ -48,6 +50,7 @@ const FLAG_AUX: u32 = 1;
 const FLAG_DENOISE: u32 = 2;
 const FLAG_FIRST_ROUND: u32 = 4;
 const FLAG_PLAN: u32 = 8;
+const FLAG_LIGHT: u32 = 16;
 const CHECKSUM_BYTES: u64 = 8;
 /// The longest settings text accepted.
 const MAX_SETTINGS: u64 = 64 * 1024;
@@ -78,6 +81,8 @@ pub struct ShardHeader {
     pub first_round: bool,
     /// The file holds each pixel's part in an adaptive render's plan (a first round only).
     pub plan: bool,
+    /// The file holds what the shard's light paths add to the image (caustics).
+    pub light: bool,
 }
 
 impl ShardHeader {
@@ -92,6 +97,7 @@ impl ShardHeader {
             + self.settings.len() as u64
             + FIELDS_BYTES
             + self.pixel_count() * self.pixel_bytes()
+            + if self.light { self.width as u64 * self.height as u64 * LIGHT_BYTES } else { 0 }
             + CHECKSUM_BYTES
     }
 
@@ -118,6 +124,7 @@ pub fn save(path: &Path, header: &ShardHeader, accum: &Accumulator) -> Result<()
     assert_eq!(accum.aux.is_some(), header.aux, "the header says whether the render took auxiliary sums");
     assert!(header.aux || !header.denoise, "denoising needs the auxiliary sums");
     assert_eq!(accum.adaptive.is_some() && header.first_round, header.plan, "a first round keeps the plan's data");
+    assert!(accum.light.is_some() || !header.light, "the header says whether the render traced light paths");
     crate::atomic_write::write_atomically(path, |file| {
         let mut out = std::io::BufWriter::new(file);
         write(&mut out, header, accum).map_err(|e| e.to_string())?;
@@ -140,7 +147,8 @@ fn write(out: impl Write, h: &ShardHeader, accum: &Accumulator) -> std::io::Resu
     let flags = if h.aux { FLAG_AUX } else { 0 }
         | if h.denoise { FLAG_DENOISE } else { 0 }
         | if h.first_round { FLAG_FIRST_ROUND } else { 0 }
-        | if h.plan { FLAG_PLAN } else { 0 };
+        | if h.plan { FLAG_PLAN } else { 0 }
+        | if h.light { FLAG_LIGHT } else { 0 };
     w.write_all(&flags.to_le_bytes())?;
     for i in h.shard.pixels(h.width, h.height) {
         w.write_all(&encode_pixel(&accum.pixels[i]))?;
@@ -152,6 +160,11 @@ fn write(out: impl Write, h: &ShardHeader, accum: &Accumulator) -> std::io::Resu
         {
             w.write_all(&encode_plan(&plan[i]))?;
         }
+    }
+    if h.light
+        && let Some(light) = &accum.light
+    {
+        write_light(&mut w, light)?;
     }
     let sum = w.hash.finish();
     w.inner.write_all(&sum.to_le_bytes())?;
@@ -213,6 +226,7 @@ impl ShardReader {
                 denoise: false,
                 first_round: false,
                 plan: false,
+                light: false,
             },
             reader,
             hash: Fnv1a::default(),
@@ -262,15 +276,17 @@ impl ShardReader {
             denoise: false,
             first_round: false,
             plan: false,
+            light: false,
         };
         let flags = u32_at(9);
-        let known = FLAG_AUX | FLAG_DENOISE | FLAG_FIRST_ROUND | FLAG_PLAN;
+        let known = FLAG_AUX | FLAG_DENOISE | FLAG_FIRST_ROUND | FLAG_PLAN | FLAG_LIGHT;
         let lacking = |flag: u32, needs: u32| flags & flag != 0 && flags & needs == 0;
         if flags & !known != 0 || lacking(FLAG_DENOISE, FLAG_AUX) || lacking(FLAG_PLAN, FLAG_FIRST_ROUND) {
             return Err(corrupt(format!("unknown flags {flags:#x}")));
         }
         (r.header.aux, r.header.denoise) = (flags & FLAG_AUX != 0, flags & FLAG_DENOISE != 0);
         (r.header.first_round, r.header.plan) = (flags & FLAG_FIRST_ROUND != 0, flags & FLAG_PLAN != 0);
+        r.header.light = flags & FLAG_LIGHT != 0;
         if len != r.header.file_size() {
             return Err(corrupt(format!(
                 "{len} bytes, but shard {} of a {width}x{height} image takes {}: truncated or damaged",
@@ -296,8 +312,8 @@ impl ShardReader {
     }
 
     /// Reads the shard's pixels into `accum` (the image's, of the header's size, with
-    /// auxiliary sums if the header has them), checking each and the checksum; on error
-    /// `accum` may hold some of them.
+    /// auxiliary sums if the header has them), checking each and the checksum, and adds its
+    /// light paths' sums to `accum`'s; on error `accum` may hold some of them.
     pub fn read_into(mut self, accum: &mut Accumulator) -> Result<(), ShardError> {
         let h = self.header.clone();
         assert_eq!((accum.width, accum.height), (h.width, h.height), "the accumulator is the image's");
@@ -332,6 +348,11 @@ impl ShardReader {
             if let (Some(plans), Some(a)) = (accum.adaptive.as_mut(), plan) {
                 plans[i] = a;
             }
+        }
+        if h.light {
+            let mut light = LightSums::new(h.width as usize * h.height as usize);
+            read_light(&mut self.reader, &mut self.hash, &mut light).map_err(|e| self.io(e))?;
+            accum.light.get_or_insert_with(|| LightSums::new(light.0.len())).add(&light);
         }
         let mut tail = [0u8; CHECKSUM_BYTES as usize];
         self.reader.read_exact(&mut tail).map_err(|e| self.io(e))?;
@@ -405,6 +426,10 @@ pub fn mismatch(a: &ShardHeader, a_path: &Path, b: &ShardHeader, b_path: &Path) 
         let says = |h: &ShardHeader| if h.first_round { "a first round (--first-round)" } else { "a finished shard" };
         return Some(format!("{bn} is {}, {an} {}", says(b), says(a)));
     }
+    if a.light != b.light {
+        let says = |h: &ShardHeader| if h.light { "with light paths' sums" } else { "without light paths' sums" };
+        return Some(format!("{bn} is {}, {an} {}", says(b), says(a)));
+    }
     if a.plan != b.plan {
         let says =
             |h: &ShardHeader| if h.plan { "with an adaptive plan's data" } else { "without an adaptive plan's data" };
@@ -451,6 +476,7 @@ mod tests {
             denoise: false,
             first_round: false,
             plan: false,
+            light: false,
         };
         let path = dir.join("p.shard");
         save(&path, &header, &accum).unwrap();

@@ -7,7 +7,7 @@ use super::light_vertex::LightVertexPool;
 use super::surface::FaceNormals;
 use crate::accel::Accel;
 use crate::camera::Camera;
-use crate::light::LightSet;
+use crate::light::{Emitters, LightSet};
 use crate::scene::Scene;
 use crate::settings::RenderSettings;
 
@@ -26,4 +26,7 @@ pub struct PathContext<'a> {
     pub roulette_start: u32,
     /// The light vertices paths connect to, if [`super::RenderPlan::light_vertices`].
     pub light_vertices: Option<&'a LightVertexPool>,
+    /// With [`super::RenderPlan::caustics`], the lights light paths start from: paths from the
+    /// camera leave them the light they carry (see `super::caustic`).
+    pub emitters: Option<&'a Emitters<'a>>,
 }

@@ -4,6 +4,7 @@
 
 pub mod adaptive;
 mod aux;
+mod caustic;
 mod context;
 mod kernel;
 mod light_vertex;

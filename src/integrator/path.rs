@@ -63,6 +63,9 @@ pub(crate) struct PathState {
     /// non-specular bounce, which always follows next-event estimation).
     choice: LightChoice,
     depth: u32,
+    /// The path so far is the camera, a non-specular bounce, then only specular ones: the
+    /// shape of the caustic light paths carry (`super::caustic`).
+    caustic: bool,
     /// The absorption of the medium `ray` travels in: that of the glass it last refracted
     /// into (zero outside any, and without glass).
     absorption: Vec3,
@@ -82,6 +85,7 @@ impl PathState {
             prev_p: ray.o,
             choice: LightChoice::BY_POWER,
             depth: 0,
+            caustic: false,
             absorption: Vec3::ZERO,
             ray,
         }
@@ -200,9 +204,11 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     let sp = surface_point::<TEX>(ctx.scene, ctx.normals, &ray, &hit);
     let wo = -ray.d;
     let emission = sp.material.emission.at::<TEX>(&sp.tex);
-    // Without non-delta lights nothing emits.
+    // Without non-delta lights nothing emits. Light found after the camera's first hit and only
+    // specular bounces since is the caustic light paths' to carry, where they run.
     if HIT_LIGHTS
         && emission != Vec3::ZERO
+        && !(path.caustic && path.depth >= 2 && ctx.emitters.is_some_and(|e| e.covers(hit.geom, hit.prim, sp.ng, wo)))
         && let Some(w) = rules.found.weight(path.specular, path.prev_pdf, || {
             ctx.lights.pdf_emitter(&path.choice, hit.geom, hit.prim, path.prev_p, sp.p, sp.ng)
         })
@@ -329,6 +335,7 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
         path.absorption = if side < 0.0 { sp.material.absorption() } else { Vec3::ZERO };
     }
     path.specular = bs.delta;
+    path.caustic = if path.depth == 0 { !bs.delta } else { path.caustic && bs.delta };
     path.prev_pdf = bs.pdf;
     path.prev_p = sp.p;
     path.depth += 1;

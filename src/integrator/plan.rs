@@ -37,6 +37,8 @@ pub struct RenderPlan {
     pub roulette_start: Option<u32>,
     /// Paths connect to light vertices (`super::light_vertex`).
     pub light_vertices: bool,
+    /// Light paths carry the caustics (`super::caustic`).
+    pub caustics: bool,
     /// How the Embree BVH is built: the requested quality, else the one the geometry calls for
     /// ([`crate::accel::build_quality_for`]), robust unless told otherwise.
     pub bvh: BuildOptions,
@@ -107,6 +109,7 @@ impl RenderPlan {
             RrDepth::Off => None,
         };
         let light_vertices = light_vertices_apply(&effects, settings, scene_depth).is_ok();
+        let caustics = caustics_apply(&effects, settings, scene_depth).is_ok();
         RenderPlan {
             settings: settings.clone(),
             effects,
@@ -115,6 +118,7 @@ impl RenderPlan {
             scene_depth,
             roulette_start,
             light_vertices,
+            caustics,
             bvh: BuildOptions {
                 kernels: settings.embree_kernels.unwrap_or_else(crate::embree::Kernels::widest),
                 ..build_options_with(geometry, settings.bvh_quality, settings.robust)
@@ -155,6 +159,7 @@ impl RenderPlan {
             spp,
             aux: s.aux,
             adaptive: s.adaptive,
+            light: self.caustics,
         }
     }
 
@@ -169,6 +174,7 @@ impl RenderPlan {
             s.width, s.height, s.spp, s.max_depth, s.seed, s.estimator, s.sampler, s.filter
         ) + if s.adaptive { " adaptive=relmse-5x5" } else { "" }
             + if self.light_vertices { " light-vertices=pool-by-depth" } else { "" }
+            + if self.caustics { " caustics=light-paths" } else { "" }
             + &s.clamp.map_or(String::new(), |c| format!(" clamp={c}"))
             + if s.light_tree == crate::settings::LightTreeMode::Off { " light-tree=off" } else { "" }
     }
@@ -244,9 +250,32 @@ fn light_vertices_apply(effects: &Effects, s: &RenderSettings, scene_depth: u32)
     }
 }
 
+/// Whether light paths carry a render's caustics (`Ok`, with why) or not (`Err`, why not).
+fn caustics_apply(effects: &Effects, s: &RenderSettings, scene_depth: u32) -> Result<&'static str, &'static str> {
+    if s.caustics == crate::settings::Caustics::Off {
+        Err("--caustics off")
+    } else if !(effects.mirror || effects.glass) {
+        Err("no mirror or glass")
+    } else if !effects.specular_material {
+        Err("no material is a mirror or glass all over")
+    } else if !(effects.diffuse || effects.glossy) {
+        Err("no surface but mirrors and glass to land on")
+    } else if !(effects.area_lights || effects.point_lights) {
+        Err("no area or point light")
+    } else if s.estimator != Estimator::NeeMis {
+        Err("only with --estimator nee-mis")
+    } else if scene_depth < 2 {
+        Err("no light bounces")
+    } else if effects.orthographic {
+        Err("an orthographic camera")
+    } else {
+        Ok("mirrors or glass, lit by area or point lights")
+    }
+}
+
 /// `kernel: …; path depth N (why); russian roulette …` (and `; wavefront path loop` if so),
-/// then, where every light is a point
-/// light, `light vertices: on|off (why)` on a line of its own.
+/// then, where every light is a point light, `light vertices: on|off (why)`, and where the
+/// scene has mirrors or glass, `caustic light paths: on|off (why)`, each on a line of its own.
 impl fmt::Display for RenderPlan {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "kernel: {}; path depth {}; {}", self.kernel, self.depth_text(), self.roulette_text())?;
@@ -257,6 +286,12 @@ impl fmt::Display for RenderPlan {
             match light_vertices_apply(&self.effects, &self.settings, self.scene_depth) {
                 Ok(why) => write!(f, "\nlight vertices: on ({why})")?,
                 Err(why) => write!(f, "\nlight vertices: off ({why})")?,
+            }
+        }
+        if self.effects.mirror || self.effects.glass {
+            match caustics_apply(&self.effects, &self.settings, self.scene_depth) {
+                Ok(why) => write!(f, "\ncaustic light paths: on ({why})")?,
+                Err(why) => write!(f, "\ncaustic light paths: off ({why})")?,
             }
         }
         Ok(())

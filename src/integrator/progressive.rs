@@ -28,6 +28,7 @@
 
 use super::adaptive;
 use super::aux::AuxSample;
+use super::caustic;
 use super::context::PathContext;
 use super::kernel::SampleFn;
 use super::light_vertex::LightVertexPool;
@@ -35,7 +36,7 @@ use super::surface::FaceNormals;
 use super::wavefront::{BatchFn, GroupJob};
 use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
 use crate::accel::{Accel, LANES};
-use crate::film::{Accumulator, AuxSums, Checkpoint, CheckpointKey, PixelState};
+use crate::film::{Accumulator, AuxSums, Checkpoint, CheckpointKey, LightSums, PixelState};
 use crate::sampler::{PixelSampler, mix64};
 use crate::scene::Scene;
 use crate::settings::{PathLoop, TILE, clamp_sample};
@@ -182,7 +183,7 @@ pub(super) fn run(
         return Err(RenderError::AdaptiveShard);
     }
     let key = LazyKey { scene, accel, plan, key: OnceLock::new() };
-    let earlier = Earlier::of(plan, control.resume.take(), control.first_rounds.take(), &key)?;
+    let mut earlier = Earlier::of(plan, control.resume.take(), control.first_rounds.take(), &key)?;
     let owned = Owned::of(settings);
     if plan.traces_nothing() && !settings.aux {
         return Ok(earlier.traced_nothing(plan, owned, start));
@@ -200,6 +201,7 @@ pub(super) fn run(
         path_depth: plan.path_depth,
         roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
         light_vertices: None,
+        emitters: None,
     };
     let (w, h) = (settings.width, settings.height);
     let pool = plan
@@ -207,6 +209,20 @@ pub(super) fn run(
         .then(|| LightVertexPool::build((scene, &normals, &lights), accel, settings.seed, (w, h), settings.spp));
     accel.deferred_error()?;
     ctx.light_vertices = pool.as_ref();
+    // The caustics' light paths, before the first pixel (a checkpoint has them already; the
+    // first round of a two-stage shard leaves them to its second stage).
+    let emitters = if plan.caustics { lights.emitters(caustic::target(scene)) } else { None };
+    ctx.emitters = emitters.as_ref();
+    let mut light_rays = 0;
+    if plan.caustics && earlier.film.light.is_none() {
+        let c = match &emitters {
+            Some(e) if !control.first_round_only => caustic::render(&ctx, e, caustic::paths(w, h, settings.spp)),
+            _ => caustic::CausticImage { sums: LightSums::new(w as usize * h as usize), rays: 0 },
+        };
+        accel.deferred_error()?;
+        earlier.film.light = Some(c.sums);
+        light_rays = c.rays;
+    }
     // A shard renders only its own tiles.
     let tiles: Vec<(u32, u32)> =
         tile_order(w, h).into_iter().filter(|&(tx, ty)| settings.shard.is_none_or(|s| s.owns_tile(tx, ty))).collect();
@@ -215,6 +231,7 @@ pub(super) fn run(
     let rounds = if control.first_round_only && settings.adaptive { 1 } else { plan.rounds() };
     let session = Session::new(&ctx, Kernel::for_plan(plan), plan, &control, &key, earlier, owned, start);
     session.rays.fetch_add(pool.as_ref().map_or(0, |p| p.rays), Ordering::Relaxed);
+    session.rays.fetch_add(light_rays, Ordering::Relaxed);
     for round in 0..rounds {
         // An adaptive render plans its second round once the first is done everywhere (a
         // resumed render may have the plan from its checkpoint).

@@ -15,6 +15,7 @@
 mod background;
 mod choice;
 mod distribution;
+mod emission;
 mod environment;
 mod point;
 mod sphere;
@@ -22,6 +23,7 @@ mod tree;
 mod triangle;
 
 pub use background::Background;
+pub use emission::{Emission, Emitters};
 pub use environment::Environment;
 pub use point::PointLight;
 

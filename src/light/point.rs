@@ -53,6 +53,17 @@ impl PointLight {
         })
     }
 
+    /// Where light leaves the point light, for a path from the light: in every direction alike.
+    pub(super) fn emit_point(&self) -> super::emission::EmissionPoint {
+        super::emission::EmissionPoint {
+            p: self.position,
+            n: Vec3::ZERO,
+            le: self.intensity,
+            area: 1.0,
+            two_sided: false,
+        }
+    }
+
     pub(super) fn fingerprint(&self, h: &mut Fingerprint) {
         h.str("point");
         h.v3(&[self.position, self.intensity]);

@@ -65,6 +65,23 @@ impl EmissiveSphere {
         })
     }
 
+    /// A point light leaves the sphere from, for a path from the light: uniform by area
+    /// (`u`), with the radiance there; it emits outward (light it sheds inward is left to
+    /// paths from the camera: see [`super::Emitters::covers`]).
+    pub(super) fn emit_point(&self, u: Vec2) -> Option<super::emission::EmissionPoint> {
+        let r = self.sphere.radius;
+        let n = uniform_sphere(u);
+        let le = match &self.texture {
+            None => self.emission,
+            Some(t) => {
+                let (u, v) = Sphere::uv(n);
+                t.eval(&TexCoords::new(Vec2::new(u, v)))
+            }
+        };
+        let p = self.sphere.center + r * n;
+        (r > 0.0).then_some(super::emission::EmissionPoint { p, n, le, area: 4.0 * PI * r * r, two_sided: false })
+    }
+
     /// Solid-angle density of [`EmissiveSphere::sample`] from `p` at the point `q` (normal
     /// `n`) on it, chosen with probability `sel`.
     pub(super) fn pdf(&self, sel: f32, p: Vec3, q: Vec3, n: Vec3) -> f32 {
@@ -75,7 +92,7 @@ impl EmissiveSphere {
 /// 1 − cosθmax of the cone a sphere subtends from a point at distance² `d2` from its centre
 /// (outside), computed as sin²θmax / (1 + cosθmax): no cancellation for small or distant
 /// spheres.
-fn cone_one_minus_cos(radius: f32, d2: f32) -> f32 {
+pub(super) fn cone_one_minus_cos(radius: f32, d2: f32) -> f32 {
     let sin2 = (radius * radius / d2).min(1.0);
     let cos = (1.0 - sin2).max(0.0).sqrt();
     sin2 / (1.0 + cos)
@@ -119,6 +136,15 @@ fn sample_sphere(s: &Sphere, p: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
     let q = p + ds * dir;
     let n = (q - s.center).normalize();
     Some((q, n, 1.0 / (2.0 * PI * one_minus_cos)))
+}
+
+/// A direction uniform in the cone about the unit `axis` whose 1 − cos of its half-angle is
+/// `one_minus_cos`, for `u` in [0, 1)² (density 1 / (2π · one_minus_cos)).
+pub(super) fn sample_cone(axis: Vec3, one_minus_cos: f32, u: Vec2) -> Vec3 {
+    let cos_t = 1.0 - u.x * one_minus_cos;
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Frame::from_normal(axis).to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t))
 }
 
 fn pdf_sphere(s: &Sphere, p: Vec3, q: Vec3, n: Vec3) -> f32 {

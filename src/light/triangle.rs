@@ -165,6 +165,22 @@ impl EmissiveTriangle {
         })
     }
 
+    /// A point light leaves the triangle from, for a path from the light: uniform by area
+    /// (`u`), with the radiance there; both faces emit.
+    pub(super) fn emit_point(&self, u: Vec2) -> Option<super::emission::EmissionPoint> {
+        if !(self.area > 0.0) {
+            return None;
+        }
+        let (b0, b1) = uniform_barycentrics(u);
+        let [p0, p1, p2] = self.p;
+        let le = match &self.texture {
+            None => self.emission,
+            Some(t) => t.at(b0, b1, 0.0),
+        };
+        let p = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
+        Some(super::emission::EmissionPoint { p, n: self.normal, le, area: self.area, two_sided: true })
+    }
+
     /// Solid-angle density of [`EmissiveTriangle::sample`] from `p` at the point `q` (normal
     /// `n`) on it, chosen with probability `sel`.
     pub(super) fn pdf(&self, sel: f32, p: Vec3, q: Vec3, n: Vec3) -> f32 {

@@ -52,6 +52,15 @@ impl BsdfModel for Dielectric {
         true
     }
 
+    /// (η on `wo`'s side / η on `wi`'s side)² across the interface, 1 for a reflection.
+    fn light_path_scale(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match (wo.z > 0.0, wi.z > 0.0) {
+            (true, false) => 1.0 / (self.ior * self.ior),
+            (false, true) => self.ior * self.ior,
+            _ => 1.0,
+        }
+    }
+
     /// 1: renders follow glass to the surface seen through it; this is used only where a
     /// path ends on glass.
     fn denoise_albedo(&self) -> Vec3 {

@@ -150,6 +150,15 @@ pub trait BsdfModel: Copy {
         false
     }
 
+    /// For a path traced from a light that sampled `wi` from `wo` (`wo` toward the light):
+    /// the factor by which its weight differs from the sample's `f |cos| / pdf`. Paths from
+    /// the camera see radiance cross a refraction unscaled (the BSDFs here leave out the
+    /// 1/η² compression), so light carried the other way is scaled by (η on `wo`'s side /
+    /// η on `wi`'s side)² (Veach 1997, §5.2): 1 but across a refraction.
+    fn light_path_scale(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        1.0
+    }
+
     /// The albedo a denoiser is given for this surface (Open Image Denoise's guidance: the
     /// surface's colour independent of lighting and view, in [0, 1]).
     fn denoise_albedo(&self) -> Vec3;
@@ -253,6 +262,10 @@ macro_rules! material_kinds {
             #[inline]
             fn is_transmissive(&self) -> bool {
                 match self { $(Bsdf::$variant(b) => b.is_transmissive(),)* }
+            }
+            #[inline]
+            fn light_path_scale(&self, wo: Vec3, wi: Vec3) -> f32 {
+                match self { $(Bsdf::$variant(b) => b.light_path_scale(wo, wi),)* }
             }
             #[inline]
             fn denoise_albedo(&self) -> Vec3 {

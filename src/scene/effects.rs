@@ -60,6 +60,12 @@ pub struct Effects {
     /// what it emits lands on a surface, which is where paths gain from connecting to light
     /// vertices (`integrator::light_vertex`; the plan also asks that every light be a point).
     pub enclosed_point_lights: bool,
+    /// The camera is orthographic (not an effect the report lists: it decides what the render
+    /// can trace toward the camera).
+    pub orthographic: bool,
+    /// Some material in use is a mirror or glass everywhere (not one whose texture makes a
+    /// few spots smooth): what makes caustics worth light paths (not listed either).
+    pub specular_material: bool,
 }
 
 /// How long paths need to be for this scene.
@@ -139,6 +145,7 @@ impl Effects {
             e.glossy |= lobes.glossy;
             e.mirror |= lobes.mirror;
             e.glass |= lobes.glass;
+            e.specular_material |= (lobes.mirror || lobes.glass) && !lobes.diffuse && !lobes.glossy;
         }
         e.point_lights = scene.lights.iter().any(|l| l.is_delta() && l.emits());
         match scene.background() {
@@ -147,6 +154,7 @@ impl Effects {
             _ => e.sky = true,
         }
         e.depth_of_field = scene.camera.is_some_and(|c| c.aperture > 0.0);
+        e.orthographic = scene.camera.is_some_and(|c| c.ortho_width.is_some());
         e.lit = e.emissive || e.point_lights || e.sky || e.environment;
         e.scattering = scattering_prims > 0;
         // One opaque primitive (a sphere, a capped cylinder, a triangle: all convex) cannot

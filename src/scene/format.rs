@@ -173,7 +173,7 @@ impl<'de> Deserialize<'de> for Exposure {
 /// A setting written as a string and read by its type's `FromStr`, whose error is the
 /// message: `tonemap` (`"clamp"`, `"aces"` or `"neutral"`), `filter` (`"box"` or
 /// `"gaussian"`), `sampler` (`"sobol"` or `"independent"`), `light_vertices` (`"auto"`,
-/// `"on"` or `"off"`).
+/// `"on"` or `"off"`), `caustics` (`"auto"` or `"off"`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Named<T>(pub T);
 
@@ -259,6 +259,8 @@ pub struct RenderSection {
     pub sampler: Option<Named<crate::settings::SamplerKind>>,
     /// Light vertices: `"auto"`, `"on"` or `"off"` (as `--light-vertices`).
     pub light_vertices: Option<Named<crate::settings::LightVertices>>,
+    /// Caustic light paths: `"auto"` or `"off"` (as `--caustics`).
+    pub caustics: Option<Named<crate::settings::Caustics>>,
 }
 
 #[derive(Debug, Deserialize, Clone)]

@@ -303,6 +303,7 @@ fn render_defaults(r: &format::RenderSection) -> RenderDefaults {
         filter: r.filter.map(|f| f.0),
         sampler: r.sampler.map(|v| v.0),
         light_vertices: r.light_vertices.map(|v| v.0),
+        caustics: r.caustics.map(|v| v.0),
     }
 }
 

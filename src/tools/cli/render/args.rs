@@ -6,7 +6,9 @@ use crate::film::{AuxMode, Look, PixelFilter, Tonemap, check_exposure};
 use crate::integrator::adaptive;
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
 use crate::scene::{CameraOverride, Orbit, Scene};
-use crate::settings::{Estimator, LightTreeMode, LightVertices, PathLoop, RenderSettings, RrDepth, SamplerKind, Shard};
+use crate::settings::{
+    Caustics, Estimator, LightTreeMode, LightVertices, PathLoop, RenderSettings, RrDepth, SamplerKind, Shard,
+};
 use clap::Args;
 use glam::Vec3;
 use std::path::PathBuf;
@@ -44,6 +46,12 @@ pub struct RenderArgs {
     /// the lamp; unbiased either way [scene's render.light_vertices, else auto].
     #[arg(long)]
     pub light_vertices: Option<LightVertices>,
+    /// Trace paths from the lights for the caustics (light that reaches a surface the camera
+    /// sees through mirrors and glass only, which paths from the camera find only by chance):
+    /// auto (where the scene has mirrors or glass beside other surfaces, lit by area or point
+    /// lights; not in a shard) or off; unbiased either way [scene's render.caustics, else auto].
+    #[arg(long)]
+    pub caustics: Option<Caustics>,
     /// How next-event estimation chooses among many lights: auto (a light tree, by each
     /// light's importance at the shading point, where there are more than a few groups of
     /// lights or an emitting mesh of many triangles) or off (by power); unbiased either way.
@@ -399,6 +407,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         filter: args.filter.unwrap_or(s.filter),
         sampler: args.sampler.unwrap_or(s.sampler),
         light_vertices: args.light_vertices.unwrap_or(s.light_vertices),
+        caustics: args.caustics.unwrap_or(s.caustics),
         light_tree: args.light_tree,
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
         clamp: args.clamp,

@@ -127,6 +127,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         ],
     )?;
     let plan = RenderPlan::new(&scene, &settings);
+    if plan.caustics {
+        let light = memory::light_paths_bytes(w, h);
+        budget
+            .admit(format!("image {w}x{h}'s caustic light paths"), light)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
+        budget.keep(light);
+    }
     if !plan.effects.lit {
         // Said before anything is rendered or written, on its own line.
         if args.strict {
@@ -173,6 +180,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         denoise,
         first_round,
         plan: first_round && settings.adaptive,
+        light: plan.caustics && !first_round,
     };
     // Stage 2 of a shard: the whole image's first round, from every shard's stage 1.
     let first_rounds = match settings.shard {

@@ -1,0 +1,175 @@
+//! Caustic light paths (`--caustics`, `integrator::caustic`): light that reaches a surface the
+//! camera sees through mirrors and glass only is carried by paths traced from the lights and
+//! splatted onto the film, and paths from the camera leave it to them. The image must stay the
+//! same in expectation (against renders without them), for area and point lights, pinhole and
+//! thin-lens cameras and both pixel filters; bit-identical for any thread count; and the plan
+//! says when they run and why not.
+
+mod common;
+
+use ember::film::{Film, PixelFilter};
+use ember::integrator::{RenderPlan, RenderSettings};
+use ember::scene::Scene;
+use ember::settings::Caustics;
+
+/// A floor under a glass ball and a mirror ball, lit from above by `lamp` (TOML of its
+/// section), seen by `camera` (the camera section's lines after its position and target).
+fn balls(name: &str, lamp: &str, camera: &str) -> Scene {
+    let text = format!(
+        "[camera]\nposition = [0.0, 3.0, 7.0]\nlook_at = [0.0, 0.5, 0.0]\n{camera}\n\
+         [materials.floor]\ntype = \"diffuse\"\ncolor = [0.6, 0.6, 0.6]\n\
+         [materials.glass]\ntype = \"glass\"\nior = 1.5\n\
+         [materials.mirror]\ntype = \"metal\"\ncolor = [0.95, 0.95, 0.95]\nroughness = 0.0\n\
+         [materials.lamp]\ntype = \"emissive\"\nemission = [40.0, 40.0, 40.0]\n\
+         [[quads]]\ncorner = [-6.0, 0.0, -6.0]\nedge1 = [0.0, 0.0, 12.0]\nedge2 = [12.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
+         [[spheres]]\ncenter = [-1.2, 1.0, 0.0]\nradius = 0.9\nmaterial = \"glass\"\n\
+         [[spheres]]\ncenter = [1.3, 0.8, 0.3]\nradius = 0.8\nmaterial = \"mirror\"\n{lamp}"
+    );
+    Scene::load(&common::write_scene("caustics", name, &text)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+const PINHOLE: &str = "fov = 40";
+
+const QUAD_LAMP: &str =
+    "[[quads]]\ncorner = [-0.5, 4.0, -1.5]\nedge1 = [1.0, 0.0, 0.0]\nedge2 = [0.0, 0.0, 1.0]\nmaterial = \"lamp\"";
+
+fn settings(spp: u32, caustics: Caustics) -> RenderSettings {
+    RenderSettings { width: 64, height: 48, spp, max_depth: 8, adaptive: false, caustics, ..RenderSettings::default() }
+}
+
+/// The image of `scene` with `settings`, checked to have traced light paths if `caustics`.
+fn render(scene: &Scene, settings: &RenderSettings, caustics: bool) -> Film {
+    let (film, stats) = common::render_embree(scene, settings);
+    assert_eq!(stats.plan.caustics, caustics, "{}", stats.plan);
+    assert_eq!(stats.nonfinite, 0);
+    film
+}
+
+/// Mean luminance of the `rect` (x0, y0, x1, y1) of `film`.
+fn mean(film: &Film, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> f64 {
+    let mut sum = 0.0;
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let p = film.get(x, y);
+            sum += (0.2126 * p.x + 0.7152 * p.y + 0.0722 * p.z) as f64;
+        }
+    }
+    sum / ((x1 - x0) * (y1 - y0)) as f64
+}
+
+/// The caustic the glass ball throws on the floor (measured where the 64 x 48 image shows it).
+const GLASS_CAUSTIC: (u32, u32, u32, u32) = (10, 28, 26, 40);
+
+/// Compares two images block by block (16 x 12 pixel blocks) and the caustic's region, within
+/// `tolerance` relative (and 0.0005 absolute), naming the first block outside it.
+fn assert_same_in_expectation(on: &Film, off: &Film, tolerance: f64, what: &str) {
+    for by in 0..4 {
+        for bx in 0..4 {
+            let rect = (bx * 16, by * 12, bx * 16 + 16, by * 12 + 12);
+            let (a, b) = (mean(on, rect), mean(off, rect));
+            // Dark blocks (the sky, 0.004) within 0.0005 of luminance.
+            assert!((a - b).abs() < tolerance * b + 5e-4, "{what}: block {rect:?}: {a} with light paths, {b} without");
+        }
+    }
+    let (a, b) = (mean(on, GLASS_CAUSTIC), mean(off, GLASS_CAUSTIC));
+    println!("{what}: the caustic: {:.4}", a / b - 1.0);
+    assert!((a / b - 1.0).abs() < tolerance, "{what}: the caustic: {a} with light paths, {b} without");
+}
+
+#[test]
+fn light_paths_leave_the_image_the_same_in_expectation() {
+    // 4096 spp without light paths against 1024 with them: each block of 192 pixels within 4%
+    // or 0.0005 of luminance (measured: the lit blocks within 0.6% for the quad lamp, 1.1% for
+    // the ball lamp through a thin lens and the Gaussian filter; the dark blocks of sky over
+    // the glass ball's rim 2.7% and 4.7%, 0.0002 of luminance), the caustic's region too.
+    let quad = balls("quad.toml", QUAD_LAMP, PINHOLE);
+    let on = render(&quad, &settings(1024, Caustics::Auto), true);
+    let off = render(&quad, &settings(4096, Caustics::Off), false);
+    assert_same_in_expectation(&on, &off, 0.04, "quad lamp");
+    // The caustic is bright: the light paths carry most of that region's light.
+    assert!(mean(&on, GLASS_CAUSTIC) > 1.5 * mean(&on, (0, 40, 64, 48)), "no caustic under the glass ball");
+
+    // An emitting ball (emitting outward only, as light paths start from it), a thin lens and
+    // the Gaussian filter (a splat spreads over several pixels).
+    let ball = balls(
+        "ball.toml",
+        "[[spheres]]\ncenter = [0.3, 4.0, -0.8]\nradius = 0.6\nmaterial = \"lamp\"",
+        "fov = 40\naperture = 0.1\nfocus_distance = 7.0",
+    );
+    let lens = |spp, caustics| RenderSettings { filter: PixelFilter::Gaussian, ..settings(spp, caustics) };
+    let on = render(&ball, &lens(1024, Caustics::Auto), true);
+    let off = render(&ball, &lens(4096, Caustics::Off), false);
+    assert_same_in_expectation(&on, &off, 0.04, "ball lamp, thin lens, Gaussian filter");
+}
+
+#[test]
+fn a_point_light_throws_the_caustic_a_small_ball_of_its_intensity_throws() {
+    // Paths from the camera never find a point light through glass: without light paths its
+    // caustic is missing. With them, it matches that of a ball lamp of radius 0.02 and the same
+    // intensity (radiance L, intensity L·πr²) at the same place: within 5% in the caustic's
+    // region (measured 1.1%; without light paths the region has 0.28 of that light).
+    let point = balls(
+        "point.toml",
+        "[[lights]]\ntype = \"point\"\nposition = [0.0, 4.0, -1.0]\nintensity = [0.5, 0.5, 0.5]",
+        PINHOLE,
+    );
+    let r: f32 = 0.02;
+    let radiance = 0.5 / (std::f32::consts::PI * r * r);
+    let ball = balls(
+        "small-ball.toml",
+        &format!(
+            "[materials.bulb]\ntype = \"emissive\"\nemission = [{radiance}, {radiance}, {radiance}]\n\
+             [[spheres]]\ncenter = [0.0, 4.0, -1.0]\nradius = {r}\nmaterial = \"bulb\""
+        ),
+        PINHOLE,
+    );
+    let with_point = render(&point, &settings(256, Caustics::Auto), true);
+    let with_ball = render(&ball, &settings(256, Caustics::Auto), true);
+    let without = render(&point, &settings(256, Caustics::Off), false);
+    let (a, b, c) = (mean(&with_point, GLASS_CAUSTIC), mean(&with_ball, GLASS_CAUSTIC), mean(&without, GLASS_CAUSTIC));
+    println!("the caustic: {a} from the point light, {b} from the ball, {c} without light paths");
+    assert!((a / b - 1.0).abs() < 0.05, "the caustic: {a} from the point light, {b} from the ball");
+    assert!(a > 2.0 * c, "the caustic: {a} with light paths, {c} without");
+}
+
+#[test]
+fn the_light_paths_give_one_image_for_any_thread_count() {
+    // Their splats land anywhere and are summed in fixed point: the same bits in any order.
+    let scene = balls("threads.toml", QUAD_LAMP, PINHOLE);
+    let one = render(&scene, &RenderSettings { threads: Some(1), ..settings(16, Caustics::Auto) }, true);
+    for threads in [2, 3] {
+        let other = render(&scene, &RenderSettings { threads: Some(threads), ..settings(16, Caustics::Auto) }, true);
+        let bits = |f: &Film| f.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+        assert_eq!(bits(&one), bits(&other), "{threads} threads");
+    }
+}
+
+#[test]
+fn the_plan_says_when_light_paths_run_and_why_not() {
+    let line = |scene: &Scene, settings: &RenderSettings| {
+        let plan = RenderPlan::new(scene, settings);
+        let text = plan.to_string();
+        let line = text.lines().find(|l| l.starts_with("caustic light paths:")).map(str::to_string);
+        (plan.caustics, line)
+    };
+    let scene = balls("plan.toml", QUAD_LAMP, PINHOLE);
+    let on = line(&scene, &settings(16, Caustics::Auto));
+    assert_eq!(on, (true, Some("caustic light paths: on (mirrors or glass, lit by area or point lights)".into())));
+    assert!(
+        RenderPlan::new(&scene, &settings(16, Caustics::Auto))
+            .image_key("accel=naive")
+            .contains(" caustics=light-paths")
+    );
+    let off = line(&scene, &settings(16, Caustics::Off));
+    assert_eq!(off, (false, Some("caustic light paths: off (--caustics off)".into())));
+    let ortho = balls("ortho.toml", QUAD_LAMP, "type = \"orthographic\"\nwidth = 8.0");
+    assert_eq!(
+        line(&ortho, &settings(16, Caustics::Auto)).1.as_deref(),
+        Some("caustic light paths: off (an orthographic camera)")
+    );
+    let estimator = RenderSettings { estimator: ember::integrator::Estimator::NeeOnly, ..settings(16, Caustics::Auto) };
+    assert_eq!(line(&scene, &estimator).1.as_deref(), Some("caustic light paths: off (only with --estimator nee-mis)"));
+    // Without mirrors or glass there is nothing to say.
+    let cornell = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
+    assert_eq!(line(&cornell, &settings(16, Caustics::Auto)), (false, None));
+}
