@@ -173,3 +173,23 @@ fn the_plan_says_when_light_paths_run_and_why_not() {
     let cornell = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
     assert_eq!(line(&cornell, &settings(16, Caustics::Auto)), (false, None));
 }
+
+#[test]
+fn a_stop_while_the_light_paths_are_traced_writes_nothing() {
+    // The light paths come before the first pixel; a stop then ends the render with nothing to
+    // resume from (the CLI: "interrupted while tracing the caustics' light paths …; nothing was
+    // written"), not a checkpoint whose light paths' sums are partial.
+    use ember::integrator::{RenderControl, RenderError, render_controlled};
+    use std::sync::atomic::AtomicBool;
+    let scene = balls("stop.toml", QUAD_LAMP, PINHOLE);
+    let accel = ember::accel::NaiveAccel::new(&scene.geometry);
+    let stop = AtomicBool::new(true);
+    let control = || RenderControl { stop: Some(&stop), ..RenderControl::default() };
+    let plan = RenderPlan::new(&scene, &settings(16, Caustics::Auto));
+    let r = render_controlled(&scene, &accel, &plan, control());
+    assert!(matches!(r, Err(RenderError::StoppedInLightPaths)), "{:?}", r.map(|r| r.complete));
+    // Without them the same stop leaves an unfinished render to resume.
+    let plan = RenderPlan::new(&scene, &settings(16, Caustics::Off));
+    let r = render_controlled(&scene, &accel, &plan, control()).unwrap();
+    assert!(!r.complete);
+}

@@ -89,8 +89,13 @@ pub(super) fn target(scene: &Scene) -> Option<Sphere> {
 /// Traces the render's `paths` light paths from `emitters` through `ctx` (errors deferred: the
 /// caller checks [`crate::accel::Accel::deferred_error`]), or in a shard its share of them
 /// (chunk c goes to shard c mod the shard count), and returns what they add to each pixel's
-/// mean.
-pub(super) fn render(ctx: &PathContext, emitters: &Emitters, paths: u64) -> CausticImage {
+/// mean; `None` if `stop_requested` said so between chunks (the sums are then partial).
+pub(super) fn render(
+    ctx: &PathContext,
+    emitters: &Emitters,
+    paths: u64,
+    stop_requested: &(dyn Fn() -> bool + Sync),
+) -> Option<CausticImage> {
     let (w, h) = (ctx.settings.width, ctx.settings.height);
     let sums: Vec<AtomicI64> = (0..3 * w as usize * h as usize).map(|_| AtomicI64::new(0)).collect();
     // Each path's splat is its share of the mean: the image's pixel count over the paths.
@@ -102,6 +107,9 @@ pub(super) fn render(ctx: &PathContext, emitters: &Emitters, paths: u64) -> Caus
     let rays = chunks
         .into_par_iter()
         .map(|chunk| {
+            if stop_requested() {
+                return None;
+            }
             let streams = PixelSampler::new(ctx.settings.sampler, key, chunk);
             let mut rays = 0;
             for s in 0..CHUNK.min(paths - chunk * CHUNK) {
@@ -120,11 +128,11 @@ pub(super) fn render(ctx: &PathContext, emitters: &Emitters, paths: u64) -> Caus
                     });
                 });
             }
-            rays
+            Some(rays)
         })
-        .sum();
+        .sum::<Option<u64>>()?;
     let sums = sums.chunks_exact(3).map(|c| std::array::from_fn(|k| c[k].load(Ordering::Relaxed))).collect();
-    CausticImage { sums: LightSums(sums), rays }
+    Some(CausticImage { sums: LightSums(sums), rays })
 }
 
 /// One light path: from a light chosen by `emitters`, through specular bounces only; at each

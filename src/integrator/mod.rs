@@ -70,6 +70,8 @@ pub enum RenderError {
         "an adaptive render plans from the whole image's first round: render a shard of it in two stages, --first-round then --plan-from the N first-round files (or render it with --uniform)"
     )]
     AdaptiveShard,
+    #[error("stopped while tracing the caustics' light paths, before the first pixel")]
+    StoppedInLightPaths,
 }
 
 /// Renders `scene` through `accel`: every pixel gets `settings.spp` samples (or, with

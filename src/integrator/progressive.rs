@@ -216,7 +216,12 @@ pub(super) fn run(
     let mut light_rays = 0;
     if plan.caustics && earlier.film.light.is_none() {
         let c = match &emitters {
-            Some(e) if !control.first_round_only => caustic::render(&ctx, e, caustic::paths(w, h, settings.spp)),
+            Some(e) if !control.first_round_only => {
+                let stop = control.stop;
+                let stop_requested = || stop.is_some_and(|s| s.load(Ordering::Relaxed));
+                caustic::render(&ctx, e, caustic::paths(w, h, settings.spp), &stop_requested)
+                    .ok_or(RenderError::StoppedInLightPaths)?
+            }
             _ => caustic::CausticImage { sums: LightSums::new(w as usize * h as usize), rays: 0 },
         };
         accel.deferred_error()?;

@@ -218,6 +218,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     let result = render_controlled(&scene, accel.as_ref(), &plan, control);
     bar.finish();
+    if let Err(crate::integrator::RenderError::StoppedInLightPaths) = result {
+        return Err(Interrupted::by_signal(
+            "interrupted while tracing the caustics' light paths, before the first pixel; nothing was written".into(),
+        )
+        .into());
+    }
     let result = result?;
     for w in &result.warnings {
         say!("warning: {w}");
