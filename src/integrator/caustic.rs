@@ -31,9 +31,9 @@
 //! shards' sums: the same integers as the whole render's.
 
 use super::context::PathContext;
-use super::surface::{facing_shading_normal, surface_point};
+use super::surface::surface_point;
 use crate::film::LightSums;
-use crate::geometry::{Aabb, Frame, Geometry, Ray, Shape, Sphere, offset_ray_origin, offset_toward};
+use crate::geometry::{Aabb, Geometry, Ray, Shape, Sphere, offset_ray_origin, offset_toward};
 use crate::light::Emitters;
 use crate::material::BsdfModel;
 use crate::material::MaterialModel;
@@ -176,18 +176,8 @@ fn trace(
         }
         // The next specular bounce, sampled from the side the light comes from.
         let transmissive = bsdf.is_transmissive();
-        let (mut ng, mut ns) = (sp.ng, sp.ns);
-        if !transmissive {
-            if to_light.dot(ng) < 0.0 {
-                ng = -ng;
-                ns = -ns;
-            }
-            ns = facing_shading_normal(to_light, ng, ns);
-        }
-        let frame = Frame::from_normal(ns);
-        if let Some(n) = sp.coat_normal(ng) {
-            bsdf.set_coat_normal(frame.to_local(facing_shading_normal(to_light, ng, n)));
-        }
+        let (ng, frame) = sp.shading::<true>(to_light, transmissive, &mut bsdf);
+        let ns = frame.n;
         let wo_l = frame.to_local(to_light);
         let (u, uc) = (rng.next_2d(), rng.next_f32());
         let Some(bs) = bsdf.sample(wo_l, u, uc) else { return };
@@ -233,20 +223,9 @@ fn connect(
     let to_cam = view.lens - sp.p;
     let wo = to_cam.normalize();
     let transmissive = bsdf.is_transmissive();
-    let (mut ng, mut ns) = (sp.ng, sp.ns);
-    if !transmissive {
-        if wo.dot(ng) < 0.0 {
-            ng = -ng;
-            ns = -ns;
-        }
-        if to_light.dot(ng) <= 0.0 {
-            return; // lit from behind: the path from the camera leaves on its side only
-        }
-        ns = facing_shading_normal(wo, ng, ns);
-    }
-    let frame = Frame::from_normal(ns);
-    if let Some(n) = sp.coat_normal(ng) {
-        bsdf.set_coat_normal(frame.to_local(facing_shading_normal(wo, ng, n)));
+    let (ng, frame) = sp.shading::<true>(wo, transmissive, &mut bsdf);
+    if !transmissive && to_light.dot(ng) <= 0.0 {
+        return; // lit from behind: the path from the camera leaves on its side only
     }
     let wi_l = frame.to_local(to_light);
     let f = bsdf.eval(frame.to_local(wo), wi_l) * wi_l.z.abs();

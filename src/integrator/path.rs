@@ -5,9 +5,9 @@
 use super::context::PathContext;
 pub(crate) use super::light_vertex::ShadowQuery;
 use super::light_vertex::{self, PathVertex, SampleLightVertices};
-use super::surface::{facing_shading_normal, surface_point};
+use super::surface::surface_point;
 use crate::accel::Accel;
-use crate::geometry::{Frame, Hit, Ray, offset_ray_origin, offset_toward};
+use crate::geometry::{Hit, Ray, offset_ray_origin, offset_toward};
 use crate::light::LightChoice;
 use crate::material::{Bsdf, BsdfModel, BsdfSample};
 use crate::sampler::SampleStream;
@@ -226,25 +226,12 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
         Bsdf::Diffuse(sp.material.lambert_at::<TEX>(&sp.tex))
     };
     let transmissive = GLASS && bsdf.is_transmissive();
-    let (mut ng, mut ns) = (sp.ng, sp.ns);
-    if !transmissive {
-        if wo.dot(ng) < 0.0 {
-            // Opaque surfaces are shaded on the side they are seen from.
-            ng = -ng;
-            ns = -ns;
-        }
-        ns = facing_shading_normal(wo, ng, ns);
-    }
-    let frame = Frame::from_normal(ns);
-    // A clear coat's own normal, turned and made to face `wo` as `ns` is.
-    // (Set in place: rebinding `bsdf` would copy it at every vertex. Only textured
-    // kernels have coat normal maps.)
-    if TEX
-        && GLOSSY
-        && let Some(n) = sp.coat_normal(ng)
-    {
-        bsdf.set_coat_normal(frame.to_local(facing_shading_normal(wo, ng, n)));
-    }
+    // Only textured kernels have coat normal maps.
+    let (ng, frame) = if TEX && GLOSSY {
+        sp.shading::<true>(wo, transmissive, &mut bsdf)
+    } else {
+        sp.shading::<false>(wo, transmissive, &mut bsdf)
+    };
     // Without glossy or glass materials every BSDF is Lambertian: evaluated and sampled
     // inline (the same arithmetic as through `Bsdf`'s dispatch), and only the cosines of
     // local directions matter to it.

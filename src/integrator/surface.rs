@@ -1,8 +1,8 @@
 //! From a hit to a shading point: position refined from the primitive (barycentrics for
 //! triangles, re-projection for spheres), normals, texture coordinates, material.
 
-use crate::geometry::{Geometry, Hit, Ray, TriMesh};
-use crate::material::{Material, MaterialModel};
+use crate::geometry::{Frame, Geometry, Hit, Ray, TriMesh};
+use crate::material::{Bsdf, Material, MaterialModel};
 use crate::scene::Scene;
 use crate::texture::TexCoords;
 use glam::{Vec2, Vec3};
@@ -31,6 +31,31 @@ impl SurfacePoint<'_> {
     #[inline]
     pub fn coat_normal(&self, ng: Vec3) -> Option<Vec3> {
         self.coat_ns.map(|n| if ng.dot(self.ng) < 0.0 { -n } else { n })
+    }
+
+    /// How the point is shaded seen from `wo` (a unit direction), with `bsdf` its BSDF: the
+    /// geometric normal and the shading frame, both turned to `wo`'s side unless `transmissive`
+    /// (glass is shaded from both sides), the shading normal made to face `wo`
+    /// ([`facing_shading_normal`]); with `COAT`, `bsdf`'s clear coat gets its own normal,
+    /// turned and made to face `wo` the same way. The path from the camera and the light paths
+    /// shade with it, so both see one BSDF.
+    #[inline(always)]
+    pub fn shading<const COAT: bool>(&self, wo: Vec3, transmissive: bool, bsdf: &mut Bsdf) -> (Vec3, Frame) {
+        let (mut ng, mut ns) = (self.ng, self.ns);
+        if !transmissive {
+            if wo.dot(ng) < 0.0 {
+                // Opaque surfaces are shaded on the side they are seen from.
+                ng = -ng;
+                ns = -ns;
+            }
+            ns = facing_shading_normal(wo, ng, ns);
+        }
+        let frame = Frame::from_normal(ns);
+        // (Set in place: rebinding `bsdf` would copy it at every vertex.)
+        if COAT && let Some(n) = self.coat_normal(ng) {
+            bsdf.set_coat_normal(frame.to_local(facing_shading_normal(wo, ng, n)));
+        }
+        (ng, frame)
     }
 }
 
