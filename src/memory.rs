@@ -338,7 +338,7 @@ pub const ADAPTIVE_BYTES_PER_PIXEL: u64 = 64;
 pub const DENOISE_BYTES_PER_PIXEL: u64 = 72;
 
 /// Bytes per pixel more in a render that traces caustic light paths: their sums while traced
-/// (24), kept (24) and in a checkpoint (24).
+/// (24), kept (24) and in a checkpoint (24); in a merge, the sums and a shard's being read.
 pub const LIGHT_PATHS_BYTES_PER_PIXEL: u64 = 72;
 
 /// Memory a `width` x `height` render's caustic light paths take beside its film.

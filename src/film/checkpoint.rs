@@ -289,6 +289,9 @@ impl Checkpoint {
         if key.light {
             let mut light = LightSums::new(accum.pixels.len());
             read_light(r, &mut hash, &mut light).map_err(io)?;
+            if let Some(why) = light_problem(&light, header.width) {
+                return Err(corrupt(why));
+            }
             accum.light = Some(light);
         }
         let mut tail = [0u8; CHECKSUM_BYTES as usize];
@@ -404,6 +407,14 @@ pub(super) fn read_light(r: &mut dyn Read, hash: &mut Fnv1a, light: &mut LightSu
         }
     }
     Ok(())
+}
+
+/// Why `light`'s sums could not come from a render of an image `width` pixels wide, if they
+/// could not: light paths only add light.
+pub(super) fn light_problem(light: &LightSums, width: u32) -> Option<String> {
+    let i = light.0.iter().position(|s| s.iter().any(|&v| v < 0))?;
+    let (x, y) = (i % width as usize, i / width as usize);
+    Some(format!("pixel ({x}, {y}): a negative light-path sum"))
 }
 
 pub(super) fn check_aux(a: &AuxSums, count: u32) -> Result<(), String> {
@@ -669,6 +680,21 @@ mod tests {
 
     fn refused(bytes: &[u8]) -> String {
         Checkpoint::from_bytes(bytes, Path::new("x.checkpoint"), &key()).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn light_path_sums_round_trip_and_are_checked() {
+        let mut c = sample();
+        c.accum.light = Some(LightSums((0..6).map(|i| [i, 2 * i, 1 << 40]).collect()));
+        let key = c.key(16);
+        assert!(key.light && key.file_size() == sample().key(16).file_size() + 6 * LIGHT_BYTES);
+        let bytes = c.to_bytes();
+        assert_eq!(Checkpoint::from_bytes(&bytes, Path::new("x"), &key).unwrap(), c);
+        // A render only adds light: a negative sum is refused, naming the pixel.
+        let at = bytes.len() - 8 - 2 * LIGHT_BYTES as usize;
+        let bad = forged(&c, |b| b[at..at + 8].copy_from_slice(&(-5i64).to_le_bytes()));
+        let e = Checkpoint::from_bytes(&bad, Path::new("x"), &key).unwrap_err().to_string();
+        assert!(e.ends_with("(pixel (1, 1): a negative light-path sum)"), "{e}");
     }
 
     #[test]

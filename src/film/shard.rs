@@ -31,7 +31,8 @@
 use super::accum::{Accumulator, LightSums, PixelState};
 use super::checkpoint::{
     ADAPTIVE_BYTES, AUX_BYTES, Hashing, LIGHT_BYTES, PIXEL_BYTES, check_aux, decode_aux, decode_pixel, decode_plan,
-    encode_aux, encode_pixel, encode_plan, pixel_problem, read_light, sum_sq_problem, words_diff, write_light,
+    encode_aux, encode_pixel, encode_plan, light_problem, pixel_problem, read_light, sum_sq_problem, words_diff,
+    write_light,
 };
 use crate::hash::Fnv1a;
 use crate::settings::Shard;
@@ -352,6 +353,9 @@ impl ShardReader {
         if h.light {
             let mut light = LightSums::new(h.width as usize * h.height as usize);
             read_light(&mut self.reader, &mut self.hash, &mut light).map_err(|e| self.io(e))?;
+            if let Some(why) = light_problem(&light, h.width) {
+                return Err(corrupt(why));
+            }
             accum.light.get_or_insert_with(|| LightSums::new(light.0.len())).add(&light);
         }
         let mut tail = [0u8; CHECKSUM_BYTES as usize];

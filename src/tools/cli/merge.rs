@@ -99,8 +99,10 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     }
     // Loaded before the pixels are read: a missing library fails at once.
     let denoiser = if denoise { Some(crate::oidn::Denoiser::new()?) } else { None };
+    let light = if first.header.light { memory::light_paths_bytes(width, height) } else { 0 };
     let bytes = memory::film_bytes(width, height)
-        .saturating_add(memory::render_extra_bytes(width, height, aux, false, denoise));
+        .saturating_add(memory::render_extra_bytes(width, height, aux, false, denoise))
+        .saturating_add(light);
     limit
         .check(format!("image {width}x{height}"), "of film memory", bytes)
         .map_err(|e| anyhow::anyhow!("{}: {e}", first.path.display()))?;
