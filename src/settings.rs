@@ -109,8 +109,8 @@ impl FromStr for LightVertices {
 /// only by chance (see `crate::integrator::caustic`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Caustics {
-    /// Where the scene has mirrors or glass, surfaces that are neither, and lights that emit
-    /// from a place (area and point lights), seen by a perspective camera; not in a shard.
+    /// Where a material is a mirror or glass all over, some surface is diffuse, and lights emit
+    /// from a place (area and point lights), seen by a perspective camera.
     #[default]
     Auto,
     Off,

@@ -193,3 +193,38 @@ fn a_stop_while_the_light_paths_are_traced_writes_nothing() {
     let r = render_controlled(&scene, &accel, &plan, control()).unwrap();
     assert!(!r.complete);
 }
+
+#[test]
+fn a_caustic_on_a_glossy_surface_stays_with_the_paths_from_the_camera() {
+    // A light path's connection on a glossy surface can land in the peak of its lobe (a rough
+    // copper ball's firefly held 2/3 of a spheres.toml render's error): light paths connect on
+    // diffuse surfaces only. On a floor of rough metal they add nothing (the one diffuse
+    // surface, behind the camera, keeps them running), and the image is the one without them,
+    // bit for bit (the paths from the camera keep that light).
+    use ember::integrator::{RenderControl, render_controlled};
+    let text = format!(
+        "[camera]\nposition = [0.0, 3.0, 7.0]\nlook_at = [0.0, 0.5, 0.0]\n{PINHOLE}\n\
+         [materials.floor]\ntype = \"metal\"\ncolor = [0.9, 0.6, 0.5]\nroughness = 0.3\n\
+         [materials.glass]\ntype = \"glass\"\nior = 1.5\n\
+         [materials.lamp]\ntype = \"emissive\"\nemission = [40.0, 40.0, 40.0]\n\
+         [materials.chalk]\ntype = \"diffuse\"\ncolor = [0.8, 0.8, 0.8]\n\
+         [[quads]]\ncorner = [-6.0, 0.0, -6.0]\nedge1 = [0.0, 0.0, 12.0]\nedge2 = [12.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
+         [[spheres]]\ncenter = [-1.2, 1.0, 0.0]\nradius = 0.9\nmaterial = \"glass\"\n\
+         [[spheres]]\ncenter = [0.0, 3.0, 12.0]\nradius = 1.0\nmaterial = \"chalk\"\n{QUAD_LAMP}"
+    );
+    let scene = Scene::load(&common::write_scene("caustics", "glossy.toml", &text)).unwrap();
+    let accel = ember::accel::NaiveAccel::new(&scene.geometry);
+    let run = |caustics| {
+        let plan = RenderPlan::new(&scene, &settings(8, caustics));
+        render_controlled(&scene, &accel, &plan, RenderControl::default()).unwrap()
+    };
+    let (on, off) = (run(Caustics::Auto), run(Caustics::Off));
+    assert!(on.stats.plan.caustics, "the scene has glass, a lamp and a diffuse surface");
+    let bare = text.replace("material = \"chalk\"", "material = \"floor\"");
+    let bare = Scene::load(&common::write_scene("caustics", "glossy-only.toml", &bare)).unwrap();
+    let plan = RenderPlan::new(&bare, &settings(8, Caustics::Auto)).to_string();
+    assert!(plan.ends_with("caustic light paths: off (no diffuse surface to land on)"), "{plan}");
+    let light = on.accum.light.as_ref().expect("light paths traced");
+    assert!(light.0.iter().flatten().all(|&s| s == 0), "a light path connected on the glossy floor");
+    assert_eq!(on.accum.pixels, off.accum.pixels);
+}

@@ -13,10 +13,13 @@
 //! tracer; Veach 1997, §10).
 //!
 //! The two kinds of path share the work without overlap, so the sum stays unbiased: paths
-//! from the camera leave out exactly the light they would find as camera → x (any
-//! non-specular bounce) → one or more specular bounces → an emitter the light paths start
-//! from ([`crate::light::Emitters::covers`]), and the light paths carry exactly that light:
-//! emitter → specular bounces (as many as the path depth leaves room for) → x → camera. Point
+//! from the camera leave out exactly the light they would find as camera → x (a diffuse
+//! bounce) → one or more specular bounces → an emitter the light paths start from
+//! ([`crate::light::Emitters::covers`]), and the light paths carry exactly that light:
+//! emitter → specular bounces (as many as the path depth leaves room for) → x → camera. On a
+//! glossy surface (rough metal, plastic, glTF materials) the caustic stays with the paths from
+//! the camera: there a light path's connection can land in the peak of the BSDF's lobe, a
+//! firefly (one on a rough copper ball held 2/3 of a render's error). Point
 //! lights, which no path from the camera ever hits, get their caustics this way too. Light
 //! that the camera sees through glass (camera → glass → floor → glass → lamp) stays with the
 //! paths from the camera.
@@ -136,7 +139,7 @@ pub(super) fn render(
 }
 
 /// One light path: from a light chosen by `emitters`, through specular bounces only; at each
-/// surface after the first bounce that is not purely specular it connects to the camera, and
+/// diffuse surface after the first bounce it connects to the camera, and
 /// `splat(film position in [0, 1)², value)` receives what it adds there if the connection is
 /// clear. Draws its numbers from `rng`; `rays` counts the rays it traced.
 fn trace(
@@ -168,7 +171,7 @@ fn trace(
         let to_light = -ray.d;
         let mut bsdf = sp.material.bsdf_at::<true>(&sp.tex);
         let lens = rng.next_2d();
-        if bounces > 0 && !bsdf.is_delta() {
+        if bounces > 0 && bsdf.is_lambertian() {
             connect(ctx, &sp, bsdf, to_light, beta, lens, rays, splat);
         }
         if bounces + 2 > ctx.path_depth {

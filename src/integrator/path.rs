@@ -63,8 +63,8 @@ pub(crate) struct PathState {
     /// non-specular bounce, which always follows next-event estimation).
     choice: LightChoice,
     depth: u32,
-    /// The path so far is the camera, a non-specular bounce, then only specular ones: the
-    /// shape of the caustic light paths carry (`super::caustic`).
+    /// The path so far is the camera, a bounce off a diffuse surface, then only specular ones:
+    /// the shape of the light caustic light paths carry (`super::caustic`).
     caustic: bool,
     /// The absorption of the medium `ray` travels in: that of the glass it last refracted
     /// into (zero outside any, and without glass).
@@ -322,7 +322,7 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
         path.absorption = if side < 0.0 { sp.material.absorption() } else { Vec3::ZERO };
     }
     path.specular = bs.delta;
-    path.caustic = if path.depth == 0 { !bs.delta } else { path.caustic && bs.delta };
+    path.caustic = if path.depth == 0 { !bs.delta && bsdf.is_lambertian() } else { path.caustic && bs.delta };
     path.prev_pdf = bs.pdf;
     path.prev_p = sp.p;
     path.depth += 1;

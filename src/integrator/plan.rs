@@ -258,8 +258,8 @@ fn caustics_apply(effects: &Effects, s: &RenderSettings, scene_depth: u32) -> Re
         Err("no mirror or glass")
     } else if !effects.specular_material {
         Err("no material is a mirror or glass all over")
-    } else if !(effects.diffuse || effects.glossy) {
-        Err("no surface but mirrors and glass to land on")
+    } else if !effects.diffuse {
+        Err("no diffuse surface to land on")
     } else if !(effects.area_lights || effects.point_lights) {
         Err("no area or point light")
     } else if s.estimator != Estimator::NeeMis {

@@ -48,8 +48,8 @@ pub struct RenderArgs {
     pub light_vertices: Option<LightVertices>,
     /// Trace paths from the lights for the caustics (light that reaches a surface the camera
     /// sees through mirrors and glass only, which paths from the camera find only by chance):
-    /// auto (where the scene has mirrors or glass beside other surfaces, lit by area or point
-    /// lights; not in a shard) or off; unbiased either way [scene's render.caustics, else auto].
+    /// auto (where the scene has mirrors or glass beside diffuse surfaces, lit by area or point
+    /// lights) or off; unbiased either way [scene's render.caustics, else auto].
     #[arg(long)]
     pub caustics: Option<Caustics>,
     /// How next-event estimation chooses among many lights: auto (a light tree, by each
