@@ -116,25 +116,19 @@ pub enum Caustics {
     Off,
 }
 
-impl FromStr for Caustics {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "auto" => Ok(Caustics::Auto),
-            "off" => Ok(Caustics::Off),
-            _ => Err(format!("expected \"auto\" or \"off\", found {s:?}")),
+impl Caustics {
+    pub const ALL: [Caustics; 2] = [Caustics::Auto, Caustics::Off];
+
+    /// The name on the command line and in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Caustics::Auto => "auto",
+            Caustics::Off => "off",
         }
     }
 }
 
-impl fmt::Display for Caustics {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Caustics::Auto => "auto",
-            Caustics::Off => "off",
-        })
-    }
-}
+crate::choice::named_choice!(Caustics, "caustics setting");
 
 impl fmt::Display for LightVertices {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

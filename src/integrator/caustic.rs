@@ -34,7 +34,7 @@
 //! shards' sums: the same integers as the whole render's.
 
 use super::context::PathContext;
-use super::surface::surface_point;
+use super::surface::{surface_point, transmittance};
 use crate::film::LightSums;
 use crate::geometry::{Aabb, Geometry, Ray, Shape, Sphere, offset_ray_origin, offset_toward};
 use crate::light::Emitters;
@@ -164,8 +164,7 @@ fn trace(
         let Some(hit) = ctx.accel.intersect_deferred(&ray, 0.0, f32::INFINITY) else { return };
         if absorption != Vec3::ZERO {
             // Beer–Lambert over the segment inside glass, as the path from the camera has it.
-            let kept = (-absorption * (hit.t * ray.d.length())).exp();
-            beta *= Vec3::select(absorption.cmpeq(Vec3::ZERO), Vec3::ONE, kept);
+            beta *= transmittance(absorption, hit.t * ray.d.length());
         }
         let sp = surface_point::<true>(ctx.scene, ctx.normals, &ray, &hit);
         let to_light = -ray.d;

@@ -5,7 +5,7 @@
 use super::context::PathContext;
 pub(crate) use super::light_vertex::ShadowQuery;
 use super::light_vertex::{self, PathVertex, SampleLightVertices};
-use super::surface::surface_point;
+use super::surface::{surface_point, transmittance};
 use crate::accel::Accel;
 use crate::geometry::{Hit, Ray, offset_ray_origin, offset_toward};
 use crate::light::LightChoice;
@@ -64,7 +64,7 @@ pub(crate) struct PathState {
     choice: LightChoice,
     depth: u32,
     /// The path so far is the camera, a bounce off a diffuse surface, then only specular ones:
-    /// the shape of the light caustic light paths carry (`super::caustic`).
+    /// the shape of the light that caustic light paths carry (`super::caustic`).
     caustic: bool,
     /// The absorption of the medium `ray` travels in: that of the glass it last refracted
     /// into (zero outside any, and without glass).
@@ -179,11 +179,9 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
 ) -> Option<Ray> {
     let ray = path.ray;
     if GLASS && path.absorption != Vec3::ZERO {
-        // Beer–Lambert over the segment (a channel that absorbs nothing keeps all of its
-        // light even on an endless one).
+        // Beer–Lambert over the segment.
         let d = hit.as_ref().map_or(f32::INFINITY, |h| h.t * ray.d.length());
-        let kept = (-path.absorption * d).exp();
-        path.beta *= Vec3::select(path.absorption.cmpeq(Vec3::ZERO), Vec3::ONE, kept);
+        path.beta *= transmittance(path.absorption, d);
         if path.beta == Vec3::ZERO {
             return None;
         }

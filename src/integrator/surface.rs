@@ -59,6 +59,13 @@ impl SurfacePoint<'_> {
     }
 }
 
+/// The share of light that crosses `distance` of a medium of `absorption` (Beer–Lambert), per
+/// channel; a channel that absorbs nothing keeps all of its light, even over an endless one.
+#[inline(always)]
+pub fn transmittance(absorption: Vec3, distance: f32) -> Vec3 {
+    Vec3::select(absorption.cmpeq(Vec3::ZERO), Vec3::ONE, (-absorption * distance).exp())
+}
+
 /// The shading normal `ns` perturbed by a normal map's `local` normal (tangent space: x along
 /// the tangent, y along the bitangent, z along `ns`), in the frame of the interpolated
 /// `tangent` (w: the bitangent's handedness) made orthogonal to `ns`. Where that frame does

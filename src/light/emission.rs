@@ -6,7 +6,7 @@
 //! directions the light sends its light in.
 
 use super::sphere::{cone_one_minus_cos, sample_cone};
-use super::{Emitter, LightSet, PrimitiveLights, distribution, uniform_sphere};
+use super::{Emitter, LightSet, distribution, uniform_sphere};
 use crate::geometry::{Frame, Sphere};
 use crate::material::sample_cosine_hemisphere;
 use glam::{Vec2, Vec3};
@@ -133,14 +133,7 @@ impl Emitters<'_> {
     /// point of normal `n`, outward for a sphere) is light [`Emitters::sample`] starts paths
     /// with: a light of some power, and for a sphere its outside.
     pub fn covers(&self, geom: u32, prim: u32, n: Vec3, wo: Vec3) -> bool {
-        let i = match self.set.primitive_lights.get(geom as usize) {
-            Some(PrimitiveLights::Range(base)) => (base + prim) as usize,
-            Some(PrimitiveLights::PerPrim(v)) => match v.get(prim as usize) {
-                Some(&i) if i != u32::MAX => i as usize,
-                _ => return false,
-            },
-            _ => return false,
-        };
+        let Some(i) = self.set.light_of(geom, prim) else { return false };
         self.prob[i] > 0.0 && (!matches!(self.set.lights[i], Emitter::Sphere(_)) || n.dot(wo) > 0.0)
     }
 }

@@ -568,17 +568,20 @@ impl LightSet {
         self.choice_probability(&self.choice_at(p), i as usize)
     }
 
+    /// Which light of the set primitive `prim` of geometry `geom` is, if any.
+    #[inline]
+    fn light_of(&self, geom: u32, prim: u32) -> Option<usize> {
+        match self.primitive_lights.get(geom as usize)? {
+            PrimitiveLights::Range(base) => Some((base + prim) as usize),
+            PrimitiveLights::PerPrim(v) => v.get(prim as usize).filter(|&&i| i != u32::MAX).map(|&i| i as usize),
+            PrimitiveLights::None => None,
+        }
+    }
+
     /// Density with which `sample` from `p` (with `choice`, made there) picks the point `q`
     /// (normal `n`) on primitive `prim` of geometry `geom`; 0 if that primitive is not a light.
     pub fn pdf_emitter(&self, choice: &LightChoice, geom: u32, prim: u32, p: Vec3, q: Vec3, n: Vec3) -> f32 {
-        let i = match self.primitive_lights.get(geom as usize) {
-            Some(PrimitiveLights::Range(base)) => (base + prim) as usize,
-            Some(PrimitiveLights::PerPrim(v)) => match v.get(prim as usize) {
-                Some(&i) if i != u32::MAX => i as usize,
-                _ => return 0.0,
-            },
-            _ => return 0.0,
-        };
+        let Some(i) = self.light_of(geom, prim) else { return 0.0 };
         let sel = self.choice_probability(choice, i);
         match &self.lights[i] {
             Emitter::Triangle(t) => t.pdf(sel, p, q, n),

@@ -52,13 +52,7 @@ impl EmissiveSphere {
             wi,
             point: Some(q),
             normal: n,
-            radiance: match &self.texture {
-                None => self.emission,
-                Some(t) => {
-                    let (u, v) = Sphere::uv(n);
-                    t.eval(&TexCoords::new(Vec2::new(u, v)))
-                }
-            },
+            radiance: self.radiance_at(n),
             pdf,
             delta: false,
             light: 0,
@@ -71,15 +65,20 @@ impl EmissiveSphere {
     pub(super) fn emit_point(&self, u: Vec2) -> Option<super::emission::EmissionPoint> {
         let r = self.sphere.radius;
         let n = uniform_sphere(u);
-        let le = match &self.texture {
+        let p = self.sphere.center + r * n;
+        let le = self.radiance_at(n);
+        (r > 0.0).then_some(super::emission::EmissionPoint { p, n, le, area: 4.0 * PI * r * r, two_sided: false })
+    }
+
+    /// The radiance where the outward normal is `n`.
+    fn radiance_at(&self, n: Vec3) -> Vec3 {
+        match &self.texture {
             None => self.emission,
             Some(t) => {
                 let (u, v) = Sphere::uv(n);
                 t.eval(&TexCoords::new(Vec2::new(u, v)))
             }
-        };
-        let p = self.sphere.center + r * n;
-        (r > 0.0).then_some(super::emission::EmissionPoint { p, n, le, area: 4.0 * PI * r * r, two_sided: false })
+        }
     }
 
     /// Solid-angle density of [`EmissiveSphere::sample`] from `p` at the point `q` (normal

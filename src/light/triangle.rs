@@ -155,10 +155,7 @@ impl EmissiveTriangle {
             wi,
             point: Some(q),
             normal: n,
-            radiance: match &self.texture {
-                None => self.emission,
-                Some(t) => t.at(b0, b1, 0.0),
-            },
+            radiance: self.radiance_at(b0, b1),
             pdf,
             delta: false,
             light: 0,
@@ -173,12 +170,18 @@ impl EmissiveTriangle {
         }
         let (b0, b1) = uniform_barycentrics(u);
         let [p0, p1, p2] = self.p;
-        let le = match &self.texture {
+        let p = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
+        let le = self.radiance_at(b0, b1);
+        Some(super::emission::EmissionPoint { p, n: self.normal, le, area: self.area, two_sided: true })
+    }
+
+    /// The radiance at barycentric coordinates (b0, b1, 1 − b0 − b1).
+    #[inline(always)]
+    fn radiance_at(&self, b0: f32, b1: f32) -> Vec3 {
+        match &self.texture {
             None => self.emission,
             Some(t) => t.at(b0, b1, 0.0),
-        };
-        let p = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
-        Some(super::emission::EmissionPoint { p, n: self.normal, le, area: self.area, two_sided: true })
+        }
     }
 
     /// Solid-angle density of [`EmissiveTriangle::sample`] from `p` at the point `q` (normal
