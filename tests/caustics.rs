@@ -228,3 +228,23 @@ fn a_caustic_on_a_glossy_surface_stays_with_the_paths_from_the_camera() {
     assert!(light.0.iter().flatten().all(|&s| s == 0), "a light path connected on the glossy floor");
     assert_eq!(on.accum.pixels, off.accum.pixels);
 }
+
+#[test]
+fn the_sample_clamp_bounds_each_splat_as_it_bounds_a_sample() {
+    // A light path's splat, over its share of the pixel, is a sample's value: `--clamp X`
+    // scales it down to X as it does a camera sample.
+    let scene = balls("clamp.toml", QUAD_LAMP, PINHOLE);
+    let run = |clamp| common::render_embree(&scene, &RenderSettings { clamp, ..settings(16, Caustics::Auto) });
+    let (free, f) = run(None);
+    assert_eq!(f.clamped_splats, 0);
+    // Above every splat: the same bits, nothing counted.
+    let (high, h) = run(Some(1e6));
+    let bits = |f: &Film| f.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    assert!(bits(&high) == bits(&free), "a clamp above every splat changed the image");
+    assert_eq!((h.clamped, h.clamped_splats), (0, 0));
+    // Below the caustic's splats: they are counted, and the caustic darkens.
+    let (low, l) = run(Some(0.1));
+    assert!(l.plan.caustics && l.clamped_splats > 100, "{} splats clamped", l.clamped_splats);
+    let (c_free, c_low) = (mean(&free, GLASS_CAUSTIC), mean(&low, GLASS_CAUSTIC));
+    assert!(c_low < 0.9 * c_free, "the clamped caustic {c_low} is not darker than {c_free}");
+}

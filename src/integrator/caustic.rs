@@ -42,6 +42,7 @@ use crate::material::BsdfModel;
 use crate::material::MaterialModel;
 use crate::sampler::{PixelSampler, SampleStream, mix64};
 use crate::scene::Scene;
+use crate::settings::clamp_sample;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicI64, Ordering};
@@ -52,10 +53,12 @@ pub(super) const CHUNK: u64 = 4096;
 /// Light paths per sample the render plans (see [`paths`]).
 const PATHS_PER_SAMPLE: u64 = 4;
 
-/// What the light paths add to the image ([`LightSums`]), and the rays they traced.
+/// What the light paths add to the image ([`LightSums`]), the rays they traced, and how many
+/// of their splats the sample clamp scaled down.
 pub(super) struct CausticImage {
     pub sums: LightSums,
     pub rays: u64,
+    pub clamped: u64,
 }
 
 /// How many light paths a render traces: one for every [`PATHS_PER_SAMPLE`] samples it plans
@@ -103,18 +106,21 @@ pub(super) fn render(
     let sums: Vec<AtomicI64> = (0..3 * w as usize * h as usize).map(|_| AtomicI64::new(0)).collect();
     // Each path's splat is its share of the mean: the image's pixel count over the paths.
     let share = (w as f64 * h as f64 / paths.max(1) as f64) as f32;
+    // The sample clamp (`--clamp X`) acts on a splat as on a camera sample: what the splat
+    // adds to a pixel, over its share, is the value a sample would have.
+    let clamp = ctx.settings.clamp.map(|limit| limit * share);
     let key = mix64(ctx.settings.seed ^ 0x6361_7573_7469_6373); // "caustics"
     let shard = ctx.settings.shard;
     let chunks: Vec<u64> =
         (0..paths.div_ceil(CHUNK)).filter(|c| shard.is_none_or(|s| c % s.count as u64 == s.index as u64)).collect();
-    let rays = chunks
+    let (rays, clamped) = chunks
         .into_par_iter()
         .map(|chunk| {
             if stop_requested() {
                 return None;
             }
             let streams = PixelSampler::new(ctx.settings.sampler, key, chunk);
-            let mut rays = 0;
+            let (mut rays, mut clamped) = (0, 0);
             for s in 0..CHUNK.min(paths - chunk * CHUNK) {
                 let mut rng = streams.sample(s);
                 trace(ctx, emitters, &mut rng, &mut rays, &mut |film: Vec2, value: Vec3| {
@@ -124,18 +130,24 @@ pub(super) fn render(
                     }
                     ctx.settings.filter.splat(film * Vec2::new(w as f32, h as f32), (w, h), |x, y, weight| {
                         let i = 3 * (y as usize * w as usize + x as usize);
-                        for (c, v) in (value * weight).to_array().into_iter().enumerate() {
+                        let mut value = value * weight;
+                        if let Some(limit) = clamp {
+                            let scaled;
+                            (value, scaled) = clamp_sample(value, limit);
+                            clamped += scaled as u64;
+                        }
+                        for (c, v) in value.to_array().into_iter().enumerate() {
                             // `as` saturates: a value beyond 2³¹ is clamped, not wrapped.
                             sums[i + c].fetch_add((v as f64 * LightSums::ONE).round() as i64, Ordering::Relaxed);
                         }
                     });
                 });
             }
-            Some(rays)
+            Some((rays, clamped))
         })
-        .sum::<Option<u64>>()?;
+        .try_reduce(|| (0, 0), |a, b| Some((a.0 + b.0, a.1 + b.1)))?;
     let sums = sums.chunks_exact(3).map(|c| std::array::from_fn(|k| c[k].load(Ordering::Relaxed))).collect();
-    Some(CausticImage { sums: LightSums(sums), rays })
+    Some(CausticImage { sums: LightSums(sums), rays, clamped })
 }
 
 /// One light path: from a light chosen by `emitters`, through specular bounces only; at each

@@ -40,6 +40,8 @@ pub struct RenderStats {
     pub nonfinite: u64,
     /// Samples of this call scaled down by the sample clamp ([`RenderSettings::clamp`]).
     pub clamped: u64,
+    /// Splats of the caustics' light paths scaled down by the sample clamp in this call.
+    pub clamped_splats: u64,
     /// In an adaptive render, the mean cost of the samples its plan added
     /// ([`adaptive::added_sample_cost`]): above 1 when they went to pixels that trace more rays
     /// per sample than the mean, so that fewer than `spp` per pixel fit in the budget.

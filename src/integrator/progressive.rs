@@ -213,7 +213,7 @@ pub(super) fn run(
     // first round of a two-stage shard leaves them to its second stage).
     let emitters = if plan.caustics { lights.emitters(caustic::target(scene)) } else { None };
     ctx.emitters = emitters.as_ref();
-    let mut light_rays = 0;
+    let (mut light_rays, mut clamped_splats) = (0, 0);
     if plan.caustics && earlier.film.light.is_none() {
         let c = match &emitters {
             Some(e) if !control.first_round_only => {
@@ -222,11 +222,11 @@ pub(super) fn run(
                 caustic::render(&ctx, e, caustic::paths(w, h, settings.spp), &stop_requested)
                     .ok_or(RenderError::StoppedInLightPaths)?
             }
-            _ => caustic::CausticImage { sums: LightSums::new(w as usize * h as usize), rays: 0 },
+            _ => caustic::CausticImage { sums: LightSums::new(w as usize * h as usize), rays: 0, clamped: 0 },
         };
         accel.deferred_error()?;
         earlier.film.light = Some(c.sums);
-        light_rays = c.rays;
+        (light_rays, clamped_splats) = (c.rays, c.clamped);
     }
     // A shard renders only its own tiles.
     let tiles: Vec<(u32, u32)> =
@@ -237,6 +237,7 @@ pub(super) fn run(
     let session = Session::new(&ctx, Kernel::for_plan(plan), plan, &control, &key, earlier, owned, start);
     session.rays.fetch_add(pool.as_ref().map_or(0, |p| p.rays), Ordering::Relaxed);
     session.rays.fetch_add(light_rays, Ordering::Relaxed);
+    session.clamped_splats.fetch_add(clamped_splats, Ordering::Relaxed);
     for round in 0..rounds {
         // An adaptive render plans its second round once the first is done everywhere (a
         // resumed render may have the plan from its checkpoint).
@@ -346,19 +347,19 @@ impl Earlier {
                 p.count = p.count.max(t);
             }
         }
-        let stats = self.stats(plan, owned, start, 0, (0, 0));
+        let stats = self.stats(plan, owned, start, 0, (0, 0, 0));
         RenderResult { accum: self.film, stats, complete: true, warnings: Vec::new() }
     }
 
-    /// The render's statistics, for its film `self.film` after this session's `rays` and
-    /// dropped and clamped samples.
+    /// The render's statistics, for its film `self.film` after this session's `rays`, dropped
+    /// and clamped samples, and clamped light-path splats.
     fn stats(
         &self,
         plan: &RenderPlan,
         owned: Owned,
         start: Instant,
         rays: u64,
-        (nonfinite, clamped): (u64, u64),
+        (nonfinite, clamped, clamped_splats): (u64, u64, u64),
     ) -> RenderStats {
         let film = &self.film;
         let pixel = |i: usize| owned.pixel(i);
@@ -369,6 +370,7 @@ impl Earlier {
             samples: film.samples_of(pixel),
             nonfinite: self.nonfinite + nonfinite,
             clamped,
+            clamped_splats,
             added_sample_cost: film
                 .adaptive
                 .as_ref()
@@ -428,6 +430,8 @@ struct Session<'a> {
     rays: AtomicU64,
     nonfinite: AtomicU64,
     clamped: AtomicU64,
+    /// Light-path splats of this session scaled down by the sample clamp.
+    clamped_splats: AtomicU64,
     stopped: AtomicBool,
     periodic: Mutex<Periodic>,
     previews: Mutex<Periodic>,
@@ -461,6 +465,7 @@ impl<'a> Session<'a> {
             rays: AtomicU64::new(0),
             nonfinite: AtomicU64::new(0),
             clamped: AtomicU64::new(0),
+            clamped_splats: AtomicU64::new(0),
             stopped: AtomicBool::new(false),
             periodic: Periodic::new("periodic checkpoints"),
             previews: Periodic::new("previews"),
@@ -590,7 +595,7 @@ impl<'a> Session<'a> {
             .into_iter()
             .filter_map(|p| p.into_inner().unwrap_or_else(|e| e.into_inner()).warning())
             .collect();
-        let counts = (bad, self.clamped.load(Ordering::Relaxed));
+        let counts = (bad, self.clamped.load(Ordering::Relaxed), self.clamped_splats.load(Ordering::Relaxed));
         let stats = earlier.stats(self.plan, self.owned, self.start, self.rays.load(Ordering::Relaxed), counts);
         Ok(RenderResult { accum: earlier.film, stats, complete, warnings })
     }

@@ -64,8 +64,8 @@ pub(super) fn adaptive(stats: &RenderStats) -> Option<String> {
     ))
 }
 
-/// With a sample clamp, the line that says so and how many samples it scaled down: `clamp 10
-/// (biased): 1234 of 1966080 samples (0.063%) scaled down to it`.
+/// With a sample clamp, the line that says so and how many samples (and light-path splats)
+/// it scaled down: `clamp 10 (biased): 1234 of 1966080 samples (0.063%) scaled down to it`.
 pub(super) fn clamped(stats: &RenderStats) -> Option<String> {
     let limit = stats.plan.settings.clamp?;
     let samples = if stats.earlier_sessions.is_zero() {
@@ -75,8 +75,13 @@ pub(super) fn clamped(stats: &RenderStats) -> Option<String> {
     } else {
         format!("{} samples of this session", stats.clamped)
     };
+    let splats = match stats.clamped_splats {
+        0 => String::new(),
+        1 => ", and 1 splat of the caustics' light paths".to_string(),
+        n => format!(", and {n} splats of the caustics' light paths"),
+    };
     Some(format!(
-        "clamp {limit} (biased: darker where light is concentrated): {samples} had a channel above it and were scaled down to it"
+        "clamp {limit} (biased: darker where light is concentrated): {samples}{splats} had a channel above it and were scaled down to it"
     ))
 }
 
