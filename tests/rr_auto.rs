@@ -9,8 +9,8 @@ use ember::film::Film;
 use ember::integrator::{KernelChoice, RenderSettings, RrDepth, roulette};
 use ember::scene::Scene;
 
-/// Two diffuse spheres of albedo 0.7 on a floor of albedo 0.6 under a sky: light bounces
-/// between them, and 0.7² = 0.49 ≤ ½, so roulette starts at depth 2.
+/// Two diffuse spheres of albedo 0.5 on a floor of albedo 0.4 under a sky: light bounces
+/// between them, and 0.5³ = 0.125 > 1/10 ≥ 0.5⁴, so roulette starts at depth 4.
 const DIM: &str = r#"
 [camera]
 position = [0, 1, 5]
@@ -21,10 +21,10 @@ type = "constant"
 color = [1, 1, 1]
 [materials.dim]
 type = "diffuse"
-color = [0.7, 0.5, 0.3]
+color = [0.5, 0.4, 0.3]
 [materials.floor]
 type = "diffuse"
-color = [0.6, 0.6, 0.6]
+color = [0.4, 0.4, 0.4]
 [[spheres]]
 center = [-0.6, 0.5, 0]
 radius = 0.5
@@ -56,8 +56,9 @@ fn bits(f: &Film) -> Vec<[u32; 3]> {
 fn sample_scenes_start_roulette_where_their_albedo_says() {
     // (scene, largest albedo in use, automatic start at the scene's own max_depth)
     let cases: [(&str, f32, Option<u32>); 9] = [
-        // Checker ground up to 0.75 (the plastic teapot: 0.04 + 0.96 · 0.62 ≈ 0.64).
-        ("teapot.toml", 0.75, Some(3)),
+        // Checker ground up to 0.75 (the plastic teapot: 0.04 + 0.96 · 0.62 ≈ 0.64): it would
+        // start at 9, past max_depth 8.
+        ("teapot.toml", 0.75, None),
         // The Cornell box's white walls have Kd 1: paths never lose throughput.
         ("cornell.toml", 1.0, None),
         ("cornell-area.toml", 1.0, None),
@@ -67,11 +68,11 @@ fn sample_scenes_start_roulette_where_their_albedo_says() {
         ("dof.toml", 0.95, None),
         // The glTF gold's base colour has red 1: a metal of albedo 1.
         ("gltf-sky.toml", 1.0, None),
-        // A bare mesh's clay (largest channel 0.75) on the studio ground (0.5): 0.75² = 0.56,
-        // 0.75³ = 0.42.
-        ("teapot.obj", 0.75, Some(3)),
+        // A bare mesh's clay (largest channel 0.75) on the studio ground (0.5): 0.75⁸ = 0.1001,
+        // so it would start at 9, past the default max_depth 8.
+        ("teapot.obj", 0.75, None),
         ("cornell_box.obj", 1.0, None),
-        ("bunny.obj", 0.75, Some(3)),
+        ("bunny.obj", 0.75, None),
     ];
     for (name, albedo, start) in cases {
         let scene = Scene::load(&common::scene_path(name)).unwrap();
@@ -85,18 +86,18 @@ fn sample_scenes_start_roulette_where_their_albedo_says() {
 #[test]
 fn the_automatic_start_is_the_same_for_the_specialised_and_the_general_kernel() {
     let dim = scene("dim.toml", DIM);
-    assert_eq!(roulette::auto_start(&dim.effects(), 8), Some(2));
+    assert_eq!(roulette::auto_start(&dim.effects(), 8), Some(4));
     let (spec, s) = common::render_embree(&dim, &small(RrDepth::Auto));
     let (general, g) = common::render_embree(&dim, &RenderSettings { specialize: false, ..small(RrDepth::Auto) });
     assert_eq!(g.plan.kernel, KernelChoice::GENERAL);
     assert_ne!(s.plan.kernel, KernelChoice::GENERAL);
-    assert_eq!((s.plan.roulette_start, g.plan.roulette_start), (Some(2), Some(2)));
+    assert_eq!((s.plan.roulette_start, g.plan.roulette_start), (Some(4), Some(4)));
     assert!(bits(&spec) == bits(&general), "the specialised kernel's image differs from the general kernel's");
     assert_eq!(s.rays, g.rays);
     assert!(spec.mean().max_element() > 0.05);
 
-    // It is the explicit start 2, and roulette does run: without it the image differs.
-    let (explicit, _) = common::render_embree(&dim, &small(RrDepth::After(2)));
+    // It is the explicit start 4, and roulette does run: without it the image differs.
+    let (explicit, _) = common::render_embree(&dim, &small(RrDepth::After(4)));
     assert!(bits(&explicit) == bits(&spec));
     let (off, o) = common::render_embree(&dim, &small(RrDepth::Off));
     assert_eq!(o.plan.roulette_start, None);
@@ -171,20 +172,20 @@ fn kernel_line(scene: &std::path::Path, extra: &[&str]) -> String {
 #[test]
 fn the_kernel_line_states_where_roulette_starts_and_why() {
     let dim = common::write_scene("rr-auto", "dim-cli.toml", DIM);
-    let auto = "; path depth 8 (--max-depth); russian roulette from depth 2 (scene albedo ≤ 0.70)";
+    let auto = "; path depth 8 (--max-depth); russian roulette from depth 4 (scene albedo ≤ 0.50)";
     assert!(kernel_line(&dim, &[]).ends_with(auto), "{}", kernel_line(&dim, &[]));
     assert!(kernel_line(&dim, &["--rr-depth", "auto"]).ends_with(auto));
     assert!(kernel_line(&dim, &["--no-specialize"]).ends_with(auto), "the general kernel uses the same start");
     assert!(kernel_line(&dim, &["--rr-depth", "3"]).ends_with("; russian roulette from depth 3 (--rr-depth 3)"));
     assert!(kernel_line(&dim, &["--rr-depth", "off"]).ends_with("; russian roulette off (--rr-depth off)"));
     assert!(kernel_line(&dim, &["--max-depth", "2"]).ends_with(
-        "; path depth 2 (--max-depth); russian roulette off (scene albedo ≤ 0.70: it would start at depth 2, the path depth is 2)"
+        "; path depth 2 (--max-depth); russian roulette off (scene albedo ≤ 0.50: it would start at depth 4, the path depth is 2)"
     ));
 
     let cornell = common::scene_path("cornell-area.toml");
     assert!(
         kernel_line(&cornell, &[])
-            .ends_with("; russian roulette off (scene albedo 1.00: throughput never falls to 1/2)"),
+            .ends_with("; russian roulette off (scene albedo 1.00: throughput never falls to 1/10)"),
         "{}",
         kernel_line(&cornell, &[])
     );
@@ -194,8 +195,10 @@ fn the_kernel_line_states_where_roulette_starts_and_why() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success());
     assert!(
-        out.lines()
-            .any(|l| l.starts_with("kernel:") && l.ends_with("; russian roulette from depth 3 (scene albedo ≤ 0.75)")),
+        out.lines().any(|l| l.starts_with("kernel:")
+            && l.ends_with(
+                "; russian roulette off (scene albedo ≤ 0.75: it would start at depth 9, the path depth is 8)"
+            )),
         "{out}"
     );
 }

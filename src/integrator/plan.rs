@@ -218,7 +218,7 @@ impl RenderPlan {
             (RrDepth::Auto, None) => {
                 let why = match throughput_depth(albedo) {
                     _ if !self.effects.scattering => "nothing scatters light".to_string(),
-                    None => format!("scene albedo {albedo:.2}: throughput never falls to 1/2"),
+                    None => format!("scene albedo {albedo:.2}: throughput never falls to 1/10"),
                     Some(k) => format!(
                         "scene albedo ≤ {albedo:.2}: it would start at depth {k}, the path depth is {}",
                         self.scene_depth
@@ -331,7 +331,7 @@ mod tests {
     #[test]
     fn the_users_choice_wins() {
         let dark = scattering(0.2);
-        assert_eq!(plan(dark, RrDepth::Auto, true).roulette_start, Some(1));
+        assert_eq!(plan(dark, RrDepth::Auto, true).roulette_start, Some(2));
         assert_eq!(plan(dark, RrDepth::After(3), true).roulette_start, Some(3));
         assert_eq!(plan(dark, RrDepth::Off, true).roulette_start, None);
         let white = scattering(1.0);
@@ -352,26 +352,26 @@ mod tests {
             spec.to_string(),
             "kernel: lens off, textures off, glossy off, glass off, hit lights off; path depth 1 (direct light \
              only: nothing can bounce light onward; --max-depth 8); russian roulette off (scene albedo ≤ 0.20: it \
-             would start at depth 1, the path depth is 1)"
+             would start at depth 2, the path depth is 1)"
         );
         assert_eq!(
-            plan(scattering(0.75), RrDepth::Auto, true).to_string(),
+            plan(scattering(0.5), RrDepth::Auto, true).to_string(),
             "kernel: lens off, textures off, glossy off, glass off, hit lights off; path depth 8 (--max-depth); \
-             russian roulette from depth 3 (scene albedo ≤ 0.75)"
+             russian roulette from depth 4 (scene albedo ≤ 0.50)"
         );
     }
 
     #[test]
     fn the_checkpoint_key_names_the_roulette_start_in_force() {
-        let key = plan(scattering(0.75), RrDepth::Auto, true).checkpoint_key(7, "accel=naive");
+        let key = plan(scattering(0.5), RrDepth::Auto, true).checkpoint_key(7, "accel=naive");
         assert_eq!(
             key.settings,
-            "width=640 height=480 spp=64 max-depth=8 rr-depth=3 seed=0 estimator=nee-mis sampler=sobol target-error=none \
+            "width=640 height=480 spp=64 max-depth=8 rr-depth=4 seed=0 estimator=nee-mis sampler=sobol target-error=none \
              filter=box accel=naive"
         );
         assert_eq!((key.scene, key.width, key.height, key.spp), (7, 640, 480, 64));
         // The kernel does not change the image, so it is not in the key.
-        assert_eq!(plan(scattering(0.75), RrDepth::After(3), false).checkpoint_key(7, "accel=naive"), key);
+        assert_eq!(plan(scattering(0.5), RrDepth::After(4), false).checkpoint_key(7, "accel=naive"), key);
         // The pixel filter does.
         let gaussian = RenderSettings { filter: crate::film::PixelFilter::Gaussian, ..RenderSettings::default() };
         let other = RenderPlan::for_effects(scattering(0.75), &[], &gaussian).checkpoint_key(7, "accel=naive");
