@@ -248,3 +248,33 @@ fn the_sample_clamp_bounds_each_splat_as_it_bounds_a_sample() {
     let (c_free, c_low) = (mean(&free, GLASS_CAUSTIC), mean(&low, GLASS_CAUSTIC));
     assert!(c_low < 0.9 * c_free, "the clamped caustic {c_low} is not darker than {c_free}");
 }
+
+#[test]
+fn the_light_paths_report_their_progress_before_the_first_pixel() {
+    // The progress bar shows "caustic light paths N%" while they are traced: reports with
+    // `light_paths`, no pixel work, round 0; then the pixels' rounds.
+    use ember::integrator::{Progress, RenderControl, render_controlled};
+    use std::sync::Mutex;
+    let scene = balls("progress.toml", QUAD_LAMP, PINHOLE);
+    let accel = ember::accel::NaiveAccel::new(&scene.geometry);
+    let reports = Mutex::new(Vec::<Progress>::new());
+    let report = |p: Progress| reports.lock().unwrap().push(p);
+    let control = RenderControl { progress: Some(&report), ..RenderControl::default() };
+    let plan = RenderPlan::new(&scene, &RenderSettings { threads: Some(1), ..settings(16, Caustics::Auto) });
+    render_controlled(&scene, &accel, &plan, control).unwrap();
+    let reports = reports.into_inner().unwrap();
+    let light: Vec<_> = reports.iter().take_while(|p| p.light_paths.is_some()).collect();
+    // 64 x 48 x 16 / 4 = 12,288 paths: three chunks of 4,096.
+    let traced: Vec<_> = light.iter().map(|p| p.light_paths.unwrap()).collect();
+    assert_eq!(traced, [(4096, 12288), (8192, 12288), (12288, 12288)]);
+    assert!(light.iter().all(|p| p.round == 0 && p.work_done == 0.0 && p.rays > 0));
+    let pixels = &reports[light.len()..];
+    assert!(!pixels.is_empty() && pixels.iter().all(|p| p.light_paths.is_none() && p.round >= 1));
+    // Without light paths there is no such report.
+    let reports = Mutex::new(Vec::<Progress>::new());
+    let report = |p: Progress| reports.lock().unwrap().push(p);
+    let control = RenderControl { progress: Some(&report), ..RenderControl::default() };
+    let plan = RenderPlan::new(&scene, &RenderSettings { threads: Some(1), ..settings(16, Caustics::Off) });
+    render_controlled(&scene, &accel, &plan, control).unwrap();
+    assert!(reports.into_inner().unwrap().iter().all(|p| p.light_paths.is_none()));
+}

@@ -188,7 +188,12 @@ fn aux_images_are_the_same_for_one_and_two_threads_and_after_a_resume() {
     let dir = common::fresh_dir("denoise-render", "resume");
     let ckpt = dir.join("x.exr.checkpoint");
     let stop = AtomicBool::new(false);
-    let stop_now = |_| stop.store(true, Ordering::SeqCst);
+    // After the first tile: the first report that is not the caustics' light paths'.
+    let stop_now = |p: ember::integrator::Progress| {
+        if p.light_paths.is_none() {
+            stop.store(true, Ordering::SeqCst)
+        }
+    };
     let control = RenderControl {
         stop: Some(&stop),
         checkpoint: Some((&ckpt, None)),

@@ -45,7 +45,7 @@ use crate::scene::Scene;
 use crate::settings::clamp_sample;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicI64, Ordering};
+use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 
 /// Light paths per chunk: one Sobol sequence each.
 pub(super) const CHUNK: u64 = 4096;
@@ -101,6 +101,7 @@ pub(super) fn render(
     emitters: &Emitters,
     paths: u64,
     stop_requested: &(dyn Fn() -> bool + Sync),
+    report: &(dyn Fn(u64, u64) + Sync),
 ) -> Option<CausticImage> {
     let (w, h) = (ctx.settings.width, ctx.settings.height);
     let sums: Vec<AtomicI64> = (0..3 * w as usize * h as usize).map(|_| AtomicI64::new(0)).collect();
@@ -113,6 +114,8 @@ pub(super) fn render(
     let shard = ctx.settings.shard;
     let chunks: Vec<u64> =
         (0..paths.div_ceil(CHUNK)).filter(|c| shard.is_none_or(|s| c % s.count as u64 == s.index as u64)).collect();
+    // Paths and rays traced so far, for `report(paths, rays)` after each chunk.
+    let (traced, traced_rays) = (AtomicU64::new(0), AtomicU64::new(0));
     let (rays, clamped) = chunks
         .into_par_iter()
         .map(|chunk| {
@@ -143,6 +146,8 @@ pub(super) fn render(
                     });
                 });
             }
+            let n = CHUNK.min(paths - chunk * CHUNK);
+            report(traced.fetch_add(n, Ordering::Relaxed) + n, traced_rays.fetch_add(rays, Ordering::Relaxed) + rays);
             Some((rays, clamped))
         })
         .try_reduce(|| (0, 0), |a, b| Some((a.0 + b.0, a.1 + b.1)))?;

@@ -107,9 +107,13 @@ pub struct Progress {
     pub rays: u64,
     /// Time spent in this session.
     pub elapsed: Duration,
-    /// The current round (from 1) and the most rounds there can be.
+    /// The current round (from 1) and the most rounds there can be; 0 while the caustics'
+    /// light paths are traced.
     pub round: u32,
     pub rounds: u32,
+    /// While the caustics' light paths are traced, before the first pixel: (paths traced,
+    /// paths planned). No pixel work is done then, and none is planned yet (0). `None` after.
+    pub light_paths: Option<(u64, u64)>,
 }
 
 /// The outcome of [`super::render_controlled`].
@@ -219,8 +223,23 @@ pub(super) fn run(
             Some(e) if !control.first_round_only => {
                 let stop = control.stop;
                 let stop_requested = || stop.is_some_and(|s| s.load(Ordering::Relaxed));
-                caustic::render(&ctx, e, caustic::paths(w, h, settings.spp), &stop_requested)
-                    .ok_or(RenderError::StoppedInLightPaths)?
+                let paths = caustic::paths(w, h, settings.spp);
+                let rounds = plan.rounds();
+                let report = |traced, rays| {
+                    if let Some(report) = control.progress {
+                        report(Progress {
+                            work_done: 0.0,
+                            work_before: 0.0,
+                            work_planned: 0.0,
+                            rays,
+                            elapsed: start.elapsed(),
+                            round: 0,
+                            rounds,
+                            light_paths: Some((traced, paths)),
+                        });
+                    }
+                };
+                caustic::render(&ctx, e, paths, &stop_requested, &report).ok_or(RenderError::StoppedInLightPaths)?
             }
             _ => caustic::CausticImage { sums: LightSums::new(w as usize * h as usize), rays: 0, clamped: 0 },
         };
@@ -561,6 +580,7 @@ impl<'a> Session<'a> {
                 elapsed: self.start.elapsed(),
                 round: round + 1,
                 rounds,
+                light_paths: None,
             });
         }
         Ok(())

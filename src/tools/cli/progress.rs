@@ -22,8 +22,12 @@ pub struct Estimate {
 }
 
 /// The [`Estimate`] of report `p`: work of earlier sessions counts as done but not in the
-/// rate (it took no time in this one).
+/// rate (it took no time in this one). While the caustics' light paths are traced no pixel
+/// work is done: 0, time left unknown.
 pub fn estimate(p: &Progress) -> Estimate {
+    if p.light_paths.is_some() {
+        return Estimate { fraction: 0.0, remaining: None };
+    }
     if p.work_planned <= 0.0 {
         return Estimate { fraction: 1.0, remaining: Some(Duration::ZERO) };
     }
@@ -75,16 +79,22 @@ impl ProgressBar {
     /// the bar never goes back.
     pub fn update(&self, p: Progress) {
         let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
-        if last.is_some_and(|l| (l.round, l.work_done) > (p.round, p.work_done)) {
+        let order = |p: &Progress| (p.round, p.work_done, p.light_paths.map_or(0, |(traced, _)| traced));
+        if last.is_some_and(|l| order(&l) > order(&p)) {
             return;
         }
         *last = Some(p);
         let Some(bar) = &self.bar else { return };
+        let rate = p.rays as f64 / p.elapsed.as_secs_f64().max(1e-9) / 1e6;
+        if let Some((traced, planned)) = p.light_paths {
+            let percent = 100.0 * traced as f64 / planned.max(1) as f64;
+            bar.set_message(format!("caustic light paths {percent:.0}%  {rate:.1} Mrays/s"));
+            return;
+        }
         let e = estimate(&p);
         // Never back: a new plan may find a little more or less work than the budget.
         bar.set_position(((e.fraction * STEPS as f64) as u64).max(bar.position()));
         let eta = e.remaining.map_or("-".into(), short_duration);
-        let rate = p.rays as f64 / p.elapsed.as_secs_f64().max(1e-9) / 1e6;
         let round = if p.rounds > 1 { format!("  round {}/{}", p.round, p.rounds) } else { String::new() };
         bar.set_message(format!("ETA {eta}{round}  {rate:.1} Mrays/s"));
     }
@@ -118,7 +128,23 @@ mod tests {
             elapsed: Duration::from_secs_f64(secs),
             round: 1,
             rounds: 1,
+            light_paths: None,
         }
+    }
+
+    #[test]
+    fn the_light_paths_come_before_any_pixel_work() {
+        // While the caustics' light paths are traced nothing of the pixels is done, and the
+        // time left is unknown: the bar stays at 0 and says how far the light paths are.
+        let light = Progress { round: 0, light_paths: Some((4096, 12288)), ..report(0.0, 0.0, 0.0, 2.0) };
+        assert_eq!(estimate(&light), Estimate { fraction: 0.0, remaining: None });
+        let bar = ProgressBar::new("");
+        bar.update(light);
+        assert_eq!(bar.fraction(), Some(0.0));
+        // The first pixels' report follows; a late light-path report does not undo it.
+        bar.update(report(10.0, 0.0, 100.0, 3.0));
+        bar.update(Progress { light_paths: Some((8192, 12288)), ..light });
+        assert_eq!(bar.fraction(), Some(0.1));
     }
 
     #[test]

@@ -269,6 +269,7 @@ fn render_reporting(
                 elapsed: done.since.elapsed(),
                 round: 1,
                 rounds: 1,
+                light_paths: None,
             })
         }
     };
