@@ -17,22 +17,24 @@
 //! the plan (the first round's rays and sums of squares), and which only the second stage reads:
 //! the merge refuses it.
 //!
-//! Layout: `EMBERSH\x02`, scene (u64), settings length (u32) and text, shard index and count,
+//! Layout: `EMBERSH\x03`, scene (u64), settings length (u32) and text, shard index and count,
 //! width, height and spp (u32 each), non-finite samples (u64), render nanoseconds (u64), flags
 //! (u32: 1 = auxiliary sums, 2 = denoising asked for, 4 = a first round, 8 = with the plan's
-//! data), then per pixel of the shard its count (u32) and sums r, g, b and of squared luminance
-//! (f64), with auxiliary sums those of the albedo and normal (six f64), with the plan's data
-//! the first round's rays and target (u32, target 0) and sums of squares r, g, b (f64), then
-//! with light paths (flag 16) what the shard's light paths add to every pixel of the image (r,
-//! g, b as i64, [`super::LightSums`]: the merge adds the shards'), and the FNV-1a hash of all
-//! that (u64). A file is read only if it is a regular file of exactly
-//! the size its header implies, and every pixel must be one the render could have produced.
+//! data, 16 = with light paths' sums), the number of light-path entries (u64), then per pixel
+//! of the shard its count (u32) and sums r, g, b and of squared luminance (f64), with auxiliary
+//! sums those of the albedo and normal (six f64), with the plan's data the first round's rays
+//! and target (u32, target 0) and sums of squares r, g, b (f64), then the light-path entries:
+//! each pixel of the image the shard's light paths reached, in increasing order, as its index
+//! (u32) and what they add to it (r, g, b as i64, [`super::LightSums`]: the merge adds the
+//! shards'), and the FNV-1a hash of all that (u64). The light paths' splats land anywhere in
+//! the image, but only where a caustic is: the entries keep a shard file of a caustic in a
+//! corner small. A file is read only if it is a regular file of exactly the size its header
+//! implies, and every pixel must be one the render could have produced.
 
 use super::accum::{Accumulator, LightSums, PixelState};
 use super::checkpoint::{
     ADAPTIVE_BYTES, AUX_BYTES, Hashing, LIGHT_BYTES, PIXEL_BYTES, check_aux, decode_aux, decode_pixel, decode_plan,
-    encode_aux, encode_pixel, encode_plan, light_problem, pixel_problem, read_light, sum_sq_problem, words_diff,
-    write_light,
+    encode_aux, encode_pixel, encode_plan, pixel_problem, sum_sq_problem, words_diff,
 };
 use crate::hash::Fnv1a;
 use crate::settings::Shard;
@@ -40,13 +42,17 @@ use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-const MAGIC: &[u8; 8] = b"EMBERSH\x02";
-/// The first format's magic (no flags, no auxiliary sums), to name it when refused.
-const MAGIC_V1: &[u8; 8] = b"EMBERSH\x01";
+const MAGIC: &[u8; 8] = b"EMBERSH\x03";
+/// The format's version: the magic's last byte. Earlier ones (1: no flags; 2: light-path sums
+/// of every pixel) are named when refused.
+const VERSION: u8 = 3;
 /// Magic, scene and settings length: before the settings text.
 const PREFIX_BYTES: u64 = 8 + 8 + 4;
-/// Shard index and count, width, height, spp, non-finite samples, nanoseconds, flags.
-const FIELDS_BYTES: u64 = 5 * 4 + 8 + 8 + 4;
+/// Shard index and count, width, height, spp, non-finite samples, nanoseconds, flags, light-path
+/// entries.
+const FIELDS_BYTES: u64 = 5 * 4 + 8 + 8 + 4 + 8;
+/// A light-path entry: the pixel's index (u32) and its sums.
+const LIGHT_ENTRY_BYTES: u64 = 4 + LIGHT_BYTES;
 const FLAG_AUX: u32 = 1;
 const FLAG_DENOISE: u32 = 2;
 const FLAG_FIRST_ROUND: u32 = 4;
@@ -84,6 +90,8 @@ pub struct ShardHeader {
     pub plan: bool,
     /// The file holds what the shard's light paths add to the image (caustics).
     pub light: bool,
+    /// How many pixels they add to (what a file read says; [`save`] counts them).
+    pub light_pixels: u64,
 }
 
 impl ShardHeader {
@@ -98,7 +106,7 @@ impl ShardHeader {
             + self.settings.len() as u64
             + FIELDS_BYTES
             + self.pixel_count() * self.pixel_bytes()
-            + if self.light { self.width as u64 * self.height as u64 * LIGHT_BYTES } else { 0 }
+            + self.light_pixels * LIGHT_ENTRY_BYTES
             + CHECKSUM_BYTES
     }
 
@@ -119,16 +127,22 @@ pub enum ShardError {
 }
 
 /// Writes the pixels of `header.shard` from `accum` (the render's accumulator, of the whole
-/// image) to `path`, atomically.
+/// image) to `path`, atomically, with the light-path entries `accum` has (whatever
+/// `header.light_pixels` says).
 pub fn save(path: &Path, header: &ShardHeader, accum: &Accumulator) -> Result<(), ShardError> {
     assert_eq!((accum.width, accum.height), (header.width, header.height), "the accumulator is the image's");
     assert_eq!(accum.aux.is_some(), header.aux, "the header says whether the render took auxiliary sums");
     assert!(header.aux || !header.denoise, "denoising needs the auxiliary sums");
     assert_eq!(accum.adaptive.is_some() && header.first_round, header.plan, "a first round keeps the plan's data");
     assert!(accum.light.is_some() || !header.light, "the header says whether the render traced light paths");
+    let light_pixels = match &accum.light {
+        Some(light) if header.light => light.0.iter().filter(|s| **s != [0; 3]).count() as u64,
+        _ => 0,
+    };
+    let header = ShardHeader { light_pixels, ..header.clone() };
     crate::atomic_write::write_atomically(path, |file| {
         let mut out = std::io::BufWriter::new(file);
-        write(&mut out, header, accum).map_err(|e| e.to_string())?;
+        write(&mut out, &header, accum).map_err(|e| e.to_string())?;
         out.into_inner().map(|_| ()).map_err(|e| e.error().to_string())
     })?;
     Ok(())
@@ -151,6 +165,7 @@ fn write(out: impl Write, h: &ShardHeader, accum: &Accumulator) -> std::io::Resu
         | if h.plan { FLAG_PLAN } else { 0 }
         | if h.light { FLAG_LIGHT } else { 0 };
     w.write_all(&flags.to_le_bytes())?;
+    w.write_all(&h.light_pixels.to_le_bytes())?;
     for i in h.shard.pixels(h.width, h.height) {
         w.write_all(&encode_pixel(&accum.pixels[i]))?;
         if let Some(aux) = &accum.aux {
@@ -165,7 +180,14 @@ fn write(out: impl Write, h: &ShardHeader, accum: &Accumulator) -> std::io::Resu
     if h.light
         && let Some(light) = &accum.light
     {
-        write_light(&mut w, light)?;
+        let mut entry = [0u8; LIGHT_ENTRY_BYTES as usize];
+        for (i, s) in light.0.iter().enumerate().filter(|(_, s)| **s != [0; 3]) {
+            entry[..4].copy_from_slice(&(i as u32).to_le_bytes());
+            for (c, v) in s.iter().enumerate() {
+                entry[4 + 8 * c..12 + 8 * c].copy_from_slice(&v.to_le_bytes());
+            }
+            w.write_all(&entry)?;
+        }
     }
     let sum = w.hash.finish();
     w.inner.write_all(&sum.to_le_bytes())?;
@@ -228,6 +250,7 @@ impl ShardReader {
                 first_round: false,
                 plan: false,
                 light: false,
+                light_pixels: 0,
             },
             reader,
             hash: Fnv1a::default(),
@@ -236,8 +259,11 @@ impl ShardReader {
             return Err(corrupt(format!("{len} bytes: too short")));
         }
         let prefix = r.take(PREFIX_BYTES as usize)?;
-        if &prefix[..8] == MAGIC_V1 {
-            return Err(corrupt("a shard file of an earlier ember (format 1): render the shard again".into()));
+        if prefix[..7] == MAGIC[..7] && (1..VERSION).contains(&prefix[7]) {
+            let version = prefix[7];
+            return Err(corrupt(format!(
+                "a shard file of an earlier ember (format {version}): render the shard again"
+            )));
         }
         if &prefix[..8] != MAGIC {
             return Err(corrupt("wrong header: not written by `ember render --shard`".into()));
@@ -278,6 +304,7 @@ impl ShardReader {
             first_round: false,
             plan: false,
             light: false,
+            light_pixels: u64_at(40),
         };
         let flags = u32_at(9);
         let known = FLAG_AUX | FLAG_DENOISE | FLAG_FIRST_ROUND | FLAG_PLAN | FLAG_LIGHT;
@@ -288,6 +315,12 @@ impl ShardReader {
         (r.header.aux, r.header.denoise) = (flags & FLAG_AUX != 0, flags & FLAG_DENOISE != 0);
         (r.header.first_round, r.header.plan) = (flags & FLAG_FIRST_ROUND != 0, flags & FLAG_PLAN != 0);
         r.header.light = flags & FLAG_LIGHT != 0;
+        // Checked before the size, which it sizes: at most every pixel, and none without light
+        // paths.
+        let light_pixels = r.header.light_pixels;
+        if light_pixels > if r.header.light { width as u64 * height as u64 } else { 0 } {
+            return Err(corrupt(format!("{light_pixels} light-path entries for a {width}x{height} image")));
+        }
         if len != r.header.file_size() {
             return Err(corrupt(format!(
                 "{len} bytes, but shard {} of a {width}x{height} image takes {}: truncated or damaged",
@@ -351,12 +384,27 @@ impl ShardReader {
             }
         }
         if h.light {
-            let mut light = LightSums::new(h.width as usize * h.height as usize);
-            read_light(&mut self.reader, &mut self.hash, &mut light).map_err(|e| self.io(e))?;
-            if let Some(why) = light_problem(&light, h.width) {
-                return Err(corrupt(why));
+            let pixels = h.width as usize * h.height as usize;
+            let light = accum.light.get_or_insert_with(|| LightSums::new(pixels));
+            let mut entry = [0u8; LIGHT_ENTRY_BYTES as usize];
+            let mut next = 0;
+            for _ in 0..h.light_pixels {
+                self.reader.read_exact(&mut entry).map_err(|e| self.io(e))?;
+                self.hash.write(&entry);
+                let i = u32::from_le_bytes(entry[..4].try_into().unwrap()) as usize;
+                let sums: [i64; 3] =
+                    std::array::from_fn(|c| i64::from_le_bytes(entry[4 + 8 * c..12 + 8 * c].try_into().unwrap()));
+                if i < next || i >= pixels {
+                    return Err(corrupt(format!("light-path entry of pixel {i} out of order or outside the image")));
+                }
+                // Light paths only add light.
+                if sums.iter().any(|&v| v < 0) {
+                    let (x, y) = (i % h.width as usize, i / h.width as usize);
+                    return Err(corrupt(format!("pixel ({x}, {y}): a negative light-path sum")));
+                }
+                light.0[i] = std::array::from_fn(|c| light.0[i][c].wrapping_add(sums[c]));
+                next = i + 1;
             }
-            accum.light.get_or_insert_with(|| LightSums::new(light.0.len())).add(&light);
         }
         let mut tail = [0u8; CHECKSUM_BYTES as usize];
         self.reader.read_exact(&mut tail).map_err(|e| self.io(e))?;
@@ -481,6 +529,7 @@ mod tests {
             first_round: false,
             plan: false,
             light: false,
+            light_pixels: 0,
         };
         let path = dir.join("p.shard");
         save(&path, &header, &accum).unwrap();
@@ -532,6 +581,75 @@ mod tests {
         bytes[7] = 1;
         std::fs::write(&path, &bytes).unwrap();
         assert!(ShardReader::open(&path).err().unwrap().to_string().contains("format 1"));
+        bytes[7] = 2;
+        std::fs::write(&path, &bytes).unwrap();
+        assert!(ShardReader::open(&path).err().unwrap().to_string().contains("format 2"));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn light_path_sums_are_stored_for_the_pixels_they_reached_only() {
+        let (w, h) = (30, 20);
+        let mut accum = Accumulator::new(w, h);
+        let mut light = LightSums::new((w * h) as usize);
+        for (i, v) in [(3usize, [5i64, 6, 7]), (250, [1 << 40, 0, 1]), (599, [0, 0, 9])] {
+            light.0[i] = v;
+        }
+        accum.light = Some(light.clone());
+        let dir = std::env::temp_dir().join(format!("ember-shard-light-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let header = ShardHeader {
+            scene: 7,
+            settings: "width=30 height=20 spp=4".into(),
+            shard: Shard { index: 0, count: 2 },
+            width: w,
+            height: h,
+            spp: 4,
+            nonfinite: 0,
+            elapsed: Duration::ZERO,
+            aux: false,
+            denoise: false,
+            first_round: false,
+            plan: false,
+            light: true,
+            light_pixels: 0,
+        };
+        let path = dir.join("l.shard");
+        save(&path, &header, &accum).unwrap();
+        // Three entries of 28 bytes, not 600 pixels of 24.
+        let r = ShardReader::open(&path).unwrap();
+        assert_eq!(r.header, ShardHeader { light_pixels: 3, ..header.clone() });
+        assert_eq!(std::fs::metadata(&path).unwrap().len(), r.header.file_size());
+        // Read twice into one image: the sums add.
+        let mut back = Accumulator::new(w, h);
+        r.read_into(&mut back).unwrap();
+        ShardReader::open(&path).unwrap().read_into(&mut back).unwrap();
+        let doubled: Vec<[i64; 3]> = light.0.iter().map(|s| s.map(|v| 2 * v)).collect();
+        assert_eq!(back.light.as_ref().unwrap().0, doubled);
+
+        // Damage with a valid checksum (as a forger would): each is named.
+        let bytes = std::fs::read(&path).unwrap();
+        let entries = bytes.len() - 8 - 3 * LIGHT_ENTRY_BYTES as usize;
+        let forged = |edit: &dyn Fn(&mut Vec<u8>)| {
+            let mut b = bytes.clone();
+            edit(&mut b);
+            let n = b.len() - 8;
+            let sum = crate::hash::fnv1a(&b[..n]);
+            b[n..].copy_from_slice(&sum.to_le_bytes());
+            let r = ShardReader::from_bytes(b, &path)?;
+            r.read_into(&mut Accumulator::new(w, h))
+        };
+        let second = entries + LIGHT_ENTRY_BYTES as usize;
+        let e = forged(&|b| b[second..second + 4].copy_from_slice(&2u32.to_le_bytes())).unwrap_err();
+        assert!(e.to_string().contains("light-path entry of pixel 2 out of order"), "{e}");
+        let e = forged(&|b| b[second..second + 4].copy_from_slice(&600u32.to_le_bytes())).unwrap_err();
+        assert!(e.to_string().contains("outside the image"), "{e}");
+        let e = forged(&|b| b[second + 4..second + 12].copy_from_slice(&(-1i64).to_le_bytes())).unwrap_err();
+        assert!(e.to_string().contains("pixel (10, 8): a negative light-path sum"), "{e}");
+        // A count of entries the image cannot have is refused before it sizes anything.
+        let count_at = PREFIX_BYTES as usize + header.settings.len() + 40;
+        let e = forged(&|b| b[count_at..count_at + 8].copy_from_slice(&601u64.to_le_bytes())).unwrap_err();
+        assert!(e.to_string().contains("601 light-path entries for a 30x20 image"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -181,6 +181,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         first_round,
         plan: first_round && settings.adaptive,
         light: plan.caustics && !first_round,
+        light_pixels: 0, // counted when saved
     };
     // Stage 2 of a shard: the whole image's first round, from every shard's stage 1.
     let first_rounds = match settings.shard {
