@@ -503,21 +503,11 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
-    #[test]
-    fn a_shard_round_trips_its_own_pixels_and_detects_damage() {
-        let (w, h) = (40, 20);
-        let mut accum = Accumulator::new(w, h);
-        for (i, p) in accum.pixels.iter_mut().enumerate() {
-            for s in 0..(i % 3) {
-                p.add(Vec3::new(0.1 * s as f32, i as f32, 0.5));
-            }
-        }
-        let dir = std::env::temp_dir().join(format!("ember-shard-unit-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let shard = Shard { index: 1, count: 3 };
-        let header = ShardHeader {
+    /// The header of `shard` of a `w` x `h` image at 4 spp, without auxiliary sums or light.
+    fn header(w: u32, h: u32, shard: Shard) -> ShardHeader {
+        ShardHeader {
             scene: 7,
-            settings: "width=40 height=20 spp=4".into(),
+            settings: format!("width={w} height={h} spp=4"),
             shard,
             width: w,
             height: h,
@@ -530,7 +520,22 @@ mod tests {
             plan: false,
             light: false,
             light_pixels: 0,
-        };
+        }
+    }
+
+    #[test]
+    fn a_shard_round_trips_its_own_pixels_and_detects_damage() {
+        let (w, h) = (40, 20);
+        let mut accum = Accumulator::new(w, h);
+        for (i, p) in accum.pixels.iter_mut().enumerate() {
+            for s in 0..(i % 3) {
+                p.add(Vec3::new(0.1 * s as f32, i as f32, 0.5));
+            }
+        }
+        let dir = std::env::temp_dir().join(format!("ember-shard-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let shard = Shard { index: 1, count: 3 };
+        let header = header(w, h, shard);
         let path = dir.join("p.shard");
         save(&path, &header, &accum).unwrap();
         assert_eq!(std::fs::metadata(&path).unwrap().len(), header.file_size());
@@ -598,22 +603,7 @@ mod tests {
         accum.light = Some(light.clone());
         let dir = std::env::temp_dir().join(format!("ember-shard-light-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let header = ShardHeader {
-            scene: 7,
-            settings: "width=30 height=20 spp=4".into(),
-            shard: Shard { index: 0, count: 2 },
-            width: w,
-            height: h,
-            spp: 4,
-            nonfinite: 0,
-            elapsed: Duration::ZERO,
-            aux: false,
-            denoise: false,
-            first_round: false,
-            plan: false,
-            light: true,
-            light_pixels: 0,
-        };
+        let header = ShardHeader { light: true, ..header(w, h, Shard { index: 0, count: 2 }) };
         let path = dir.join("l.shard");
         save(&path, &header, &accum).unwrap();
         // Three entries of 28 bytes, not 600 pixels of 24.
