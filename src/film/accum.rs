@@ -126,11 +126,11 @@ impl LightSums {
         Vec3::from_array(self.0[i].map(|s| (s as f64 / Self::ONE) as f32))
     }
 
-    /// Adds `other`'s sums (wrapping, so that any order of additions gives the same sums).
-    pub fn add(&mut self, other: &LightSums) {
-        for (a, b) in self.0.iter_mut().zip(&other.0) {
-            *a = std::array::from_fn(|c| a[c].wrapping_add(b[c]));
-        }
+    /// Adds `sums` to pixel `i`'s (wrapping, so that any order of additions gives the same
+    /// sums: a merge adds the shards' in any order).
+    pub fn add_at(&mut self, i: usize, sums: &[i64; 3]) {
+        let a = &mut self.0[i];
+        *a = std::array::from_fn(|c| a[c].wrapping_add(sums[c]));
     }
 }
 

@@ -289,7 +289,7 @@ impl Checkpoint {
         if key.light {
             let mut light = LightSums::new(accum.pixels.len());
             read_light(r, &mut hash, &mut light).map_err(io)?;
-            if let Some(why) = light_problem(&light, header.width) {
+            if let Some(why) = light.0.iter().enumerate().find_map(|(i, s)| light_problem(i, s, header.width)) {
                 return Err(corrupt(why));
             }
             accum.light = Some(light);
@@ -380,15 +380,13 @@ impl Checkpoint {
     }
 }
 
-/// Whether a pixel's auxiliary sums could come from `count` samples: finite, each albedo in
-/// [0, 1] and each normal component in [−1, 1] (with room for rounding in the sums).
 /// Writes `light`'s sums, pixel by pixel.
-pub(super) fn write_light(w: &mut impl Write, light: &LightSums) -> std::io::Result<()> {
+fn write_light(w: &mut impl Write, light: &LightSums) -> std::io::Result<()> {
     let mut buf = Vec::with_capacity(4096 * LIGHT_BYTES as usize);
     for chunk in light.0.chunks(4096) {
         buf.clear();
-        for s in chunk.iter().flatten() {
-            buf.extend_from_slice(&s.to_le_bytes());
+        for s in chunk {
+            buf.extend_from_slice(&encode_light(s));
         }
         w.write_all(&buf)?;
     }
@@ -396,27 +394,42 @@ pub(super) fn write_light(w: &mut impl Write, light: &LightSums) -> std::io::Res
 }
 
 /// Reads the sums [`write_light`] wrote into `light` (sized for them), hashing the bytes.
-pub(super) fn read_light(r: &mut dyn Read, hash: &mut Fnv1a, light: &mut LightSums) -> std::io::Result<()> {
+fn read_light(r: &mut dyn Read, hash: &mut Fnv1a, light: &mut LightSums) -> std::io::Result<()> {
     let mut buf = vec![0u8; 4096 * LIGHT_BYTES as usize];
     for chunk in light.0.chunks_mut(4096) {
         let bytes = &mut buf[..chunk.len() * LIGHT_BYTES as usize];
         r.read_exact(bytes)?;
         hash.write(bytes);
         for (s, b) in chunk.iter_mut().zip(bytes.chunks_exact(LIGHT_BYTES as usize)) {
-            *s = std::array::from_fn(|c| i64::from_le_bytes(b[8 * c..8 * c + 8].try_into().unwrap()));
+            *s = decode_light(b);
         }
     }
     Ok(())
 }
 
-/// Why `light`'s sums could not come from a render of an image `width` pixels wide, if they
-/// could not: light paths only add light.
-pub(super) fn light_problem(light: &LightSums, width: u32) -> Option<String> {
-    let i = light.0.iter().position(|s| s.iter().any(|&v| v < 0))?;
-    let (x, y) = (i % width as usize, i / width as usize);
-    Some(format!("pixel ({x}, {y}): a negative light-path sum"))
+/// One pixel's light-path sums as stored ([`LIGHT_BYTES`], little-endian).
+pub(super) fn encode_light(s: &[i64; 3]) -> [u8; LIGHT_BYTES as usize] {
+    let mut b = [0u8; LIGHT_BYTES as usize];
+    for (c, v) in s.iter().enumerate() {
+        b[8 * c..8 * c + 8].copy_from_slice(&v.to_le_bytes());
+    }
+    b
 }
 
+/// The sums [`encode_light`] stored in the first [`LIGHT_BYTES`] of `b`.
+pub(super) fn decode_light(b: &[u8]) -> [i64; 3] {
+    std::array::from_fn(|c| i64::from_le_bytes(b[8 * c..8 * c + 8].try_into().unwrap()))
+}
+
+/// Why the light-path sums `s` of pixel `i` of an image `width` pixels wide could not come
+/// from a render, if they could not: light paths only add light.
+pub(super) fn light_problem(i: usize, s: &[i64; 3], width: u32) -> Option<String> {
+    let (x, y) = (i % width as usize, i / width as usize);
+    s.iter().any(|&v| v < 0).then(|| format!("pixel ({x}, {y}): a negative light-path sum"))
+}
+
+/// Whether a pixel's auxiliary sums could come from `count` samples: finite, each albedo in
+/// [0, 1] and each normal component in [−1, 1] (with room for rounding in the sums).
 pub(super) fn check_aux(a: &AuxSums, count: u32) -> Result<(), String> {
     let n = count as f64 * (1.0 + 1e-9);
     if !(a.albedo.is_finite() && a.normal.is_finite()) {

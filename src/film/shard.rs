@@ -33,8 +33,9 @@
 
 use super::accum::{Accumulator, LightSums, PixelState};
 use super::checkpoint::{
-    ADAPTIVE_BYTES, AUX_BYTES, Hashing, LIGHT_BYTES, PIXEL_BYTES, check_aux, decode_aux, decode_pixel, decode_plan,
-    encode_aux, encode_pixel, encode_plan, pixel_problem, sum_sq_problem, words_diff,
+    ADAPTIVE_BYTES, AUX_BYTES, Hashing, LIGHT_BYTES, PIXEL_BYTES, check_aux, decode_aux, decode_light, decode_pixel,
+    decode_plan, encode_aux, encode_light, encode_pixel, encode_plan, light_problem, pixel_problem, sum_sq_problem,
+    words_diff,
 };
 use crate::hash::Fnv1a;
 use crate::settings::Shard;
@@ -183,9 +184,7 @@ fn write(out: impl Write, h: &ShardHeader, accum: &Accumulator) -> std::io::Resu
         let mut entry = [0u8; LIGHT_ENTRY_BYTES as usize];
         for (i, s) in light.0.iter().enumerate().filter(|(_, s)| **s != [0; 3]) {
             entry[..4].copy_from_slice(&(i as u32).to_le_bytes());
-            for (c, v) in s.iter().enumerate() {
-                entry[4 + 8 * c..12 + 8 * c].copy_from_slice(&v.to_le_bytes());
-            }
+            entry[4..].copy_from_slice(&encode_light(s));
             w.write_all(&entry)?;
         }
     }
@@ -392,17 +391,14 @@ impl ShardReader {
                 self.reader.read_exact(&mut entry).map_err(|e| self.io(e))?;
                 self.hash.write(&entry);
                 let i = u32::from_le_bytes(entry[..4].try_into().unwrap()) as usize;
-                let sums: [i64; 3] =
-                    std::array::from_fn(|c| i64::from_le_bytes(entry[4 + 8 * c..12 + 8 * c].try_into().unwrap()));
+                let sums = decode_light(&entry[4..]);
                 if i < next || i >= pixels {
                     return Err(corrupt(format!("light-path entry of pixel {i} out of order or outside the image")));
                 }
-                // Light paths only add light.
-                if sums.iter().any(|&v| v < 0) {
-                    let (x, y) = (i % h.width as usize, i / h.width as usize);
-                    return Err(corrupt(format!("pixel ({x}, {y}): a negative light-path sum")));
+                if let Some(why) = light_problem(i, &sums, h.width) {
+                    return Err(corrupt(why));
                 }
-                light.0[i] = std::array::from_fn(|c| light.0[i][c].wrapping_add(sums[c]));
+                light.add_at(i, &sums);
                 next = i + 1;
             }
         }
