@@ -124,7 +124,8 @@ pub(super) fn render(
             }
             let streams = PixelSampler::new(ctx.settings.sampler, key, chunk);
             let (mut rays, mut clamped) = (0, 0);
-            for s in 0..CHUNK.min(paths - chunk * CHUNK) {
+            let n = CHUNK.min(paths - chunk * CHUNK);
+            for s in 0..n {
                 let mut rng = streams.sample(s);
                 trace(ctx, emitters, &mut rng, &mut rays, &mut |film: Vec2, value: Vec3| {
                     let value = value * share;
@@ -146,7 +147,6 @@ pub(super) fn render(
                     });
                 });
             }
-            let n = CHUNK.min(paths - chunk * CHUNK);
             report(traced.fetch_add(n, Ordering::Relaxed) + n, traced_rays.fetch_add(rays, Ordering::Relaxed) + rays);
             Some((rays, clamped))
         })

@@ -218,7 +218,10 @@ impl RenderPlan {
             (RrDepth::Auto, None) => {
                 let why = match throughput_depth(albedo) {
                     _ if !self.effects.scattering => "nothing scatters light".to_string(),
-                    None => format!("scene albedo {albedo:.2}: throughput never falls to 1/10"),
+                    None => format!(
+                        "scene albedo {albedo:.2}: throughput never falls to 1/{:.0}",
+                        1.0 / super::roulette::RR_THROUGHPUT
+                    ),
                     Some(k) => format!(
                         "scene albedo ≤ {albedo:.2}: it would start at depth {k}, the path depth is {}",
                         self.scene_depth
