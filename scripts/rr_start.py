@@ -5,8 +5,8 @@ on several scenes, measured against each scene's reference.
 For each scene file: a reference (REF_SPP samples in every pixel, seed 1, roulette off), then
 `ember render SCENE --rr-depth K` for each K in DEPTHS (and `auto`) with SEEDS seeds at the
 scene's own settings (adaptive sampling, its spp), one after another. Per setting it prints the
-mean relMSE against the reference (as compare_all.py: mean of (x - ref)^2 / (ref^2 + 0.01)
-over pixels and channels), the CPU seconds of the render process, and the efficiency
+mean relMSE against the reference (mean of (x - ref)^2 / (ref^2 + 0.01) over pixels and
+channels: `relmse` of scripts/peers/denoise_vs_cycles.py, whose EXR reader it also uses), the CPU seconds of the render process, and the efficiency
 1 / (relMSE x CPU) relative to `auto`. The reference's own noise is in every relMSE alike.
 
 The scene `dark-box` is written by this script: scenes/cornell.toml with every colour of
@@ -18,6 +18,7 @@ Usage (numpy and OpenEXR needed, e.g. the peers' Mitsuba venv):
 Environment: EMBER (default target/release/ember), THREADS (2), OUT (a temporary folder).
 """
 import argparse
+import importlib.util
 import os
 import resource
 import subprocess
@@ -25,20 +26,14 @@ import sys
 import tempfile
 
 import numpy as np
-import OpenEXR
-import Imath
 
 ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 EMBER = os.environ.get("EMBER") or os.path.join(ROOT, "target", "release", "ember")
 THREADS = os.environ.get("THREADS", "2")
-
-
-def load(path):
-    f = OpenEXR.InputFile(path)
-    dw = f.header()["dataWindow"]
-    w, h = dw.max.x - dw.min.x + 1, dw.max.y - dw.min.y + 1
-    pt = Imath.PixelType(Imath.PixelType.FLOAT)
-    return np.stack([np.frombuffer(f.channel(c, pt), np.float32).reshape(h, w) for c in "RGB"], -1).astype(np.float64)
+# The EXR reader and relMSE of the denoiser comparison (its import runs nothing).
+_spec = importlib.util.spec_from_file_location("metrics", os.path.join(ROOT, "scripts", "peers", "denoise_vs_cycles.py"))
+metrics = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(metrics)
 
 
 def render(scene, out, args):
@@ -88,14 +83,14 @@ def main():
         ref_path = os.path.join(out_dir, f"{name}_ref.exr")
         if not os.path.exists(ref_path):
             render(scene, ref_path, ["--spp", str(a.ref_spp), "--uniform", "--seed", "1", "--rr-depth", "off"])
-        ref = load(ref_path)
+        ref = metrics.read_exr(ref_path)
         rows = []
         for rr in settings:
             errs, cpus = [], []
             for s in range(a.seeds):
                 img = os.path.join(out_dir, f"{name}_{rr}_{s}.exr")
                 cpus.append(render(scene, img, ["--seed", str(10 + s), "--rr-depth", rr]))
-                errs.append(float((((load(img) - ref) ** 2) / (ref**2 + 1e-2)).mean()))
+                errs.append(metrics.relmse(metrics.read_exr(img), ref))
             rows.append((rr, float(np.mean(errs)), float(np.mean(cpus))))
         e0, t0 = rows[0][1], rows[0][2]
         print(f"\n{scene} ({a.seeds} seeds, reference {a.ref_spp} spp)")
