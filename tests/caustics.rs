@@ -257,12 +257,16 @@ fn the_light_paths_report_their_progress_before_the_first_pixel() {
     use std::sync::Mutex;
     let scene = balls("progress.toml", QUAD_LAMP, PINHOLE);
     let accel = ember::accel::NaiveAccel::new(&scene.geometry);
-    let reports = Mutex::new(Vec::<Progress>::new());
-    let report = |p: Progress| reports.lock().unwrap().push(p);
-    let control = RenderControl { progress: Some(&report), ..RenderControl::default() };
-    let plan = RenderPlan::new(&scene, &RenderSettings { threads: Some(1), ..settings(16, Caustics::Auto) });
-    render_controlled(&scene, &accel, &plan, control).unwrap();
-    let reports = reports.into_inner().unwrap();
+    // The reports of a one-thread render with `caustics`, in order.
+    let reports_of = |caustics| {
+        let reports = Mutex::new(Vec::<Progress>::new());
+        let report = |p: Progress| reports.lock().unwrap().push(p);
+        let control = RenderControl { progress: Some(&report), ..RenderControl::default() };
+        let plan = RenderPlan::new(&scene, &RenderSettings { threads: Some(1), ..settings(16, caustics) });
+        render_controlled(&scene, &accel, &plan, control).unwrap();
+        reports.into_inner().unwrap()
+    };
+    let reports = reports_of(Caustics::Auto);
     let light: Vec<_> = reports.iter().take_while(|p| p.light_paths.is_some()).collect();
     // 64 x 48 x 16 / 4 = 12,288 paths: three chunks of 4,096.
     let traced: Vec<_> = light.iter().map(|p| p.light_paths.unwrap()).collect();
@@ -271,10 +275,5 @@ fn the_light_paths_report_their_progress_before_the_first_pixel() {
     let pixels = &reports[light.len()..];
     assert!(!pixels.is_empty() && pixels.iter().all(|p| p.light_paths.is_none() && p.round >= 1));
     // Without light paths there is no such report.
-    let reports = Mutex::new(Vec::<Progress>::new());
-    let report = |p: Progress| reports.lock().unwrap().push(p);
-    let control = RenderControl { progress: Some(&report), ..RenderControl::default() };
-    let plan = RenderPlan::new(&scene, &RenderSettings { threads: Some(1), ..settings(16, Caustics::Off) });
-    render_controlled(&scene, &accel, &plan, control).unwrap();
-    assert!(reports.into_inner().unwrap().iter().all(|p| p.light_paths.is_none()));
+    assert!(reports_of(Caustics::Off).iter().all(|p| p.light_paths.is_none()));
 }
