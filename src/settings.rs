@@ -172,6 +172,31 @@ impl fmt::Display for LightTreeMode {
     }
 }
 
+/// Whether diffuse vertices also sample toward where caustic light comes from (`--guiding`;
+/// `crate::integrator`'s `guide`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Guiding {
+    /// Wherever caustic light paths run (and light vertices do not).
+    #[default]
+    Auto,
+    /// BSDF sampling only.
+    Off,
+}
+
+impl Guiding {
+    pub const ALL: [Guiding; 2] = [Guiding::Auto, Guiding::Off];
+
+    /// The name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Guiding::Auto => "auto",
+            Guiding::Off => "off",
+        }
+    }
+}
+
+crate::choice::named_choice!(Guiding, "guiding setting");
+
 /// How the render loop advances its paths (`--path-loop`). Both compute the same image, bit
 /// for bit; they differ in speed (docs/performance.md, "Path loops").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -328,6 +353,8 @@ pub struct RenderSettings {
     pub caustics: Caustics,
     /// Whether many lights are chosen through a light tree.
     pub light_tree: LightTreeMode,
+    /// Whether diffuse vertices sample toward caustic light too.
+    pub guiding: Guiding,
     /// A sample clamp, as Cycles' (`--clamp`): a sample whose largest channel is above this is
     /// scaled down to it, its hue kept ([`clamp_sample`]). Biased: it removes fireflies by
     /// removing energy. `None`: no clamp.
@@ -402,6 +429,7 @@ impl Default for RenderSettings {
             light_vertices: LightVertices::Auto,
             caustics: Caustics::Auto,
             light_tree: LightTreeMode::Auto,
+            guiding: Guiding::Auto,
             clamp: None,
             path_loop: PathLoop::Scalar,
             bvh_quality: None,

@@ -127,7 +127,7 @@ pub(super) fn render(
             let n = CHUNK.min(paths - chunk * CHUNK);
             for s in 0..n {
                 let mut rng = streams.sample(s);
-                trace(ctx, emitters, &mut rng, &mut rays, &mut |film: Vec2, value: Vec3| {
+                let mut splat = |film: Vec2, value: Vec3| {
                     let value = value * share;
                     if !value.is_finite() {
                         return;
@@ -145,6 +145,9 @@ pub(super) fn render(
                             sums[i + c].fetch_add((v as f64 * LightSums::ONE).round() as i64, Ordering::Relaxed);
                         }
                     });
+                };
+                trace(ctx, emitters, &mut rng, &mut rays, &mut |sp, bsdf, to_light, beta, lens, rays| {
+                    connect(ctx, sp, bsdf, to_light, beta, lens, rays, &mut splat)
                 });
             }
             report(traced.fetch_add(n, Ordering::Relaxed) + n, traced_rays.fetch_add(rays, Ordering::Relaxed) + rays);
@@ -155,16 +158,21 @@ pub(super) fn render(
     Some(CausticImage { sums: LightSums(sums), rays, clamped })
 }
 
+/// What a light path does where it lands on a diffuse surface after a specular bounce: it is
+/// given the surface point, its BSDF, the unit direction toward the light it came from, its
+/// weight, a point drawn for the camera's lens, and the ray count.
+pub(super) type Land<'a> =
+    dyn FnMut(&super::surface::SurfacePoint, crate::material::Bsdf, Vec3, Vec3, Vec2, &mut u64) + 'a;
+
 /// One light path: from a light chosen by `emitters`, through specular bounces only; at each
-/// diffuse surface after the first bounce it connects to the camera, and
-/// `splat(film position in [0, 1)², value)` receives what it adds there if the connection is
-/// clear. Draws its numbers from `rng`; `rays` counts the rays it traced.
-fn trace(
+/// diffuse surface after the first bounce `land` is called (the render's connects it to the
+/// camera). Draws its numbers from `rng`; `rays` counts the rays it traced.
+pub(super) fn trace(
     ctx: &PathContext,
     emitters: &Emitters,
     rng: &mut SampleStream<'_>,
     rays: &mut u64,
-    splat: &mut dyn FnMut(Vec2, Vec3),
+    land: &mut Land,
 ) {
     let u_choice = rng.next_f32();
     let (u, v) = (rng.next_2d(), rng.next_2d());
@@ -188,7 +196,7 @@ fn trace(
         let mut bsdf = sp.material.bsdf_at::<true>(&sp.tex);
         let lens = rng.next_2d();
         if bounces > 0 && bsdf.is_lambertian() {
-            connect(ctx, &sp, bsdf, to_light, beta, lens, rays, splat);
+            land(&sp, bsdf, to_light, beta, lens, rays);
         }
         if bounces + 2 > ctx.path_depth {
             return; // a further bounce would leave the camera's path too long

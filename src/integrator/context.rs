@@ -29,4 +29,7 @@ pub struct PathContext<'a> {
     /// With [`super::RenderPlan::caustics`], the lights light paths start from: paths from the
     /// camera leave them the light they carry (see `super::caustic`).
     pub emitters: Option<&'a Emitters<'a>>,
+    /// Where diffuse vertices after the first bounce also sample toward caustic light
+    /// (`super::guide`); `None`: BSDF sampling only.
+    pub guide: Option<&'a super::guide::Guide>,
 }

@@ -6,6 +6,7 @@ pub mod adaptive;
 mod aux;
 mod caustic;
 mod context;
+mod guide;
 mod kernel;
 mod light_vertex;
 mod path;

@@ -3,6 +3,7 @@
 //! sampling, and Russian roulette.
 
 use super::context::PathContext;
+use super::guide::GUIDED;
 pub(crate) use super::light_vertex::ShadowQuery;
 use super::light_vertex::{self, PathVertex, SampleLightVertices};
 use super::surface::{surface_point, transmittance};
@@ -27,6 +28,7 @@ pub(crate) struct PathRules {
     use_nee: bool,
     uniform_diffuse: bool,
     mis: bool,
+    guide: bool,
     found: FoundEmission,
 }
 
@@ -41,6 +43,7 @@ impl PathRules {
             use_nee,
             uniform_diffuse: s.estimator == Estimator::BsdfUniform,
             mis,
+            guide: ctx.guide.is_some(),
             found: FoundEmission { use_nee, count: s.estimator != Estimator::NeeOnly, mis },
         }
     }
@@ -241,6 +244,14 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     let leave = if transmissive { sp.p } else { offset_ray_origin(sp.p, ng) };
     let origin = |toward: Vec3| if transmissive { offset_toward(sp.p, ng, toward) } else { leave };
     let beta = path.beta;
+    // Caustic guiding (`super::guide`) at a diffuse vertex after the first bounce: its
+    // directions are drawn from a mixture, which both its samples' weights and MIS use.
+    let guide =
+        if rules.guide && path.depth > 0 && bsdf.is_lambertian() { ctx.guide.and_then(|g| g.at(sp.p)) } else { None };
+    let mixed = |bsdf_pdf: f32, wi: Vec3| match guide {
+        Some(c) => (1.0 - GUIDED) * bsdf_pdf + GUIDED * c.pdf(wi),
+        None => bsdf_pdf,
+    };
 
     // Next-event estimation.
     let nee_here = rules.use_nee && !((GLOSSY || GLASS) && bsdf.is_delta());
@@ -277,7 +288,7 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
             } else if ls.delta || !rules.mis {
                 1.0
             } else {
-                power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l))
+                power_heuristic(ls.pdf, mixed(bsdf.pdf(wo_l, wi_l), ls.wi))
             };
             shadow.trace(&mut path.l, Ray::new(o, d), tmax, beta * f * ls.radiance * (w / ls.pdf));
         }
@@ -300,7 +311,22 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     }
 
     // Continue the path by sampling the BSDF.
-    let bs = if rules.uniform_diffuse && bsdf.is_lambertian() {
+    let bs = if let Some(cell) = guide {
+        let (pick, u) = (rng.next_f32(), rng.next_2d());
+        if pick < GUIDED {
+            let wi = cell.sample(pick / GUIDED, u);
+            let wi_l = frame.to_local(wi);
+            let f = bsdf.eval(wo_l, wi_l);
+            (f != Vec3::ZERO && wi_l.z > 0.0).then(|| BsdfSample {
+                wi: wi_l,
+                f,
+                pdf: mixed(bsdf.pdf(wo_l, wi_l), wi),
+                delta: false,
+            })
+        } else {
+            bsdf.sample(wo_l, u, 0.0).map(|b| BsdfSample { pdf: mixed(b.pdf, frame.to_world(b.wi)), ..b })
+        }
+    } else if rules.uniform_diffuse && bsdf.is_lambertian() {
         sample_uniform_hemisphere(&bsdf, wo_l, rng.next_2d())
     } else {
         // A lobe number only for BSDFs that choose between lobes.

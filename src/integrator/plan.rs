@@ -39,6 +39,8 @@ pub struct RenderPlan {
     pub light_vertices: bool,
     /// Light paths carry the caustics (`super::caustic`).
     pub caustics: bool,
+    /// Diffuse vertices sample toward caustic light too (`super::guide`).
+    pub guiding: bool,
     /// How the Embree BVH is built: the requested quality, else the one the geometry calls for
     /// ([`crate::accel::build_quality_for`]), robust unless told otherwise.
     pub bvh: BuildOptions,
@@ -110,6 +112,7 @@ impl RenderPlan {
         };
         let light_vertices = light_vertices_apply(&effects, settings, scene_depth).is_ok();
         let caustics = caustics_apply(&effects, settings, scene_depth).is_ok();
+        let guiding = guiding_apply(caustics, light_vertices, settings).is_ok();
         RenderPlan {
             settings: settings.clone(),
             effects,
@@ -119,6 +122,7 @@ impl RenderPlan {
             roulette_start,
             light_vertices,
             caustics,
+            guiding,
             bvh: BuildOptions {
                 kernels: settings.embree_kernels.unwrap_or_else(crate::embree::Kernels::widest),
                 ..build_options_with(geometry, settings.bvh_quality, settings.robust)
@@ -175,6 +179,7 @@ impl RenderPlan {
         ) + if s.adaptive { " adaptive=relmse-5x5" } else { "" }
             + if self.light_vertices { " light-vertices=pool-by-depth" } else { "" }
             + if self.caustics { " caustics=light-paths" } else { "" }
+            + if self.guiding { " guiding=caustic-cones" } else { "" }
             + &s.clamp.map_or(String::new(), |c| format!(" clamp={c}"))
             + if s.light_tree == crate::settings::LightTreeMode::Off { " light-tree=off" } else { "" }
     }
@@ -276,9 +281,24 @@ fn caustics_apply(effects: &Effects, s: &RenderSettings, scene_depth: u32) -> Re
     }
 }
 
+/// Whether diffuse vertices sample toward caustic light (`Ok`, with why) or not (`Err`, why
+/// not), given whether caustic light paths and light vertices run.
+fn guiding_apply(caustics: bool, light_vertices: bool, s: &RenderSettings) -> Result<&'static str, &'static str> {
+    if !caustics {
+        Err("no caustic light paths")
+    } else if s.guiding == crate::settings::Guiding::Off {
+        Err("--guiding off")
+    } else if light_vertices {
+        Err("with light vertices")
+    } else {
+        Ok("toward where the light paths landed")
+    }
+}
+
 /// `kernel: …; path depth N (why); russian roulette …` (and `; wavefront path loop` if so),
 /// then, where every light is a point light, `light vertices: on|off (why)`, and where the
-/// scene has mirrors or glass, `caustic light paths: on|off (why)`, each on a line of its own.
+/// scene has mirrors or glass, `caustic light paths: on|off (why)` and, where they run,
+/// `caustic guiding: on|off (why)`, each on a line of its own.
 impl fmt::Display for RenderPlan {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "kernel: {}; path depth {}; {}", self.kernel, self.depth_text(), self.roulette_text())?;
@@ -295,6 +315,12 @@ impl fmt::Display for RenderPlan {
             match caustics_apply(&self.effects, &self.settings, self.scene_depth) {
                 Ok(why) => write!(f, "\ncaustic light paths: on ({why})")?,
                 Err(why) => write!(f, "\ncaustic light paths: off ({why})")?,
+            }
+            if self.caustics {
+                match guiding_apply(self.caustics, self.light_vertices, &self.settings) {
+                    Ok(why) => write!(f, "\ncaustic guiding: on ({why})")?,
+                    Err(why) => write!(f, "\ncaustic guiding: off ({why})")?,
+                }
             }
         }
         Ok(())

@@ -206,6 +206,7 @@ pub(super) fn run(
         roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
         light_vertices: None,
         emitters: None,
+        guide: None,
     };
     let (w, h) = (settings.width, settings.height);
     let pool = plan
@@ -217,6 +218,17 @@ pub(super) fn run(
     // first round of a two-stage shard leaves them to its second stage).
     let emitters = if plan.caustics { lights.emitters(caustic::target(scene)) } else { None };
     ctx.emitters = emitters.as_ref();
+    let mut guide_rays = 0;
+    // The caustic guide, built alike by every render of the scene and seed (shards, resumed),
+    // unless no sample is left to take.
+    let guide = match (&emitters, caustic::target(scene)) {
+        (Some(e), Some(t)) if plan.guiding && !earlier.all_taken(settings.spp, owned) => {
+            super::guide::Guide::build(&ctx, e, t, &mut guide_rays)
+        }
+        _ => None,
+    };
+    accel.deferred_error()?;
+    ctx.guide = guide.as_ref();
     let (mut light_rays, mut clamped_splats) = (0, 0);
     if plan.caustics && earlier.film.light.is_none() {
         let c = match &emitters {
@@ -255,7 +267,7 @@ pub(super) fn run(
     let rounds = if control.first_round_only && settings.adaptive { 1 } else { plan.rounds() };
     let session = Session::new(&ctx, Kernel::for_plan(plan), plan, &control, &key, earlier, owned, start);
     session.rays.fetch_add(pool.as_ref().map_or(0, |p| p.rays), Ordering::Relaxed);
-    session.rays.fetch_add(light_rays, Ordering::Relaxed);
+    session.rays.fetch_add(light_rays + guide_rays, Ordering::Relaxed);
     session.clamped_splats.fetch_add(clamped_splats, Ordering::Relaxed);
     for round in 0..rounds {
         // An adaptive render plans its second round once the first is done everywhere (a
@@ -314,6 +326,16 @@ struct Earlier {
 }
 
 impl Earlier {
+    /// Whether every pixel `owned` has taken all its samples: `spp`, or in an adaptive render
+    /// the number its plan gave it (none has before the plan).
+    fn all_taken(&self, spp: u32, owned: Owned) -> bool {
+        let film = &self.film;
+        film.pixels.iter().enumerate().filter(|&(i, _)| owned.pixel(i)).all(|(i, p)| {
+            let target = film.adaptive.as_ref().map_or(spp, |a| a[i].target);
+            target > 0 && p.count >= target
+        })
+    }
+
     fn of(
         plan: &RenderPlan,
         resume: Option<(&Path, Checkpoint)>,

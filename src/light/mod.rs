@@ -26,6 +26,7 @@ pub use background::Background;
 pub use emission::{Emission, Emitters};
 pub use environment::Environment;
 pub use point::PointLight;
+pub(crate) use sphere::sample_cone;
 
 use crate::geometry::{Geometry, bounds_of};
 use crate::hash::Fingerprint;

@@ -139,7 +139,7 @@ fn sample_sphere(s: &Sphere, p: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
 
 /// A direction uniform in the cone about the unit `axis` whose 1 − cos of its half-angle is
 /// `one_minus_cos`, for `u` in [0, 1)² (density 1 / (2π · one_minus_cos)).
-pub(super) fn sample_cone(axis: Vec3, one_minus_cos: f32, u: Vec2) -> Vec3 {
+pub(crate) fn sample_cone(axis: Vec3, one_minus_cos: f32, u: Vec2) -> Vec3 {
     let cos_t = 1.0 - u.x * one_minus_cos;
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;

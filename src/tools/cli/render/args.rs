@@ -7,7 +7,7 @@ use crate::integrator::adaptive;
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
 use crate::scene::{CameraOverride, Orbit, Scene};
 use crate::settings::{
-    Caustics, Estimator, LightTreeMode, LightVertices, PathLoop, RenderSettings, RrDepth, SamplerKind, Shard,
+    Caustics, Estimator, Guiding, LightTreeMode, LightVertices, PathLoop, RenderSettings, RrDepth, SamplerKind, Shard,
 };
 use clap::Args;
 use glam::Vec3;
@@ -57,6 +57,12 @@ pub struct RenderArgs {
     /// lights or an emitting mesh of many triangles) or off (by power); unbiased either way.
     #[arg(long, default_value = "auto")]
     pub light_tree: LightTreeMode,
+    /// Where light seen through mirrors or glass lands on a diffuse surface (the floor under a
+    /// glass object, seen through it), sample the next direction toward where that light came
+    /// from as well as by the surface's BSDF: auto (wherever caustic light paths run, which
+    /// find those places) or off; unbiased either way.
+    #[arg(long, default_value = "auto")]
+    pub guiding: Guiding,
     /// Worker threads [all cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub threads: Option<u32>,
@@ -409,6 +415,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         light_vertices: args.light_vertices.unwrap_or(s.light_vertices),
         caustics: args.caustics.unwrap_or(s.caustics),
         light_tree: args.light_tree,
+        guiding: args.guiding,
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
         clamp: args.clamp,
         path_loop: args.path_loop,
