@@ -89,6 +89,10 @@ impl OutputLock {
                 },
                 Err(e) => return Err(io(e.to_string())),
             };
+            // A file this process made is removed by a signal that quits from here on (it is
+            // unregistered, not removed, if this attempt fails): registered only once locked,
+            // a signal in between left it behind.
+            let made = created.then(|| register_live(&path));
             let meta = file.metadata().map_err(|e| io(e.to_string()))?;
             if !meta.is_file() {
                 return Err(io("is not a regular file".into()));
@@ -98,6 +102,8 @@ impl OutputLock {
                 // A file this process has just made, opened by another one in between: that
                 // one finds it empty and lets go (below).
                 Err(std::fs::TryLockError::WouldBlock) if created => {
+                    // Unregistered first: once removed, the name may be another's lock file.
+                    drop(made);
                     drop(file);
                     let _ = std::fs::remove_file(&path);
                     std::thread::sleep(std::time::Duration::from_millis(5));
@@ -130,7 +136,7 @@ impl OutputLock {
             // The render that held it may have removed the file between our open and our
             // lock (and another may have made a new one): then this lock guards nothing.
             if names(&path, id) {
-                let live = register_live(&path);
+                let live = made.unwrap_or_else(|| register_live(&path));
                 return Ok(OutputLock { path, id, _file: file, _live: live });
             }
         }
