@@ -150,7 +150,7 @@ fn guiding_lowers_the_noise_of_the_floor_seen_through_the_glass() {
     // the ball too: light no light path carries, which a path from the camera finds only when
     // its sample at the floor goes back through the ball to the lamp. Guided, it goes there
     // half the time. 4 seeds at 128 spp against a 4096-spp render, whole image: measured
-    // 0.0184 guided against 0.0290 (0.63×; the ball's pixels hold most of the error).
+    // 0.0187 guided against 0.0290 (0.64×; the ball's pixels hold most of the error).
     let scene = balls("guiding.toml", QUAD_LAMP, PINHOLE);
     let with = |spp, seed, guiding| RenderSettings { seed, guiding, ..settings(spp, Caustics::Auto) };
     let (reference, stats) = common::render_embree(&scene, &with(4096, 7, Guiding::Off));

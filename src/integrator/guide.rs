@@ -9,18 +9,27 @@
 //! floor happens to go back through the glass to the lamp. Jensen's importance-driven path
 //! tracing ("Importance driven path tracing using the photon map", 1995) makes that likely: a
 //! small pass of light paths records where they land and from which direction; at a diffuse
-//! vertex (after the camera's first bounce), the path draws its direction with probability
-//! [`GUIDED`] from a narrow cone about the direction of one of the records near it, else from
-//! its BSDF, and weighs it by the mixture's density, so the estimate stays unbiased.
-//! Next-event estimation's weights use the same density.
+//! vertex (after the camera's first bounce), the path draws its direction from a narrow cone
+//! about the direction of one of the records near it, else from its BSDF, and weighs it by the
+//! mixture's density, so the estimate stays unbiased. Next-event estimation's weights use the
+//! same density.
+//!
+//! How often a cell's vertices draw toward its records follows how much of the light there
+//! the caustic is: [`GUIDED`] × the caustic's irradiance (the flux of the pass's paths that
+//! landed in the cell, over a cell's face) / (that + the direct irradiance at a few of its
+//! landings, by light samples with shadow rays). Under a glass object, in its shadow, the
+//! caustic is most of the light; on a wall that a convex mirror throws a faint, spread
+//! reflection of the lamp onto, little of it, and the BSDF keeps the samples the rest of the
+//! light needs.
 //!
 //! The records come from their own pass of light paths ([`chunks`]) (fixed chunks, each a Sobol
-//! sequence of its own keyed by the seed), binned in a grid of cells: every render of a scene
-//! and seed builds the same guide, whatever its thread count, shard or resumption.
+//! sequence of its own keyed by the seed), binned in a grid of cells, and the direct light is
+//! sampled cell by cell in the cells' order: every render of a scene and seed builds the same
+//! guide, whatever its thread count, shard or resumption.
 
 use super::caustic::{self, CHUNK};
 use super::context::PathContext;
-use crate::geometry::Sphere;
+use crate::geometry::{Ray, Sphere, offset_ray_origin, offset_toward};
 use crate::light::{Emitters, sample_cone};
 use crate::sampler::{PixelSampler, mix64};
 use glam::{Vec2, Vec3};
@@ -34,7 +43,7 @@ const MOST_PATHS: u64 = 64 * CHUNK;
 /// Samples the render plans per light path of the guide's pass (below [`MOST_PATHS`]).
 const SAMPLES_PER_PATH: u64 = 16;
 
-/// The share of a guided vertex's directions drawn toward the records.
+/// The most of a vertex's directions a cell draws toward its records.
 pub(super) const GUIDED: f32 = 0.5;
 
 /// 1 − cos of the half-angle of the cone about a record's direction: 1 − cos 15°.
@@ -61,13 +70,57 @@ fn chunks(width: u32, height: u32, spp: u32) -> u64 {
 pub(crate) struct Guide {
     origin: Vec3,
     inv_cell: f32,
-    cells: FxHashMap<[i32; 3], (u32, u32)>,
+    /// A cell's records (a range of `dirs`) and its guided share.
+    cells: FxHashMap<[i32; 3], (u32, u32, f32)>,
     dirs: Vec<Vec3>,
 }
 
-/// The records of one cell.
+/// The records of one cell, and the share of a vertex's directions drawn toward them.
 #[derive(Clone, Copy)]
-pub(crate) struct Cell<'a>(&'a [Vec3]);
+pub(crate) struct Cell<'a>(&'a [Vec3], f32);
+
+/// Where a light path of the guide's pass landed: the point, the surface's normal on the side
+/// the light came from, the unit direction toward the light, and the path's flux (mean of its
+/// channels).
+#[derive(Clone, Copy)]
+struct Landing {
+    p: Vec3,
+    n: Vec3,
+    to_light: Vec3,
+    flux: f32,
+}
+
+/// Landings of a cell whose direct irradiance is measured.
+const PROBED: usize = 8;
+
+/// The mean irradiance the lights give directly (shadow rays traced; the sky included) at the
+/// first [`PROBED`] of `landings`, cell `cell` of the guide, by one light sample each; `rays`
+/// counts the shadow rays.
+fn direct_irradiance(ctx: &PathContext, key: u64, cell: usize, landings: &[Landing], rays: &mut u64) -> f32 {
+    let streams = PixelSampler::new(ctx.settings.sampler, mix64(key ^ 0x6469_7265_6374), cell as u64); // "direct"
+    let probed = &landings[..landings.len().min(PROBED)];
+    let mut sum = 0.0;
+    for (s, l) in probed.iter().enumerate() {
+        let mut rng = streams.sample(s as u64);
+        let (uc, u) = (rng.next_f32(), rng.next_2d());
+        let choice = ctx.lights.choice_at(l.p).facing(l.n);
+        let Some(ls) = ctx.lights.sample(&choice, l.p, uc, u) else { continue };
+        let cos = ls.wi.dot(l.n);
+        if !(cos > 0.0 && ls.pdf > 0.0) {
+            continue;
+        }
+        let o = offset_ray_origin(l.p, l.n);
+        let (d, tmax) = match ls.point {
+            Some(q) => (if ls.delta { q } else { offset_toward(q, ls.normal, o - q) } - o, 1.0),
+            None => (ls.wi, f32::INFINITY),
+        };
+        *rays += 1;
+        if !ctx.accel.occluded_deferred(&Ray::new(o, d), 0.0, tmax) {
+            sum += (ls.radiance.element_sum() / 3.0 * cos / ls.pdf) as f64;
+        }
+    }
+    (sum / probed.len().max(1) as f64) as f32
+}
 
 impl Guide {
     /// The guide of `ctx`'s scene: the landings of a pass of light paths from `emitters` toward
@@ -75,48 +128,70 @@ impl Guide {
     /// it traced to `rays`.
     pub(super) fn build(ctx: &PathContext, emitters: &Emitters, target: Sphere, rays: &mut u64) -> Option<Guide> {
         let key = mix64(ctx.settings.seed ^ 0x6775_6964_6573); // "guides"
-        let chunks: Vec<(Vec<(Vec3, Vec3)>, u64)> =
-            (0..chunks(ctx.settings.width, ctx.settings.height, ctx.settings.spp))
-                .into_par_iter()
-                .map(|chunk| {
-                    let streams = PixelSampler::new(ctx.settings.sampler, key, chunk);
-                    let (mut landed, mut rays) = (Vec::new(), 0);
-                    for s in 0..CHUNK {
-                        let mut rng = streams.sample(s);
-                        caustic::trace(ctx, emitters, &mut rng, &mut rays, &mut |sp, _, to_light, beta, _, _| {
-                            if beta.max_element() > 0.0 {
-                                landed.push((sp.p, to_light));
-                            }
-                        });
-                    }
-                    (landed, rays)
-                })
-                .collect();
+        let chunks: Vec<(Vec<Landing>, u64)> = (0..chunks(ctx.settings.width, ctx.settings.height, ctx.settings.spp))
+            .into_par_iter()
+            .map(|chunk| {
+                let streams = PixelSampler::new(ctx.settings.sampler, key, chunk);
+                let (mut landed, mut rays) = (Vec::new(), 0);
+                for s in 0..CHUNK {
+                    let mut rng = streams.sample(s);
+                    caustic::trace(ctx, emitters, &mut rng, &mut rays, &mut |sp, _, to_light, beta, _, _| {
+                        let flux = beta.element_sum() / 3.0;
+                        if flux > 0.0 && flux.is_finite() {
+                            let n = if sp.ng.dot(to_light) < 0.0 { -sp.ng } else { sp.ng };
+                            landed.push(Landing { p: sp.p, n, to_light, flux });
+                        }
+                    });
+                }
+                (landed, rays)
+            })
+            .collect();
         *rays += chunks.iter().map(|c| c.1).sum::<u64>();
-        Guide::of(chunks.into_iter().flat_map(|c| c.0), target)
+        let paths = chunks.len() as u64 * CHUNK;
+        let direct = |i: usize, at: &[Landing]| direct_irradiance(ctx, key, i, at, rays);
+        Guide::of(chunks.into_iter().flat_map(|c| c.0), target, paths, direct)
     }
 
-    /// The guide of the landings `landed` (where, and the unit direction toward the light), in
-    /// cells of [`CELLS_PER_RADIUS`] per radius of `target`; `None` if no cell has
-    /// [`FEWEST`] of them.
-    fn of(landed: impl Iterator<Item = (Vec3, Vec3)>, target: Sphere) -> Option<Guide> {
+    /// The guide of the landings `landed` of `paths` light paths, in cells of
+    /// [`CELLS_PER_RADIUS`] per radius of `target`; `direct(i, landings)` is the mean direct
+    /// irradiance at a cell's first landings (cell `i` in the guide's order). A cell's guided
+    /// share is [`GUIDED`] × its caustic irradiance / (that + the direct irradiance there): where
+    /// the caustic is a small part of the light, its samples go to the rest. `None` if no cell
+    /// has [`FEWEST`] landings.
+    fn of(
+        landed: impl Iterator<Item = Landing>,
+        target: Sphere,
+        paths: u64,
+        mut direct: impl FnMut(usize, &[Landing]) -> f32,
+    ) -> Option<Guide> {
         let (origin, inv_cell) = (target.center, CELLS_PER_RADIUS / target.radius);
-        let mut binned: HashMap<[i32; 3], Vec<Vec3>> = HashMap::new();
-        for (p, d) in landed {
-            let Some(k) = cell_of(p, origin, inv_cell) else { continue };
-            let v = binned.entry(k).or_default();
+        // Each cell's first MOST landings, and the flux of all that landed in it.
+        let mut binned: HashMap<[i32; 3], (Vec<Landing>, f64)> = HashMap::new();
+        for l in landed {
+            let Some(k) = cell_of(l.p, origin, inv_cell) else { continue };
+            let (v, flux) = binned.entry(k).or_default();
+            *flux += l.flux as f64;
             if v.len() < MOST {
-                v.push(d);
+                v.push(l);
             }
         }
         // In the order of their keys: the same guide whatever the hash map's order.
-        let mut keys: Vec<[i32; 3]> = binned.iter().filter(|(_, v)| v.len() >= FEWEST).map(|(k, _)| *k).collect();
+        let mut keys: Vec<[i32; 3]> = binned.iter().filter(|(_, v)| v.0.len() >= FEWEST).map(|(k, _)| *k).collect();
         keys.sort_unstable();
+        // The caustic's irradiance in a cell: the flux that landed there over the area of a
+        // surface across it (a cell's face).
+        let area = (1.0 / inv_cell as f64).powi(2) * paths.max(1) as f64;
         let (mut cells, mut dirs) = (FxHashMap::default(), Vec::new());
-        for k in keys {
+        for (i, k) in keys.into_iter().enumerate() {
+            let (landings, flux) = &binned[&k];
+            let caustic = (flux / area) as f32;
+            let share = GUIDED * caustic / (caustic + direct(i, landings).max(0.0));
+            if !(share > 0.0) {
+                continue;
+            }
             let start = dirs.len() as u32;
-            dirs.extend_from_slice(&binned[&k]);
-            cells.insert(k, (start, dirs.len() as u32));
+            dirs.extend(landings.iter().map(|l| l.to_light));
+            cells.insert(k, (start, dirs.len() as u32, share));
         }
         (!dirs.is_empty()).then_some(Guide { origin, inv_cell, cells, dirs })
     }
@@ -124,8 +199,8 @@ impl Guide {
     /// The records of the cell around `p`, if it guides.
     #[inline]
     pub(crate) fn at(&self, p: Vec3) -> Option<Cell<'_>> {
-        let &(a, b) = self.cells.get(&cell_of(p, self.origin, self.inv_cell)?)?;
-        Some(Cell(&self.dirs[a as usize..b as usize]))
+        let &(a, b, share) = self.cells.get(&cell_of(p, self.origin, self.inv_cell)?)?;
+        Some(Cell(&self.dirs[a as usize..b as usize], share))
     }
 }
 
@@ -138,6 +213,12 @@ fn cell_of(p: Vec3, origin: Vec3, inv_cell: f32) -> Option<[i32; 3]> {
 }
 
 impl Cell<'_> {
+    /// The share of a vertex's directions drawn toward the records (at most [`GUIDED`]).
+    #[inline]
+    pub(crate) fn share(&self) -> f32 {
+        self.1
+    }
+
     /// The density of [`Cell::sample`] at the unit direction `wi` (solid angle).
     #[inline]
     pub(crate) fn pdf(&self, wi: Vec3) -> f32 {
@@ -174,7 +255,7 @@ mod tests {
     fn a_cells_density_integrates_to_one_and_its_samples_lie_where_it_is_positive() {
         // Two cones that overlap (19° apart), a third apart.
         let overlapping = [Vec3::Y, Vec3::new(0.3, 0.9, 0.1).normalize(), Vec3::new(0.0, 0.2, -1.0).normalize()];
-        let cell = Cell(&overlapping);
+        let cell = Cell(&overlapping, GUIDED);
         // ∫ pdf over the sphere by 4M uniform directions: 1 within 1%.
         let n = 4_000_000;
         let integral: f64 = directions(n).map(|w| cell.pdf(w) as f64).sum::<f64>() * 4.0 * PI as f64 / n as f64;
@@ -182,7 +263,7 @@ mod tests {
         // Every sample has a density, at least one cone's share; each record is picked as often
         // (cones 37° and more apart).
         let records = [Vec3::Y, Vec3::new(0.6, 0.8, 0.0), Vec3::new(0.0, 0.2, -1.0).normalize()];
-        let cell = Cell(&records);
+        let cell = Cell(&records, GUIDED);
         let mut picked = [0; 3];
         for (i, u) in directions(3000).enumerate() {
             let pick = (i as f32 + 0.5) / 3000.0;
@@ -194,26 +275,51 @@ mod tests {
         assert_eq!(picked, [1000; 3]);
     }
 
+    /// A landing at `p` from `to_light` carrying flux 1, on a floor.
+    fn at(p: Vec3, to_light: Vec3) -> Landing {
+        Landing { p, n: Vec3::Y, to_light, flux: 1.0 }
+    }
+
     #[test]
     fn landings_are_binned_by_cell_and_sparse_cells_do_not_guide() {
         let target = Sphere::new(Vec3::ZERO, 1.6); // cells 0.1 wide
         let up = Vec3::Y;
         let landed = vec![
-            (Vec3::new(0.01, 0.0, 0.01), up),
-            (Vec3::new(0.09, 0.0, 0.05), Vec3::X),
-            (Vec3::new(0.55, 0.0, 0.55), up), // alone in its cell
+            at(Vec3::new(0.01, 0.0, 0.01), up),
+            at(Vec3::new(0.09, 0.0, 0.05), Vec3::X),
+            at(Vec3::new(0.55, 0.0, 0.55), up), // alone in its cell
         ];
-        let guide = Guide::of(landed.into_iter(), target).unwrap();
+        let unlit = |_: usize, _: &[Landing]| 0.0;
+        let guide = Guide::of(landed.into_iter(), target, 1, unlit).unwrap();
         let cell = guide.at(Vec3::new(0.05, 0.05, 0.05)).expect("the cell of two landings guides");
         assert_eq!(cell.0, &[up, Vec3::X]);
         assert!(guide.at(Vec3::new(0.55, 0.0, 0.55)).is_none(), "one landing is too few");
         assert!(guide.at(Vec3::new(-0.05, 0.0, 0.05)).is_none(), "a neighbouring cell has none");
         assert!(guide.at(Vec3::splat(f32::INFINITY)).is_none() && guide.at(Vec3::NAN).is_none());
         // No cell with enough landings: no guide.
-        assert!(Guide::of([(Vec3::ZERO, up)].into_iter(), target).is_none());
+        assert!(Guide::of([at(Vec3::ZERO, up)].into_iter(), target, 1, unlit).is_none());
         // A cell keeps its first MOST landings.
-        let many = (0..MOST + 10).map(|i| (Vec3::splat(0.05), if i < MOST { up } else { Vec3::X }));
-        assert!(Guide::of(many, target).unwrap().at(Vec3::splat(0.05)).unwrap().0.iter().all(|d| *d == up));
+        let many = (0..MOST + 10).map(|i| at(Vec3::splat(0.05), if i < MOST { up } else { Vec3::X }));
+        assert!(Guide::of(many, target, 1, unlit).unwrap().at(Vec3::splat(0.05)).unwrap().0.iter().all(|d| *d == up));
+    }
+
+    #[test]
+    fn a_cell_guides_by_the_share_of_its_light_the_caustic_gives() {
+        let target = Sphere::new(Vec3::ZERO, 1.6); // cells 0.1 wide: 0.01 of area
+        // 4 landings of flux 1 of 100 paths: caustic irradiance 4 / (100 · 0.01) = 4.
+        let landed = || (0..4).map(|_| at(Vec3::splat(0.05), Vec3::Y));
+        let share = |direct: f32| {
+            let guide = Guide::of(landed(), target, 100, |_, l: &[Landing]| {
+                assert_eq!(l.len(), 4);
+                direct
+            });
+            guide.and_then(|g| g.at(Vec3::splat(0.05)).map(|c| c.share()))
+        };
+        assert_eq!(share(0.0), Some(GUIDED), "in the dark the caustic is all the light");
+        assert!((share(4.0).unwrap() - GUIDED / 2.0).abs() < 1e-6);
+        assert!((share(36.0).unwrap() - GUIDED / 10.0).abs() < 1e-6);
+        // Where the direct light cannot be measured (not finite), the cell does not guide.
+        assert_eq!(share(f32::INFINITY), None);
     }
 
     #[test]

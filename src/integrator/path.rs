@@ -3,7 +3,6 @@
 //! sampling, and Russian roulette.
 
 use super::context::PathContext;
-use super::guide::GUIDED;
 pub(crate) use super::light_vertex::ShadowQuery;
 use super::light_vertex::{self, PathVertex, SampleLightVertices};
 use super::surface::{surface_point, transmittance};
@@ -249,7 +248,7 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     let guide =
         if rules.guide && path.depth > 0 && bsdf.is_lambertian() { ctx.guide.and_then(|g| g.at(sp.p)) } else { None };
     let mixed = |bsdf_pdf: f32, wi: Vec3| match guide {
-        Some(c) => (1.0 - GUIDED) * bsdf_pdf + GUIDED * c.pdf(wi),
+        Some(c) => (1.0 - c.share()) * bsdf_pdf + c.share() * c.pdf(wi),
         None => bsdf_pdf,
     };
 
@@ -313,8 +312,8 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     // Continue the path by sampling the BSDF.
     let bs = if let Some(cell) = guide {
         let (pick, u) = (rng.next_f32(), rng.next_2d());
-        if pick < GUIDED {
-            let wi = cell.sample(pick / GUIDED, u);
+        if pick < cell.share() {
+            let wi = cell.sample(pick / cell.share(), u);
             let wi_l = frame.to_local(wi);
             let f = bsdf.eval(wo_l, wi_l);
             (f != Vec3::ZERO && wi_l.z > 0.0).then(|| BsdfSample {
