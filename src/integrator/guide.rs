@@ -29,7 +29,7 @@
 
 use super::caustic::{self, CHUNK};
 use super::context::PathContext;
-use crate::geometry::{Ray, Sphere, offset_ray_origin, offset_toward};
+use crate::geometry::{Sphere, offset_ray_origin};
 use crate::light::{Emitters, sample_cone};
 use crate::sampler::{PixelSampler, mix64};
 use glam::{Vec2, Vec3};
@@ -109,13 +109,9 @@ fn direct_irradiance(ctx: &PathContext, key: u64, cell: usize, landings: &[Landi
         if !(cos > 0.0 && ls.pdf > 0.0) {
             continue;
         }
-        let o = offset_ray_origin(l.p, l.n);
-        let (d, tmax) = match ls.point {
-            Some(q) => (if ls.delta { q } else { offset_toward(q, ls.normal, o - q) } - o, 1.0),
-            None => (ls.wi, f32::INFINITY),
-        };
+        let (ray, tmax) = ls.shadow_ray(offset_ray_origin(l.p, l.n));
         *rays += 1;
-        if !ctx.accel.occluded_deferred(&Ray::new(o, d), 0.0, tmax) {
+        if !ctx.accel.occluded_deferred(&ray, 0.0, tmax) {
             sum += (ls.radiance.element_sum() / 3.0 * cos / ls.pdf) as f64;
         }
     }

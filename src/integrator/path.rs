@@ -27,7 +27,6 @@ pub(crate) struct PathRules {
     use_nee: bool,
     uniform_diffuse: bool,
     mis: bool,
-    guide: bool,
     found: FoundEmission,
 }
 
@@ -42,7 +41,6 @@ impl PathRules {
             use_nee,
             uniform_diffuse: s.estimator == Estimator::BsdfUniform,
             mis,
-            guide: ctx.guide.is_some(),
             found: FoundEmission { use_nee, count: s.estimator != Estimator::NeeOnly, mis },
         }
     }
@@ -245,8 +243,7 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     let beta = path.beta;
     // Caustic guiding (`super::guide`) at a diffuse vertex after the first bounce: its
     // directions are drawn from a mixture, which both its samples' weights and MIS use.
-    let guide =
-        if rules.guide && path.depth > 0 && bsdf.is_lambertian() { ctx.guide.and_then(|g| g.at(sp.p)) } else { None };
+    let guide = ctx.guide.filter(|_| path.depth > 0 && bsdf.is_lambertian()).and_then(|g| g.at(sp.p));
     let mixed = |bsdf_pdf: f32, wi: Vec3| match guide {
         Some(c) => (1.0 - c.share()) * bsdf_pdf + c.share() * c.pdf(wi),
         None => bsdf_pdf,
@@ -271,16 +268,7 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
         let side = ls.wi.dot(ng);
         let f = if lambert { bsdf.eval_lambert(wo_l, wi_l) } else { bsdf.eval(wo_l, wi_l) } * wi_l.z.abs();
         if f != Vec3::ZERO && ls.radiance != Vec3::ZERO && (transmissive || side > 0.0) {
-            let o = origin(ls.wi);
-            let (d, tmax) = match ls.point {
-                // Toward a point on a light: stop just short of it (the light's own
-                // surface is not an occluder), measured in units of the full segment.
-                Some(q) => {
-                    let q = if ls.delta { q } else { offset_toward(q, ls.normal, o - q) };
-                    (q - o, 1.0)
-                }
-                None => (ls.wi, f32::INFINITY),
-            };
+            let (ray, tmax) = ls.shadow_ray(origin(ls.wi));
             let w = if ls.delta && ctx.light_vertices.is_some() && !path.specular {
                 // After a bounce: against the light vertex the last vertex connected to.
                 light_vertex::nee_weight(ctx.lights, &ls, sp.p, ng, path.prev_p, path.prev_pdf)
@@ -289,7 +277,7 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
             } else {
                 power_heuristic(ls.pdf, mixed(bsdf.pdf(wo_l, wi_l), ls.wi))
             };
-            shadow.trace(&mut path.l, Ray::new(o, d), tmax, beta * f * ls.radiance * (w / ls.pdf));
+            shadow.trace(&mut path.l, ray, tmax, beta * f * ls.radiance * (w / ls.pdf));
         }
     }
 

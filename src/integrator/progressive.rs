@@ -216,12 +216,13 @@ pub(super) fn run(
     ctx.light_vertices = pool.as_ref();
     // The caustics' light paths, before the first pixel (a checkpoint has them already; the
     // first round of a two-stage shard leaves them to its second stage).
-    let emitters = if plan.caustics { lights.emitters(caustic::target(scene)) } else { None };
+    let target = if plan.caustics { caustic::target(scene) } else { None };
+    let emitters = if plan.caustics { lights.emitters(target) } else { None };
     ctx.emitters = emitters.as_ref();
     let mut guide_rays = 0;
     // The caustic guide, built alike by every render of the scene and seed (shards, resumed),
     // unless no sample is left to take.
-    let guide = match (&emitters, caustic::target(scene)) {
+    let guide = match (&emitters, target) {
         (Some(e), Some(t)) if plan.guiding && !earlier.all_taken(settings.spp, owned) => {
             super::guide::Guide::build(&ctx, e, t, &mut guide_rays)
         }

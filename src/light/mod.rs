@@ -102,6 +102,22 @@ pub struct LightSample {
     pub light: u32,
 }
 
+impl LightSample {
+    /// The shadow ray from `o` toward this sample, and how far along it to look: toward a
+    /// point on a light, stopping just short of it (the light's own surface is not an
+    /// occluder), in units of the whole segment; toward the background, without end.
+    #[inline(always)]
+    pub fn shadow_ray(&self, o: Vec3) -> (crate::geometry::Ray, f32) {
+        match self.point {
+            Some(q) => {
+                let q = if self.delta { q } else { crate::geometry::offset_toward(q, self.normal, o - q) };
+                (crate::geometry::Ray::new(o, q - o), 1.0)
+            }
+            None => (crate::geometry::Ray::new(o, self.wi), f32::INFINITY),
+        }
+    }
+}
+
 /// A point light chosen to emit from (see [`LightSet::choose_point_by_power`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointEmission {
