@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""The broad matched suite of issue 37: ember against Mitsuba 3 (llvm_ad_rgb) on six scenes.
+"""The broad matched suite of issue 37: ember against Mitsuba 3 (llvm_ad_rgb) on seven scenes.
 
-Six scenes, each written by this script into $SCRATCH/scenes twice: as an ember TOML file and as
+Seven scenes, each written by this script into $SCRATCH/scenes twice: as an ember TOML file and as
 a Mitsuba scene dict (built from one description, `scene_spec`, so both get the same numbers):
   diffuse   the Stanford bunny (scenes/bunny.obj, 69,451 triangles, flat shaded, scaled x10 and
             set on the ground) of diffuse colour (0.7, 0.55, 0.4) on a 20x20 ground quad (0.5)
@@ -14,6 +14,10 @@ a Mitsuba scene dict (built from one description, `scene_spec`, so both get the 
             1,111,216 triangles, written as binary PLY) on a ground quad under scenes/sky.exr only
   textured  a UV sphere (OBJ with v/vt/vn, 128x64 segments, smooth normals) with scenes/earthmap.jpg
             (sRGB) on the ground quad, area light and constant sky as in `diffuse`
+  interior  the diffuse bunny in a closed 5x3x5 room of quads (walls 0.7, floor 0.5) lit only
+            through a 2x1.4 window: by the constant sky (1.0) and a 1x1 'sun' quad outside
+            (radiance 600) that throws a patch of light on the floor; almost all of the light the
+            camera sees has bounced (`interior_spec`)
 Material and light mapping (ember -> Mitsuba), chosen to be exact where it can be:
   diffuse            -> twosided(diffuse)     (ember's opaque surfaces are two-sided)
   metal, colour 1    -> twosided(roughconductor ggx, alpha, material "none", i.e. Fresnel 1);
@@ -54,12 +58,12 @@ Setup (Debian 12, Python 3.11):
     apt-get install -y libllvm19 time
     python3 -m venv /work/venvs/mitsuba && /work/venvs/mitsuba/bin/pip install mitsuba==3.9.1 \\
         drjit pillow numpy OpenEXR trimesh
-Command, from the repository root (18 min on 2 idle cores, 2026-12-05; REF_SPP_SCAN=256 saves ~2 min):
+Command, from the repository root (about 30 min on 2 idle cores; REF_SPP_SCAN=256 saves ~2 min):
     SCRATCH=/tmp/peers/broad EMBER=/work/baseline/ember EMBER_OLD=/work/baseline/ember \\
         /work/venvs/mitsuba/bin/python scripts/peers/broad_suite.py setup warmup refs timing analyze
 Phases: setup (scene files and meshes), warmup (untimed), refs, timing, analyze (any subset, in
 order; a rerun may skip refs). Environment: SCRATCH (${TMPDIR:-/tmp}/peers/broad), EMBER
-(target/release/ember), EMBER_OLD, SCENES (all six), SIZE (512), SPP (64), REF_SPP (1024),
+(target/release/ember), EMBER_OLD, SCENES (all seven), SIZE (512), SPP (64), REF_SPP (1024),
 REF_SPP_SCAN (REF_SPP: scan_env's reference), ROUNDS (3), IDLE_MAX_S (60), PEERS_DIR, MITSUBA_PYTHON (this python).
 Results: $SCRATCH/results/broad_suite.md and broad_suite.csv; side-by-side PNGs of the references
 in $SCRATCH/results/img/ (ember left, Mitsuba right, same exposure, sRGB).
@@ -105,7 +109,7 @@ ROUNDS = int(os.environ.get("ROUNDS", "3"))
 THREADS = 2
 DEPTH = 8                      # ember --max-depth; Mitsuba max_depth DEPTH + 1 (set by ca.mitsuba_child)
 MI_RR_DEPTH = 5                # Mitsuba's default
-ALL_SCENES = ["diffuse", "metal", "glass", "mirror", "scan_env", "textured"]
+ALL_SCENES = ["diffuse", "metal", "glass", "mirror", "scan_env", "textured", "interior"]
 SCENES = os.environ.get("SCENES", " ".join(ALL_SCENES)).split()
 CONFIGS = ["ember", "mitsuba"] + (["ember_old"] if EMBER_OLD else [])
 LABEL = {"ember": "ember (EMBER)", "ember_old": "ember (EMBER_OLD)",
@@ -156,11 +160,40 @@ def scene_spec(name):
         sky = {"type": "image", "file": SKY_EXR, "strength": 1.0, "rotate": 160.0}
         del mats["light"]
         light = None
+    elif name == "interior":
+        return interior_spec(mesh)
     elif name != "diffuse":
         raise SystemExit(f"unknown scene {name}")
     mats["object"] = obj
     return {"camera": camera, "background": sky, "materials": mats, "meshes": [mesh],
             "quads": [ground] + ([light] if light else [])}
+
+
+def interior_spec(mesh):
+    """A closed room (5 x 3 x 5, walls 0.7, floor 0.5) lit only through a window in its -x wall:
+    by the constant sky (1.0) and by a 1x1 "sun" quad outside (radiance 600, facing +x) whose light
+    falls through the window onto the floor beside the bunny. Almost all light is indirect."""
+    def quad(corner, e1, e2, material):
+        return {"corner": corner, "edge1": e1, "edge2": e2, "material": material}
+    W, H = 2.5, 3.0                          # half width, height
+    z0, z1, y0, y1 = -1.0, 1.0, 0.8, 2.2     # the window in the wall x = -W
+    quads = [quad([-W, 0.0, -W], [0.0, 0.0, 2 * W], [2 * W, 0.0, 0.0], "ground"),         # floor
+             quad([-W, H, -W], [2 * W, 0.0, 0.0], [0.0, 0.0, 2 * W], "wall"),              # ceiling
+             quad([-W, 0.0, -W], [2 * W, 0.0, 0.0], [0.0, H, 0.0], "wall"),                # z = -W
+             quad([-W, 0.0, W], [0.0, H, 0.0], [2 * W, 0.0, 0.0], "wall"),                 # z = +W
+             quad([W, 0.0, -W], [0.0, 0.0, 2 * W], [0.0, H, 0.0], "wall"),                 # x = +W
+             quad([-W, 0.0, -W], [0.0, y0, 0.0], [0.0, 0.0, 2 * W], "wall"),               # x = -W: below,
+             quad([-W, y1, -W], [0.0, H - y1, 0.0], [0.0, 0.0, 2 * W], "wall"),            # above,
+             quad([-W, y0, -W], [0.0, y1 - y0, 0.0], [0.0, 0.0, z0 + W], "wall"),          # and beside
+             quad([-W, y0, z1], [0.0, y1 - y0, 0.0], [0.0, 0.0, W - z1], "wall"),          # the window
+             quad([-6.0, 4.5, -0.5], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], "light")]           # the sun, facing +x
+    mats = {"ground": {"type": "diffuse", "color": [0.5, 0.5, 0.5]},
+            "wall": {"type": "diffuse", "color": [0.7, 0.7, 0.7]},
+            "light": {"type": "emissive", "emission": [600.0, 600.0, 600.0]},
+            "object": {"type": "diffuse", "color": [0.7, 0.55, 0.4]}}
+    camera = {"position": [2.1, 1.7, 2.1], "look_at": [-0.6, 0.9, -0.6], "up": [0.0, 1.0, 0.0], "fov": 60.0}
+    return {"camera": camera, "background": {"type": "constant", "color": [1.0, 1.0, 1.0]}, "materials": mats,
+            "meshes": [mesh], "quads": quads}
 
 
 def _v(x):
