@@ -197,6 +197,32 @@ impl Guiding {
 
 crate::choice::named_choice!(Guiding, "guiding setting");
 
+/// Whether next-event estimation weighs the choice of a light group by how often its samples
+/// got through near the shading point (`--light-visibility`; `crate::light::visibility`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightVisibility {
+    /// Wherever lights are chosen among a few groups by importance (and light vertices do not
+    /// run).
+    #[default]
+    Auto,
+    /// By importance alone.
+    Off,
+}
+
+impl LightVisibility {
+    pub const ALL: [LightVisibility; 2] = [LightVisibility::Auto, LightVisibility::Off];
+
+    /// The name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            LightVisibility::Auto => "auto",
+            LightVisibility::Off => "off",
+        }
+    }
+}
+
+crate::choice::named_choice!(LightVisibility, "light visibility setting");
+
 /// How the render loop advances its paths (`--path-loop`). Both compute the same image, bit
 /// for bit; they differ in speed (docs/performance.md, "Path loops").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -355,6 +381,8 @@ pub struct RenderSettings {
     pub light_tree: LightTreeMode,
     /// Whether diffuse vertices sample toward caustic light too.
     pub guiding: Guiding,
+    /// Whether the light choice is weighed by where light samples get through.
+    pub light_visibility: LightVisibility,
     /// A sample clamp, as Cycles' (`--clamp`): a sample whose largest channel is above this is
     /// scaled down to it, its hue kept ([`clamp_sample`]). Biased: it removes fireflies by
     /// removing energy. `None`: no clamp.
@@ -430,6 +458,7 @@ impl Default for RenderSettings {
             caustics: Caustics::Auto,
             light_tree: LightTreeMode::Auto,
             guiding: Guiding::Auto,
+            light_visibility: LightVisibility::Auto,
             clamp: None,
             path_loop: PathLoop::Scalar,
             bvh_quality: None,

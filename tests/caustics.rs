@@ -135,15 +135,6 @@ fn a_point_light_throws_the_caustic_a_small_ball_of_its_intensity_throws() {
     assert!(a > 2.0 * c, "the caustic: {a} with light paths, {c} without");
 }
 
-/// relMSE of `film` against `reference` (per channel, over the reference² + 0.01, as
-/// `ember converge` measures it).
-fn rel_mse(film: &Film, reference: &Film) -> f64 {
-    let sum: f64 = (film.pixels.iter().zip(&reference.pixels))
-        .flat_map(|(a, r)| (0..3).map(move |c| ((a[c] - r[c]) as f64).powi(2) / ((r[c] as f64).powi(2) + 0.01)))
-        .sum();
-    sum / (3 * reference.pixels.len()) as f64
-}
-
 #[test]
 fn guiding_lowers_the_noise_of_the_floor_seen_through_the_glass() {
     // The floor under the glass ball is lit through the ball, and the camera sees it through
@@ -159,8 +150,8 @@ fn guiding_lowers_the_noise_of_the_floor_seen_through_the_glass() {
     for seed in 1..=4 {
         let (film, stats) = common::render_embree(&scene, &with(128, seed, Guiding::Auto));
         assert!(stats.plan.guiding && stats.nonfinite == 0, "{}", stats.plan);
-        guided += rel_mse(&film, &reference);
-        unguided += rel_mse(&common::render_embree(&scene, &with(128, seed, Guiding::Off)).0, &reference);
+        guided += common::rel_mse(&film, &reference);
+        unguided += common::rel_mse(&common::render_embree(&scene, &with(128, seed, Guiding::Off)).0, &reference);
     }
     println!("relMSE guided {guided:.5}, unguided {unguided:.5}: {:.2}×", guided / unguided);
     assert!(guided < 0.75 * unguided, "relMSE guided {guided}, unguided {unguided}");

@@ -33,3 +33,30 @@ pub struct PathContext<'a> {
     /// (`super::guide`); `None`: BSDF sampling only.
     pub guide: Option<&'a super::guide::Guide>,
 }
+
+impl<'a> PathContext<'a> {
+    /// The context of a render of `plan` before its passes (no light vertices, caustic
+    /// emitters or guide yet).
+    pub fn new(
+        scene: &'a Scene,
+        accel: &'a dyn Accel,
+        lights: &'a LightSet,
+        normals: &'a FaceNormals,
+        camera: &'a Camera,
+        plan: &'a super::RenderPlan,
+    ) -> PathContext<'a> {
+        PathContext {
+            scene,
+            accel,
+            lights,
+            normals,
+            camera,
+            settings: &plan.settings,
+            path_depth: plan.path_depth,
+            roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
+            light_vertices: None,
+            emitters: None,
+            guide: None,
+        }
+    }
+}

@@ -103,7 +103,7 @@ fn direct_irradiance(ctx: &PathContext, key: u64, cell: usize, landings: &[Landi
     for (s, l) in probed.iter().enumerate() {
         let mut rng = streams.sample(s as u64);
         let (uc, u) = (rng.next_f32(), rng.next_2d());
-        let choice = ctx.lights.choice_at(l.p).facing(l.n);
+        let choice = ctx.lights.choice_facing(l.p, l.n);
         let Some(ls) = ctx.lights.sample(&choice, l.p, uc, u) else { continue };
         let cos = ls.wi.dot(l.n);
         if !(cos > 0.0 && ls.pdf > 0.0) {

@@ -14,6 +14,7 @@ mod plan;
 mod progressive;
 pub mod roulette;
 mod surface;
+mod visibility;
 mod wavefront;
 
 pub use aux::AuxSample;
@@ -53,6 +54,9 @@ pub struct RenderStats {
     pub spp: (u32, f64, u32),
     /// (mean, max) over pixels of the estimated relative standard error.
     pub error_estimate: (f64, f64),
+    /// The cells where the light choice was weighed by where light samples get through
+    /// (`--light-visibility`), if it was.
+    pub light_visibility_cells: Option<usize>,
 }
 
 impl RenderStats {

@@ -252,7 +252,7 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     // Next-event estimation.
     let nee_here = rules.use_nee && !((GLOSSY || GLASS) && bsdf.is_delta());
     if nee_here {
-        path.choice = ctx.lights.choice_at(sp.p).facing(if transmissive { Vec3::ZERO } else { ng });
+        path.choice = ctx.lights.choice_facing(sp.p, if transmissive { Vec3::ZERO } else { ng });
     }
     // Only the numbers the light sample uses are drawn (see `LightNumbers`).
     let draws = ctx.lights.numbers();

@@ -41,6 +41,9 @@ pub struct RenderPlan {
     pub caustics: bool,
     /// Diffuse vertices sample toward caustic light too (`super::guide`).
     pub guiding: bool,
+    /// Where lights are chosen among a few groups by importance, the choice is weighed by
+    /// where light samples get through (`super::visibility`).
+    pub light_visibility: bool,
     /// How the Embree BVH is built: the requested quality, else the one the geometry calls for
     /// ([`crate::accel::build_quality_for`]), robust unless told otherwise.
     pub bvh: BuildOptions,
@@ -113,6 +116,8 @@ impl RenderPlan {
         let light_vertices = light_vertices_apply(&effects, settings, scene_depth).is_ok();
         let caustics = caustics_apply(&effects, settings, scene_depth).is_ok();
         let guiding = guiding_apply(caustics, light_vertices, settings).is_ok();
+        // Light vertices weigh their connections by the choice by importance alone.
+        let light_visibility = settings.light_visibility == crate::settings::LightVisibility::Auto && !light_vertices;
         RenderPlan {
             settings: settings.clone(),
             effects,
@@ -123,6 +128,7 @@ impl RenderPlan {
             light_vertices,
             caustics,
             guiding,
+            light_visibility,
             bvh: BuildOptions {
                 kernels: settings.embree_kernels.unwrap_or_else(crate::embree::Kernels::widest),
                 ..build_options_with(geometry, settings.bvh_quality, settings.robust)
@@ -182,6 +188,7 @@ impl RenderPlan {
             + if self.guiding { " guiding=caustic-cones" } else { "" }
             + &s.clamp.map_or(String::new(), |c| format!(" clamp={c}"))
             + if s.light_tree == crate::settings::LightTreeMode::Off { " light-tree=off" } else { "" }
+            + if s.light_visibility == crate::settings::LightVisibility::Off { " light-visibility=off" } else { "" }
     }
 
     /// The most rays one sample traces: its camera ray, and at each of its at most

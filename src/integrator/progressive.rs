@@ -193,21 +193,22 @@ pub(super) fn run(
         return Ok(earlier.traced_nothing(plan, owned, start));
     }
     let camera = scene.camera(settings.width as f32 / settings.height as f32);
-    let lights = scene.light_set(settings.light_tree);
     let normals = FaceNormals::of(scene);
-    let mut ctx = PathContext {
-        scene,
-        accel,
-        lights: &lights,
-        normals: &normals,
-        camera: &camera,
-        settings,
-        path_depth: plan.path_depth,
-        roulette_start: plan.roulette_start.unwrap_or(u32::MAX),
-        light_vertices: None,
-        emitters: None,
-        guide: None,
+    let lights = scene.light_set(settings.light_tree);
+    // Where light samples get through, learned alike by every render of the scene and seed
+    // (shards, resumed), unless no sample is left to take.
+    let mut visibility_rays = 0;
+    let lights = if plan.light_visibility && lights.chooses_by_importance() && !earlier.all_taken(settings.spp, owned) {
+        let ctx = PathContext::new(scene, accel, &lights, &normals, &camera, plan);
+        match super::visibility::learn(&ctx, &mut visibility_rays) {
+            Some(v) => lights.with_visibility(v),
+            None => lights,
+        }
+    } else {
+        lights
     };
+    accel.deferred_error()?;
+    let mut ctx = PathContext::new(scene, accel, &lights, &normals, &camera, plan);
     let (w, h) = (settings.width, settings.height);
     let pool = plan
         .light_vertices
@@ -268,7 +269,7 @@ pub(super) fn run(
     let rounds = if control.first_round_only && settings.adaptive { 1 } else { plan.rounds() };
     let session = Session::new(&ctx, Kernel::for_plan(plan), plan, &control, &key, earlier, owned, start);
     session.rays.fetch_add(pool.as_ref().map_or(0, |p| p.rays), Ordering::Relaxed);
-    session.rays.fetch_add(light_rays + guide_rays, Ordering::Relaxed);
+    session.rays.fetch_add(light_rays + guide_rays + visibility_rays, Ordering::Relaxed);
     session.clamped_splats.fetch_add(clamped_splats, Ordering::Relaxed);
     for round in 0..rounds {
         // An adaptive render plans its second round once the first is done everywhere (a
@@ -282,7 +283,10 @@ pub(super) fn run(
             break;
         }
     }
-    session.finish()
+    session.finish().map(|mut r| {
+        r.stats.light_visibility_cells = lights.visibility_cells();
+        r
+    })
 }
 
 /// The render's checkpoint key ([`RenderPlan::checkpoint_key`]), made when first needed:
@@ -420,6 +424,7 @@ impl Earlier {
             plan: plan.clone(),
             spp: film.spp_range_of(pixel),
             error_estimate: film.error_estimate_of(pixel),
+            light_visibility_cells: None,
         }
     }
 }

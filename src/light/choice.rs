@@ -118,12 +118,24 @@ impl LocalChoice {
     /// `None` when the importances are unusable (all zero, or not finite next to a point
     /// light): the caller then chooses by power.
     #[inline]
-    pub(super) fn at(bounds: &[LightBounds], p: Vec3) -> Option<LocalChoice> {
+    /// `weights` scale the importances (`super::visibility`).
+    pub(super) fn at(
+        bounds: &[LightBounds],
+        p: Vec3,
+        weights: Option<&[f32; LOCAL_CHOICE_MAX]>,
+    ) -> Option<LocalChoice> {
         debug_assert!(bounds.len() <= LOCAL_CHOICE_MAX);
         let mut importance = [0.0; LOCAL_CHOICE_MAX];
         let mut total = 0.0;
         for (slot, r) in importance.iter_mut().zip(bounds) {
             *slot = r.importance(p);
+        }
+        if let Some(w) = weights {
+            for (slot, w) in importance.iter_mut().zip(w) {
+                *slot *= w;
+            }
+        }
+        for slot in &importance[..bounds.len()] {
             total += *slot;
         }
         (total > 0.0 && total.is_finite()).then_some(LocalChoice { importance, total })
@@ -205,7 +217,7 @@ mod tests {
             LightBounds::point(Vec3::new(0.0, 1.0, 0.0), 0.0), // 0: never picked
             LightBounds::background(3.0 / (2.0 * std::f32::consts::PI)), // 3
         ];
-        let c = LocalChoice::at(&reach, Vec3::ZERO).unwrap();
+        let c = LocalChoice::at(&reach, Vec3::ZERO, None).unwrap();
         assert_eq!(c.pick(3, 0.0), (0, 0.25, 0.0));
         let (i, p, rest) = c.pick(3, 0.125);
         assert_eq!((i, p), (0, 0.25));
@@ -216,6 +228,6 @@ mod tests {
         assert!((c.probability(2) - 0.75).abs() < 1e-6);
         assert_eq!(c.probability(1), 0.0);
         // All zero: no local choice.
-        assert!(LocalChoice::at(&reach[1..2], Vec3::ZERO).is_none());
+        assert!(LocalChoice::at(&reach[1..2], Vec3::ZERO, None).is_none());
     }
 }

@@ -21,6 +21,7 @@ mod point;
 mod sphere;
 mod tree;
 mod triangle;
+pub mod visibility;
 
 pub use background::Background;
 pub use emission::{Emission, Emitters};
@@ -198,6 +199,9 @@ pub struct LightSet {
     /// (the same at every point) that the tree's root is weighed against.
     tree: Option<LightTree>,
     background_importance: f32,
+    /// Where next-event estimation's light samples get through, weighing the choice by
+    /// importance ([`visibility`]); `None`: importance alone.
+    visibility: Option<std::sync::Arc<visibility::Visibility>>,
     /// The power-proportional choice: larger sets, and the fallback where importances are
     /// unusable.
     cdf: Vec<f32>,
@@ -374,6 +378,7 @@ impl LightSet {
             bounds,
             tree,
             background_importance,
+            visibility: None,
             cdf,
             prob,
             primitive_lights,
@@ -452,7 +457,51 @@ impl LightSet {
     /// Out of line, so that kernels for one light (or many) carry none of its code.
     #[inline(never)]
     fn local_choice(&self, p: Vec3) -> LightChoice {
-        LightChoice(LocalChoice::at(&self.bounds, p).map_or(How::Power, How::Groups), Vec3::ZERO)
+        LightChoice(LocalChoice::at(&self.bounds, p, None).map_or(How::Power, How::Groups), Vec3::ZERO)
+    }
+
+    /// [`LightSet::choice_at`] `p` of a surface lit on the side `n` faces (zero: both), as
+    /// [`LightChoice::facing`] `n`; with [`LightSet::with_visibility`] the groups are weighed
+    /// by what got through on that side near `p`.
+    #[inline]
+    pub fn choice_facing(&self, p: Vec3, n: Vec3) -> LightChoice {
+        match &self.visibility {
+            Some(v) => self.seen_choice(v, p, n),
+            None => self.choice_at(p).facing(n),
+        }
+    }
+
+    #[inline(never)]
+    fn seen_choice(&self, v: &visibility::Visibility, p: Vec3, n: Vec3) -> LightChoice {
+        LightChoice(LocalChoice::at(&self.bounds, p, v.at(p, n)).map_or(How::Power, How::Groups), n)
+    }
+
+    /// Whether next-event estimation chooses among 2 to 8 groups by their importance at the
+    /// shading point: what [`LightSet::with_visibility`] can weigh.
+    pub fn chooses_by_importance(&self) -> bool {
+        !self.bounds.is_empty()
+    }
+
+    /// The group light `i` is in.
+    #[inline]
+    pub fn group_of(&self, i: u32) -> usize {
+        self.group_of[i as usize] as usize
+    }
+
+    /// How many groups the lights are in.
+    pub fn group_count(&self) -> usize {
+        self.groups.len()
+    }
+
+    /// The set choosing by importance weighed by `v` (where it chooses by importance).
+    pub fn with_visibility(self, v: visibility::Visibility) -> LightSet {
+        let visibility = self.chooses_by_importance().then(|| std::sync::Arc::new(v));
+        LightSet { visibility, ..self }
+    }
+
+    /// The cells where [`LightSet::with_visibility`] weighs some group, if it does.
+    pub fn visibility_cells(&self) -> Option<usize> {
+        self.visibility.as_ref().map(|v| v.cells())
     }
 
     /// The tree against the background at `p` (by power where neither can bring light).
@@ -582,6 +631,7 @@ impl LightSet {
     /// The probability that next-event estimation at `p` picks light `i`.
     #[inline]
     pub fn choice_probability_at(&self, p: Vec3, i: u32) -> f32 {
+        debug_assert!(self.visibility.is_none(), "light vertices run without visibility weights");
         self.choice_probability(&self.choice_at(p), i as usize)
     }
 

@@ -191,3 +191,12 @@ impl Running {
         (status, self.seen)
     }
 }
+
+/// relMSE of `film` against `reference` (per channel, over the reference² + 0.01, as
+/// `ember converge` measures it).
+pub fn rel_mse(film: &Film, reference: &Film) -> f64 {
+    let sum: f64 = (film.pixels.iter().zip(&reference.pixels))
+        .flat_map(|(a, r)| (0..3).map(move |c| ((a[c] - r[c]) as f64).powi(2) / ((r[c] as f64).powi(2) + 0.01)))
+        .sum();
+    sum / (3 * reference.pixels.len()) as f64
+}

@@ -7,7 +7,8 @@ use crate::integrator::adaptive;
 use crate::scene::format::{MAX_COORDINATE, MAX_IMAGE_SIDE};
 use crate::scene::{CameraOverride, Orbit, Scene};
 use crate::settings::{
-    Caustics, Estimator, Guiding, LightTreeMode, LightVertices, PathLoop, RenderSettings, RrDepth, SamplerKind, Shard,
+    Caustics, Estimator, Guiding, LightTreeMode, LightVertices, LightVisibility, PathLoop, RenderSettings, RrDepth,
+    SamplerKind, Shard,
 };
 use clap::Args;
 use glam::Vec3;
@@ -63,6 +64,12 @@ pub struct RenderArgs {
     /// find those places) or off; unbiased either way.
     #[arg(long, default_value = "auto")]
     pub guiding: Guiding,
+    /// Weigh the choice among a few groups of lights (a lamp and the sky) by how often each
+    /// group's light samples got through near the shading point, learned by a short pass
+    /// before the render (a room lit through a window: the sky is mostly behind its walls):
+    /// auto or off (by importance alone); unbiased either way.
+    #[arg(long, default_value = "auto")]
+    pub light_visibility: LightVisibility,
     /// Worker threads [all cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub threads: Option<u32>,
@@ -416,6 +423,7 @@ pub(super) fn settings(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Rende
         caustics: args.caustics.unwrap_or(s.caustics),
         light_tree: args.light_tree,
         guiding: args.guiding,
+        light_visibility: args.light_visibility,
         shard: args.shard.as_deref().map(|a| shard(a, &|name| std::env::var(name).ok())).transpose()?,
         clamp: args.clamp,
         path_loop: args.path_loop,

@@ -309,7 +309,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         crate::accel::AccelKind::Naive => "naive accel".to_string(),
     };
     say!("{}", summary::rendered(&stats, &accel_text, &args.output));
-    for line in summary::adaptive(&stats).into_iter().chain(summary::clamped(&stats)) {
+    for line in
+        summary::adaptive(&stats).into_iter().chain(summary::clamped(&stats)).chain(summary::light_visibility(&stats))
+    {
         say!("{line}");
     }
     if let (Some((_, took)), Some(d), Some(format)) = (&denoised, &denoiser, format) {

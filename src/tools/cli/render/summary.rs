@@ -129,3 +129,14 @@ pub(super) fn error_estimate(stats: &RenderStats) -> String {
         None => format!("estimated relative error: mean {mean_err:.4}, max {max_err:.4}"),
     }
 }
+
+/// Where the light choice was weighed by visibility (`--light-visibility`): `light choice: by
+/// importance × the share of light samples that got through, learned in N cells`.
+pub(super) fn light_visibility(stats: &RenderStats) -> Option<String> {
+    stats.light_visibility_cells.map(|n| {
+        format!(
+            "light choice: by importance × the share of light samples that got through, learned in {n} cells \
+             (most light samples were blocked; --light-visibility off: by importance alone)"
+        )
+    })
+}
