@@ -29,7 +29,7 @@
 
 use super::caustic::{self, CHUNK};
 use super::context::PathContext;
-use crate::geometry::{Sphere, offset_ray_origin};
+use crate::geometry::{Grid, Sphere, offset_ray_origin};
 use crate::light::{Emitters, sample_cone};
 use crate::sampler::{PixelSampler, mix64};
 use glam::{Vec2, Vec3};
@@ -68,8 +68,7 @@ fn chunks(width: u32, height: u32, spp: u32) -> u64 {
 /// Where caustic light lands and whence: directions toward the light, binned by where it
 /// landed.
 pub(crate) struct Guide {
-    origin: Vec3,
-    inv_cell: f32,
+    grid: Grid,
     /// A cell's records (a range of `dirs`) and its guided share.
     cells: FxHashMap<[i32; 3], (u32, u32, f32)>,
     dirs: Vec<Vec3>,
@@ -160,11 +159,11 @@ impl Guide {
         paths: u64,
         mut direct: impl FnMut(usize, &[Landing]) -> f32,
     ) -> Option<Guide> {
-        let (origin, inv_cell) = (target.center, CELLS_PER_RADIUS / target.radius);
+        let grid = Grid::over(&target, CELLS_PER_RADIUS);
         // Each cell's first MOST landings, and the flux of all that landed in it.
         let mut binned: HashMap<[i32; 3], (Vec<Landing>, f64)> = HashMap::new();
         for l in landed {
-            let Some(k) = cell_of(l.p, origin, inv_cell) else { continue };
+            let Some(k) = grid.cell(l.p) else { continue };
             let (v, flux) = binned.entry(k).or_default();
             *flux += l.flux as f64;
             if v.len() < MOST {
@@ -176,7 +175,7 @@ impl Guide {
         keys.sort_unstable();
         // The caustic's irradiance in a cell: the flux that landed there over the area of a
         // surface across it (a cell's face).
-        let area = (1.0 / inv_cell as f64).powi(2) * paths.max(1) as f64;
+        let area = (grid.cell_width() as f64).powi(2) * paths.max(1) as f64;
         let (mut cells, mut dirs) = (FxHashMap::default(), Vec::new());
         for (i, k) in keys.into_iter().enumerate() {
             let (landings, flux) = &binned[&k];
@@ -189,23 +188,15 @@ impl Guide {
             dirs.extend(landings.iter().map(|l| l.to_light));
             cells.insert(k, (start, dirs.len() as u32, share));
         }
-        (!dirs.is_empty()).then_some(Guide { origin, inv_cell, cells, dirs })
+        (!dirs.is_empty()).then_some(Guide { grid, cells, dirs })
     }
 
     /// The records of the cell around `p`, if it guides.
     #[inline]
     pub(crate) fn at(&self, p: Vec3) -> Option<Cell<'_>> {
-        let &(a, b, share) = self.cells.get(&cell_of(p, self.origin, self.inv_cell)?)?;
+        let &(a, b, share) = self.cells.get(&self.grid.cell(p)?)?;
         Some(Cell(&self.dirs[a as usize..b as usize], share))
     }
-}
-
-/// The cell of `p` in the grid of cells 1 / `inv_cell` wide with a corner at `origin`; `None`
-/// far outside it (where the cell number would not fit).
-#[inline]
-fn cell_of(p: Vec3, origin: Vec3, inv_cell: f32) -> Option<[i32; 3]> {
-    let k = ((p - origin) * inv_cell).floor();
-    (k.abs().max_element() < 1e9).then(|| k.as_ivec3().to_array())
 }
 
 impl Cell<'_> {

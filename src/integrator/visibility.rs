@@ -16,8 +16,8 @@
 use super::caustic::CHUNK;
 use super::context::PathContext;
 use super::surface::surface_point;
-use crate::geometry::{Ray, offset_ray_origin, offset_toward};
-use crate::light::visibility::{CellKey, Counts, Grid, NO_COUNTS, Visibility};
+use crate::geometry::{Grid, Ray, Sphere, offset_ray_origin, offset_toward};
+use crate::light::visibility::{CellKey, Counts, NO_COUNTS, Visibility, key};
 use crate::material::BsdfModel;
 use crate::sampler::{PixelSampler, mix64};
 use glam::Vec3;
@@ -54,13 +54,13 @@ pub(super) fn learn(ctx: &PathContext, rays: &mut u64) -> Option<Visibility> {
     if !(radius > 0.0 && radius.is_finite()) {
         return None;
     }
-    let grid = Grid { origin: bounds.center(), inv_cell: CELLS_PER_RADIUS / radius };
-    let key = mix64(ctx.settings.seed ^ 0x0076_6973_6962_6c65); // "visible"
+    let grid = Grid::over(&Sphere::new(bounds.center(), radius), CELLS_PER_RADIUS);
+    let streams_key = mix64(ctx.settings.seed ^ 0x0076_6973_6962_6c65); // "visible"
     let chunks: Vec<(FxHashMap<CellKey, Counts>, u64)> =
         (0..chunks(ctx.settings.width, ctx.settings.height, ctx.settings.spp))
             .into_par_iter()
             .map(|chunk| {
-                let streams = PixelSampler::new(ctx.settings.sampler, key, chunk);
+                let streams = PixelSampler::new(ctx.settings.sampler, streams_key, chunk);
                 let (mut counts, mut rays) = (FxHashMap::<CellKey, Counts>::default(), 0);
                 for s in 0..CHUNK {
                     let mut rng = streams.sample(s);
@@ -77,7 +77,7 @@ pub(super) fn learn(ctx: &PathContext, rays: &mut u64) -> Option<Visibility> {
                         let n = if transmissive { Vec3::ZERO } else { ng };
                         let (uc, u) = (rng.next_f32(), rng.next_2d());
                         if !bsdf.is_delta()
-                            && let Some(k) = grid.key(sp.p, n)
+                            && let Some(k) = key(&grid, sp.p, n)
                             && let Some(ls) = lights.sample(&lights.choice_at(sp.p).facing(n), sp.p, uc, u)
                         {
                             let brings = ls.radiance != Vec3::ZERO && (transmissive || ls.wi.dot(ng) > 0.0) && {
@@ -128,7 +128,7 @@ pub(super) fn learn(ctx: &PathContext, rays: &mut u64) -> Option<Visibility> {
     if 2 * brought > traced {
         return None;
     }
-    Visibility::of(grid, all, lights.group_count())
+    Visibility::of(grid, all)
 }
 
 #[cfg(test)]

@@ -116,9 +116,9 @@ pub(super) struct LocalChoice {
 
 impl LocalChoice {
     /// `None` when the importances are unusable (all zero, or not finite next to a point
-    /// light): the caller then chooses by power.
+    /// light): the caller then chooses by power. `weights` scale the importances
+    /// (`super::visibility`).
     #[inline]
-    /// `weights` scale the importances (`super::visibility`).
     pub(super) fn at(
         bounds: &[LightBounds],
         p: Vec3,
@@ -127,15 +127,9 @@ impl LocalChoice {
         debug_assert!(bounds.len() <= LOCAL_CHOICE_MAX);
         let mut importance = [0.0; LOCAL_CHOICE_MAX];
         let mut total = 0.0;
-        for (slot, r) in importance.iter_mut().zip(bounds) {
-            *slot = r.importance(p);
-        }
-        if let Some(w) = weights {
-            for (slot, w) in importance.iter_mut().zip(w) {
-                *slot *= w;
-            }
-        }
-        for slot in &importance[..bounds.len()] {
+        for (i, (slot, r)) in importance.iter_mut().zip(bounds).enumerate() {
+            // × 1 where no weight is given: the same bits as unweighed.
+            *slot = r.importance(p) * weights.map_or(1.0, |w| w[i]);
             total += *slot;
         }
         (total > 0.0 && total.is_finite()).then_some(LocalChoice { importance, total })

@@ -446,7 +446,7 @@ impl LightSet {
     #[inline(always)]
     pub fn choice_at(&self, p: Vec3) -> LightChoice {
         if !self.bounds.is_empty() {
-            self.local_choice(p)
+            self.local_choice(p, None)
         } else if self.tree.is_some() {
             self.tree_choice(p)
         } else {
@@ -456,8 +456,8 @@ impl LightSet {
 
     /// Out of line, so that kernels for one light (or many) carry none of its code.
     #[inline(never)]
-    fn local_choice(&self, p: Vec3) -> LightChoice {
-        LightChoice(LocalChoice::at(&self.bounds, p, None).map_or(How::Power, How::Groups), Vec3::ZERO)
+    fn local_choice(&self, p: Vec3, weights: Option<&[f32; LOCAL_CHOICE_MAX]>) -> LightChoice {
+        LightChoice(LocalChoice::at(&self.bounds, p, weights).map_or(How::Power, How::Groups), Vec3::ZERO)
     }
 
     /// [`LightSet::choice_at`] `p` of a surface lit on the side `n` faces (zero: both), as
@@ -466,14 +466,10 @@ impl LightSet {
     #[inline]
     pub fn choice_facing(&self, p: Vec3, n: Vec3) -> LightChoice {
         match &self.visibility {
-            Some(v) => self.seen_choice(v, p, n),
-            None => self.choice_at(p).facing(n),
+            Some(v) => self.local_choice(p, v.at(p, n)),
+            None => self.choice_at(p),
         }
-    }
-
-    #[inline(never)]
-    fn seen_choice(&self, v: &visibility::Visibility, p: Vec3, n: Vec3) -> LightChoice {
-        LightChoice(LocalChoice::at(&self.bounds, p, v.at(p, n)).map_or(How::Power, How::Groups), n)
+        .facing(n)
     }
 
     /// Whether next-event estimation chooses among 2 to 8 groups by their importance at the
@@ -486,11 +482,6 @@ impl LightSet {
     #[inline]
     pub fn group_of(&self, i: u32) -> usize {
         self.group_of[i as usize] as usize
-    }
-
-    /// How many groups the lights are in.
-    pub fn group_count(&self) -> usize {
-        self.groups.len()
     }
 
     /// The set choosing by importance weighed by `v` (where it chooses by importance).

@@ -14,6 +14,7 @@
 //! depends on them. Cells with few samples of a group leave it at 1.
 
 use super::choice::LOCAL_CHOICE_MAX;
+use crate::geometry::Grid;
 use glam::Vec3;
 use rustc_hash::FxHashMap;
 
@@ -40,54 +41,40 @@ pub struct Visibility {
     cells: FxHashMap<CellKey, [f32; LOCAL_CHOICE_MAX]>,
 }
 
-/// A grid of cubic cells `1 / inv_cell` wide with a corner at `origin`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Grid {
-    pub origin: Vec3,
-    pub inv_cell: f32,
-}
-
-impl Grid {
-    /// The cell of `p` on the side `n` faces; `None` far outside the grid or at a point that
-    /// is not finite.
-    #[inline]
-    pub fn key(&self, p: Vec3, n: Vec3) -> Option<CellKey> {
-        let k = ((p - self.origin) * self.inv_cell).floor();
-        if !(k.abs().max_element() < 1e9) {
-            return None;
-        }
+/// The cell of `p` in `grid` on the side `n` faces; `None` where [`Grid::cell`] has none.
+#[inline]
+pub fn key(grid: &Grid, p: Vec3, n: Vec3) -> Option<CellKey> {
+    let [x, y, z] = grid.cell(p)?;
+    let side = if n == Vec3::ZERO || !n.is_finite() {
+        6
+    } else {
         let a = n.abs();
-        let side = if n == Vec3::ZERO || !n.is_finite() {
-            6
+        let axis = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
         } else {
-            let axis = if a.x >= a.y && a.x >= a.z {
-                0
-            } else if a.y >= a.z {
-                1
-            } else {
-                2
-            };
-            2 * axis + (n[axis as usize] < 0.0) as i32
+            2
         };
-        let k = k.as_ivec3();
-        Some([k.x, k.y, k.z, side])
-    }
+        2 * axis + (n[axis as usize] < 0.0) as i32
+    };
+    Some([x, y, z, side])
 }
 
 impl Visibility {
-    /// The weights of `counts` (cell by cell, for `groups` groups). A group's share of samples
+    /// The weights of `counts`, cell by cell. A group's share of samples
     /// that got through in a cell, (through + ½) / (traced + ½), is trusted where it had
     /// [`FEWEST`] samples; its weight is the largest share among the cell and its 26
     /// neighbours on the same side, at least [`FLOOR`], or 1 where none has a trusted share. A
     /// light is weighed down only where it is blocked all around: at the edge of a shadow,
     /// where a cell's points see it or not, a visible light keeps its share. `None` if no cell
     /// weighs any group below 1.
-    pub fn of(grid: Grid, counts: impl IntoIterator<Item = (CellKey, Counts)>, groups: usize) -> Option<Visibility> {
+    pub fn of(grid: Grid, counts: impl IntoIterator<Item = (CellKey, Counts)>) -> Option<Visibility> {
         let shares: FxHashMap<CellKey, [Option<f32>; LOCAL_CHOICE_MAX]> = counts
             .into_iter()
             .map(|(key, c)| {
                 let mut share = [None; LOCAL_CHOICE_MAX];
-                for (s, [traced, through]) in share.iter_mut().zip(c).take(groups) {
+                for (s, [traced, through]) in share.iter_mut().zip(c) {
                     if traced >= FEWEST {
                         *s = Some((through as f32 + 0.5) / (traced as f32 + 0.5));
                     }
@@ -119,7 +106,7 @@ impl Visibility {
     /// The weights at `p` on the side `n` faces, if its cell has any.
     #[inline]
     pub fn at(&self, p: Vec3, n: Vec3) -> Option<&[f32; LOCAL_CHOICE_MAX]> {
-        self.cells.get(&self.grid.key(p, n)?)
+        self.cells.get(&key(&self.grid, p, n)?)
     }
 
     /// How many cells weigh some group below 1.
@@ -132,19 +119,22 @@ impl Visibility {
 mod tests {
     use super::*;
 
-    const GRID: Grid = Grid { origin: Vec3::ZERO, inv_cell: 10.0 };
+    /// Cells 0.1 wide.
+    fn grid() -> Grid {
+        Grid::over(&crate::geometry::Sphere::new(Vec3::ZERO, 1.0), 10.0)
+    }
 
     #[test]
     fn a_key_is_the_cell_and_the_side_the_normal_faces() {
         let p = Vec3::new(0.05, 0.15, -0.05);
-        assert_eq!(GRID.key(p, Vec3::Y), Some([0, 1, -1, 2]));
-        assert_eq!(GRID.key(p, -Vec3::Y), Some([0, 1, -1, 3]));
-        assert_eq!(GRID.key(p, Vec3::new(0.2, 0.1, -0.9)), Some([0, 1, -1, 5]));
-        assert_eq!(GRID.key(p, Vec3::ZERO), Some([0, 1, -1, 6]));
+        assert_eq!(key(&grid(), p, Vec3::Y), Some([0, 1, -1, 2]));
+        assert_eq!(key(&grid(), p, -Vec3::Y), Some([0, 1, -1, 3]));
+        assert_eq!(key(&grid(), p, Vec3::new(0.2, 0.1, -0.9)), Some([0, 1, -1, 5]));
+        assert_eq!(key(&grid(), p, Vec3::ZERO), Some([0, 1, -1, 6]));
         // Both faces of a thin wall are different cells.
-        assert_ne!(GRID.key(p, Vec3::X), GRID.key(p, -Vec3::X));
-        assert_eq!(GRID.key(Vec3::NAN, Vec3::Y), None);
-        assert_eq!(GRID.key(Vec3::splat(1e30), Vec3::Y), None);
+        assert_ne!(key(&grid(), p, Vec3::X), key(&grid(), p, -Vec3::X));
+        assert_eq!(key(&grid(), Vec3::NAN, Vec3::Y), None);
+        assert_eq!(key(&grid(), Vec3::splat(1e30), Vec3::Y), None);
     }
 
     #[test]
@@ -154,8 +144,8 @@ mod tests {
             counts[..c.len()].copy_from_slice(c);
             counts
         };
-        let key = GRID.key(Vec3::splat(0.05), Vec3::Y).unwrap();
-        let v = Visibility::of(GRID, [(key, cell(&[[99, 49], [100, 0], [3, 0]]))], 3).unwrap();
+        let k = key(&grid(), Vec3::splat(0.05), Vec3::Y).unwrap();
+        let v = Visibility::of(grid(), [(k, cell(&[[99, 49], [100, 0], [3, 0]]))]).unwrap();
         let w = v.at(Vec3::splat(0.05), Vec3::Y).unwrap();
         assert_eq!(w[0], 49.5 / 99.5, "half got through");
         assert_eq!(w[1], FLOOR, "none got through: the floor keeps it chosen");
@@ -163,20 +153,19 @@ mod tests {
         assert_eq!(v.cells(), 1);
         assert!(v.at(Vec3::splat(0.05), -Vec3::Y).is_none(), "the other side has no counts");
         // Every group seen through everywhere: nothing to weigh.
-        assert!(Visibility::of(GRID, [(key, cell(&[[100, 100], [50, 50]]))], 2).is_none());
+        assert!(Visibility::of(grid(), [(k, cell(&[[100, 100], [50, 50]]))]).is_none());
         // At a shadow's edge a neighbour that sees the light keeps its weight at 1; two cells
         // on, out of its reach, the light is weighed down; another side is another neighbourhood.
-        let at = |x: f32, n: Vec3| GRID.key(Vec3::new(x, 0.05, 0.05), n).unwrap();
+        let at = |x: f32, n: Vec3| key(&grid(), Vec3::new(x, 0.05, 0.05), n).unwrap();
         let blocked = cell(&[[100, 0]]);
         let v = Visibility::of(
-            GRID,
+            grid(),
             [
                 (at(0.05, Vec3::Y), cell(&[[100, 100]])),
                 (at(0.15, Vec3::Y), blocked),
                 (at(0.25, Vec3::Y), blocked),
                 (at(0.15, -Vec3::Y), blocked),
             ],
-            1,
         )
         .unwrap();
         assert!(v.at(Vec3::new(0.15, 0.05, 0.05), Vec3::Y).is_none(), "beside a lit cell");
