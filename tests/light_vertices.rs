@@ -3,7 +3,9 @@
 //! leave every image the same in expectation: against a closed form inside a sphere, and
 //! against renders without them where there is no closed form (the Cornell box; a room of
 //! glossy, mirror and glass spheres). And the scene analysis turns them on only for lamps
-//! inside the scene.
+//! inside the scene. Light vertices from area lights (`LightVertexPool::from_surfaces`) must
+//! keep a room lit through a window the same in expectation and lower its noise, and run only
+//! where the pass before the render finds the scene enclosed.
 
 mod common;
 
@@ -297,7 +299,10 @@ fn only_lamps_inside_the_scene_turn_light_vertices_on() {
     let sky = lamp_at(1.5) + "\n[background]\ntype = \"constant\"\ncolor = [0.2, 0.2, 0.2]\n";
     let with_sky = plan(&sky, LightVertices::On);
     assert!(!with_sky.light_vertices);
-    assert!(with_sky.to_string().ends_with("light vertices: off (not every light is a point light)"), "{with_sky}");
+    assert!(
+        with_sky.to_string().ends_with("light vertices: off (not every light is a point light or an area light)"),
+        "{with_sky}"
+    );
     let scene = scene_from("lamp-bsdf.toml", &lamp_at(1.5));
     let bsdf_only = RenderSettings { estimator: ember::settings::Estimator::BsdfOnly, ..Default::default() };
     assert!(!ember::integrator::RenderPlan::new(&scene, &bsdf_only).light_vertices);
@@ -332,4 +337,68 @@ fn the_render_says_what_it_decided() {
     let o = common::ember(&["render", "x.toml", "-o", "y.exr", "--light-vertices", "maybe"]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("\"auto\", \"on\" or \"off\""));
+}
+
+/// The window-lit room's settings with `light_vertices`.
+fn room_settings(spp: u32, seed: u64, light_vertices: LightVertices) -> RenderSettings {
+    RenderSettings { light_vertices, ..common::window_room_settings(spp, seed) }
+}
+
+/// The image of a render of the window-lit room, checked to have connected to light vertices
+/// from its area light (or not).
+fn room_render(scene: &Scene, settings: &RenderSettings, connected: bool) -> Film {
+    let (film, stats) = common::render_embree(scene, settings);
+    assert_eq!(stats.nonfinite, 0);
+    let pool = stats.surface_light_vertices.and_then(|v| v.pool);
+    assert_eq!(pool.is_some(), connected, "{:?}\n{}", stats.surface_light_vertices, stats.plan);
+    film
+}
+
+#[test]
+fn vertices_from_a_sun_through_a_window_keep_the_image_and_lower_its_noise() {
+    // The sun's light lands on the floor under the window; almost all of it lands outside the
+    // room, where the pool keeps none. 4 seeds at 64 spp against a 4096-spp render without
+    // light vertices. Measured: relMSE 0.27 of the render's without them.
+    let scene = common::window_room("light-vertices");
+    let reference = room_render(&scene, &room_settings(4096, 99, LightVertices::Off), false);
+    let reference_mean = image_mean(&reference.pixels);
+    let (mut with, mut without) = (0.0, 0.0);
+    for seed in 1..=4 {
+        // Most of the pass's bounces stay in the room: on by default.
+        let film = room_render(&scene, &room_settings(64, seed, LightVertices::Auto), true);
+        let m = image_mean(&film.pixels);
+        assert!((m / reference_mean - 1.0).abs() < 0.02, "seed {seed}: mean {m} against {reference_mean}");
+        with += common::rel_mse(&film, &reference);
+        without +=
+            common::rel_mse(&room_render(&scene, &room_settings(64, seed, LightVertices::Off), false), &reference);
+    }
+    println!("relMSE with light vertices {with:.5}, without {without:.5}: {:.2}×", with / without);
+    assert!(with < 0.6 * without, "relMSE with light vertices {with}, without {without}");
+}
+
+#[test]
+fn vertices_from_area_lights_give_one_image_for_any_thread_count() {
+    let scene = common::window_room("light-vertices");
+    let bits = |f: &Film| f.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    let s = |threads| RenderSettings { threads: Some(threads), ..room_settings(8, 0, LightVertices::Auto) };
+    let one = room_render(&scene, &s(1), true);
+    for threads in [2, 3] {
+        assert_eq!(bits(&one), bits(&room_render(&scene, &s(threads), true)), "{threads} threads");
+    }
+}
+
+#[test]
+fn an_open_scene_renders_without_vertices_from_its_area_light() {
+    // teapot.toml (an area light and a sky over a floor): most of the pass's bounces leave the
+    // scene, so the image is the one without light vertices, bit for bit; asked for, they run.
+    let scene = Scene::load(&common::scene_path("teapot.toml")).unwrap();
+    let s = |lv| RenderSettings { width: 40, height: 30, spp: 4, light_vertices: lv, ..RenderSettings::default() };
+    let (auto, stats) = common::render_embree(&scene, &s(LightVertices::Auto));
+    let v = stats.surface_light_vertices.expect("the pass decides");
+    assert!(v.pool.is_none() && v.escaped > 0.5, "{v:?}");
+    let (off, stats) = common::render_embree(&scene, &s(LightVertices::Off));
+    assert_eq!(stats.surface_light_vertices, None);
+    assert_eq!(auto.pixels, off.pixels);
+    let (_, stats) = common::render_embree(&scene, &s(LightVertices::On));
+    assert!(stats.surface_light_vertices.and_then(|v| v.pool).is_some());
 }

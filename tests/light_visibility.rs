@@ -9,49 +9,18 @@ mod common;
 use ember::film::Film;
 use ember::integrator::RenderSettings;
 use ember::scene::Scene;
-use ember::settings::LightVisibility;
+use ember::settings::{LightVertices, LightVisibility};
 
-/// A closed room (4 × 3 × 4, walls 0.7) lit through a window in its -x wall by a white sky
-/// and a small bright "sun" quad outside, whose light falls through the window onto the floor.
 fn room() -> Scene {
-    let quad = |c: [f32; 3], e1: [f32; 3], e2: [f32; 3], m: &str| {
-        format!("[[quads]]\ncorner = {c:?}\nedge1 = {e1:?}\nedge2 = {e2:?}\nmaterial = \"{m}\"\n")
-    };
-    let mut text = String::from(
-        "[camera]\nposition = [1.7, 1.6, 1.7]\nlook_at = [-0.8, 0.9, -0.8]\nfov = 70\n\
-         [background]\ntype = \"constant\"\ncolor = [1.0, 1.0, 1.0]\n\
-         [materials.wall]\ntype = \"diffuse\"\ncolor = [0.7, 0.7, 0.7]\n\
-         [materials.sun]\ntype = \"emissive\"\nemission = [500.0, 500.0, 500.0]\n",
-    );
-    let (w, h) = (2.0, 3.0);
-    for q in [
-        quad([-w, 0.0, -w], [0.0, 0.0, 2.0 * w], [2.0 * w, 0.0, 0.0], "wall"),
-        quad([-w, h, -w], [2.0 * w, 0.0, 0.0], [0.0, 0.0, 2.0 * w], "wall"),
-        quad([-w, 0.0, -w], [2.0 * w, 0.0, 0.0], [0.0, h, 0.0], "wall"),
-        quad([-w, 0.0, w], [0.0, h, 0.0], [2.0 * w, 0.0, 0.0], "wall"),
-        quad([w, 0.0, -w], [0.0, 0.0, 2.0 * w], [0.0, h, 0.0], "wall"),
-        // The -x wall around a window 1.6 wide and 1.2 high.
-        quad([-w, 0.0, -w], [0.0, 0.9, 0.0], [0.0, 0.0, 2.0 * w], "wall"),
-        quad([-w, 2.1, -w], [0.0, 0.9, 0.0], [0.0, 0.0, 2.0 * w], "wall"),
-        quad([-w, 0.9, -w], [0.0, 1.2, 0.0], [0.0, 0.0, 1.2], "wall"),
-        quad([-w, 0.9, 0.8], [0.0, 1.2, 0.0], [0.0, 0.0, 1.2], "wall"),
-        quad([-5.0, 4.0, -0.5], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], "sun"),
-    ] {
-        text += &q;
-    }
-    Scene::load(&common::write_scene("light_visibility", "room.toml", &text)).unwrap_or_else(|e| panic!("{e}"))
+    common::window_room("light_visibility")
 }
 
 fn settings(spp: u32, seed: u64, light_visibility: LightVisibility) -> RenderSettings {
     RenderSettings {
-        width: 48,
-        height: 48,
-        spp,
-        seed,
-        max_depth: 6,
-        adaptive: false,
         light_visibility,
-        ..RenderSettings::default()
+        // The room's sun would also give light vertices: this file is about the choice alone.
+        light_vertices: LightVertices::Off,
+        ..common::window_room_settings(spp, seed)
     }
 }
 

@@ -1,6 +1,7 @@
 //! Light vertices: a second way to build the last bounce of a path, for scenes lit by point
 //! lights (`--light-vertices`, on by default where every light is a point light inside the
-//! scene's surfaces: a lamp in a room).
+//! scene's surfaces: a lamp in a room) or by area lights in an enclosed scene (on by default
+//! where most bounces of the pass before the render stay in the scene: a room).
 //!
 //! A path that bounces at x onto a surface point z and takes z's light by next-event
 //! estimation finds z by sampling x's BSDF. Near a lamp, z's irradiance I cos θ / r² is many
@@ -20,6 +21,18 @@
 //! 0.005863 against 0.005995 at 512² and 64 spp; next-event estimation against BSDF-found
 //! emission keeps the power heuristic.)
 //!
+//! From area lights (no point light in the scene) the light vertex is where a light path
+//! lands, started at a point on a light chosen by power (uniform by area, in a cosine
+//! direction: [`Emitters::sample`]), and the same path has a third way to be found: BSDF
+//! sampling at x and then at y, hitting the light. The three are weighed by the power
+//! heuristic, each density taken per the light point's cos / r² (which all share):
+//! q_conn = P(light) cos θ_y / (π A faces) ([`Emitters::surface_density`]), q_nee = p(x → y)
+//! p_nee(y → light), q_bsdf = p(x → y) p_bsdf(y → light), p(x → y) the area density of BSDF
+//! sampling at x. A room lit through a window by a sun outside gains most: light reaching the
+//! floor through the window lights the room, and BSDF sampling finds that patch rarely (the
+//! pool keeps only vertices where the camera's paths go: see
+//! [`LightVertexPool::from_surfaces`]).
+//!
 //! The light vertices are traced once per render, before the first pixel, into a pool (one
 //! per sample of the render, at most [`LightVertexPool::SIZE`]) from which each vertex of a
 //! sample's path takes its own (see there): a light vertex does not depend on the path that
@@ -32,15 +45,18 @@
 //! vertices, for about half the relMSE (the figures: docs/performance.md, "Light vertices").
 
 use super::surface::{FaceNormals, surface_point};
+use super::visibility::Visited;
 use crate::accel::Accel;
-use crate::geometry::{Frame, Ray, offset_toward};
-use crate::light::{LightSample, LightSet, uniform_sphere};
+use crate::geometry::{Frame, Ray, offset_ray_origin, offset_toward};
+use crate::light::{Emission, Emitters, LightSample, LightSet, uniform_sphere};
 use crate::material::{Bsdf, BsdfModel};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use std::f32::consts::PI;
 
-/// A surface point lit by a point light, reached by a ray from the light.
+/// A surface point lit by a light, reached by a ray from it.
+#[derive(Clone, Copy)]
 pub(super) struct LightVertex {
     pub p: Vec3,
     /// Geometric normal, on the side the light is.
@@ -50,14 +66,21 @@ pub(super) struct LightVertex {
     pub bsdf: Bsdf,
     /// Unit direction toward the light.
     pub to_light: Vec3,
-    /// What the vertex carries per unit of its BSDF term f(wo, to_light) |cos θ_s|:
-    /// I 4π / (P(light) cos θ_g), the light's radiance arriving at `p` over the vertex's
-    /// density, times the area density's r² (which the radiance's 1/r² cancels).
+    /// What the vertex carries per unit of its BSDF term f(wo, to_light) |cos θ_s|: the
+    /// light's radiance arriving at `p` over the vertex's density, times the density's
+    /// geometric factor at the light (which the radiance's cancels). For a point light
+    /// I 4π / (P(light) cos θ_g); for a surface, [`Emission::weight`] / cos θ_g.
     pub scale: Vec3,
-    /// p_conn: area density of this vertex (light choice, direction, cos θ_g / r²).
+    /// A point light's: p_conn, the area density of this vertex (light choice, direction,
+    /// cos θ_g / r²). A surface's: q_conn, that density per the light point's cos / r²
+    /// ([`Emitters::surface_density`] × cos θ_g).
     pub p_conn: f32,
-    /// P_nee(light | p): next-event estimation's probability of choosing this light here.
+    /// A point light's: P_nee(light | p), next-event estimation's probability of choosing it
+    /// here. A surface's: the solid-angle density with which next-event estimation at `p`
+    /// picks the light's point.
     pub p_choice: f32,
+    /// From a point light.
+    pub delta: bool,
 }
 
 /// The vertices paths connect to: one per entry, traced once per render before the first
@@ -75,8 +98,15 @@ pub(super) struct LightVertex {
 pub(crate) struct LightVertexPool {
     vertices: Vec<Option<LightVertex>>,
     index: PoolIndex,
+    /// Per light of the set, [`Emitters::surface_density`] × T / M (see
+    /// [`LightVertexPool::from_surfaces`]); empty where every light is a point light.
+    surface_density: Vec<f32>,
+    /// From surfaces: the cells its vertices are kept in.
+    visited: Option<Visited>,
     /// The rays traced to build it.
     pub rays: u64,
+    /// The distinct vertices it holds (of a pool from surfaces; 0 from point lights).
+    pub kept: u32,
 }
 
 /// Which entry of a [`LightVertexPool`] each sample takes.
@@ -96,7 +126,7 @@ impl PoolIndex {
     /// vertices than it takes.
     fn new(seed: u64, spp: u32, samples: u64) -> PoolIndex {
         let max_bits = LightVertexPool::SIZE.trailing_zeros();
-        let block_bits = spp.max(1).next_power_of_two().trailing_zeros().min(max_bits);
+        let block_bits = (spp.max(1) as u64).next_power_of_two().trailing_zeros().min(max_bits);
         let size_bits = samples.max(1).next_power_of_two().trailing_zeros().clamp(block_bits, max_bits);
         PoolIndex { size_bits, block_bits, seed }
     }
@@ -125,13 +155,27 @@ impl PoolIndex {
     }
 }
 
+/// Light vertices from area lights run (unless asked) where at most this share of the rays
+/// after a bounce of the camera pass (`super::visibility`) left the scene: in a room, where
+/// light bounces many times (the broad suite's interior 2%, `cornell-area.toml` 20%). In open
+/// scenes (68–86%: `teapot.toml`, `helmet.toml`, `lamps.toml`, the broad suite's diffuse, metal
+/// and textured scenes) the connections' shadow rays cost more than they gain.
+pub(super) const MOST_ESCAPED: f64 = 0.5;
+
+/// Light paths of the pilot that sizes a pool from surfaces.
+const PILOT: u32 = 4096;
+
+/// The most light paths a pool from surfaces traces per entry.
+const MOST_PER_ENTRY: u32 = 4;
+
 impl LightVertexPool {
-    /// The most entries (the Sobol sequence's index limit).
+    /// The most entries of a pool from point lights (the Sobol sequence's index limit).
     pub const SIZE: u32 = 1 << 16;
 
-    /// The pool of a `width` × `height` render of `spp` samples per pixel with `seed`, traced
-    /// through `accel` (errors deferred, as the path's queries are: the caller checks
-    /// [`Accel::deferred_error`]). The same for every kernel, thread count and shard.
+    /// The pool of a `width` × `height` render of `spp` samples per pixel with `seed`, from its
+    /// point lights (every light is one), traced through `accel` (errors deferred, as the
+    /// path's queries are: the caller checks [`Accel::deferred_error`]). The same for every
+    /// kernel, thread count and shard.
     pub fn build(
         (scene, normals, lights): (&Scene, &FaceNormals, &LightSet),
         accel: &dyn Accel,
@@ -148,7 +192,94 @@ impl LightVertexPool {
                 trace((scene, normals, lights), accel, u[2], Vec2::new(u[0], u[1]), &mut rays)
             })
             .collect();
-        LightVertexPool { vertices, index, rays }
+        LightVertexPool { vertices, index, surface_density: Vec::new(), visited: None, rays, kept: 0 }
+    }
+
+    /// The pool of a render as [`LightVertexPool::build`]'s, from the lights that emit from
+    /// surfaces (no light is a point), keeping only the vertices in cells where paths from the
+    /// camera went (`visited`, by the side a surface faces). Light from a lamp outside a room
+    /// lit through a window mostly lands outside it (99% in the broad suite's interior): a
+    /// pool of every landing would waste almost every connection. So the pool traces T light
+    /// paths, T the pool's size S times what a pilot of [`PILOT`] paths (of their own numbers)
+    /// says gives about S kept (at most [`MOST_PER_ENTRY`] times), and its entries hold the
+    /// first M' of the M kept in turn, M' the largest power of two at most M and S: each fills
+    /// S / M' entries alike. Given M, the first M' are as good a sample of where kept paths land
+    /// as all M, and M / T estimates how often a path is kept without bias; so each entry's
+    /// light is divided by T / M, and MIS weighs the vertices by T / M times the density of one
+    /// light path. Outside the visited cells MIS gives paths to the other strategies: the
+    /// estimate stays unbiased. Every vertex fills as many entries so that all weigh alike: a
+    /// pixel takes a block of consecutive entries, and vertices weighed unlike in runs would
+    /// shift whole pixels together. The same for every kernel, thread count and shard.
+    pub fn from_surfaces(
+        (scene, normals, lights): (&Scene, &FaceNormals, &LightSet),
+        accel: &dyn Accel,
+        seed: u64,
+        (width, height): (u32, u32),
+        spp: u32,
+        visited: Visited,
+    ) -> LightVertexPool {
+        let index = PoolIndex::new(seed, spp, width as u64 * height as u64 * spp as u64);
+        let empty = |rays| LightVertexPool {
+            vertices: (0..index.size()).map(|_| None).collect(),
+            index,
+            surface_density: vec![0.0; lights.len()],
+            visited: None,
+            rays,
+            kept: 0,
+        };
+        let Some(emitters) = lights.emitters(None) else { return empty(0) };
+        let scramble = crate::sampler::mix64(seed ^ 0x6c76_706f_6f6c) as u32; // "lvpool"
+        // Light path i (its numbers: a Sobol sequence per 2^16 paths) and where it lands, if
+        // kept.
+        let kept = |i: u32, scramble: u32| {
+            let scramble = crate::sampler::mix64(scramble as u64 ^ (i >> 16) as u64) as u32;
+            let (u, v) =
+                (sobol_burley::sample_4d(i & 0xffff, 0, scramble), sobol_burley::sample_4d(i & 0xffff, 1, scramble));
+            let e = emitters.sample(u[2], Vec2::new(v[0], v[1]), Vec2::new(u[0], u[1]))?;
+            trace_surface((scene, normals, lights), accel, &emitters, &e).filter(|y| visited.contains(y.p, y.ng))
+        };
+        let pilot = (0..PILOT).into_par_iter().filter(|&i| kept(i, !scramble).is_some()).count() as u32;
+        let size = index.size();
+        let traced = size * PILOT.div_ceil(pilot.max(1)).min(MOST_PER_ENTRY);
+        let kept: Vec<LightVertex> = (0..traced).into_par_iter().filter_map(|i| kept(i, scramble)).collect();
+        let rays = (PILOT + traced) as u64;
+        let m = kept.len() as u32;
+        if m == 0 {
+            return empty(rays);
+        }
+        // The first M' kept, M' a power of two: every one fills as many entries.
+        let used = 1 << m.min(size).ilog2();
+        let mis = traced as f32 / m as f32;
+        let vertices = (0..size)
+            .map(|k| {
+                let mut y = kept[(k % used) as usize];
+                y.scale /= mis;
+                y.p_conn *= mis;
+                Some(y)
+            })
+            .collect();
+        let surface_density = (0..lights.len() as u32).map(|i| emitters.surface_density(i) * mis).collect();
+        LightVertexPool { vertices, index, surface_density, visited: Some(visited), rays, kept: used }
+    }
+
+    /// Whether a vertex at `p` (geometric normal `n` on the side the path is) could be a
+    /// light vertex of this pool: where a pool from surfaces keeps them.
+    #[inline]
+    pub(super) fn holds(&self, p: Vec3, n: Vec3) -> bool {
+        self.visited.as_ref().is_none_or(|v| v.contains(p, n))
+    }
+
+    /// [`Emitters::surface_density`] of light `light` of the set where the pool's vertices
+    /// come from surfaces (0 where they come from point lights).
+    #[inline]
+    pub(super) fn surface_density(&self, light: u32) -> f32 {
+        self.surface_density.get(light as usize).copied().unwrap_or(0.0)
+    }
+
+    /// The pool's vertices come from lights that emit from surfaces.
+    #[inline]
+    pub(super) fn is_from_surfaces(&self) -> bool {
+        !self.surface_density.is_empty()
     }
 
     /// The light vertices of sample `sample` of pixel `pixel`.
@@ -179,10 +310,36 @@ impl<'a> SampleLightVertices<'a> {
     }
 }
 
+/// Where a ray from a light lands, seen from the light's side.
+struct Landing {
+    p: Vec3,
+    /// Geometric normal, on the side the ray came from.
+    ng: Vec3,
+    /// Shading frame, its normal on the side of `ng`.
+    frame: Frame,
+    bsdf: Bsdf,
+}
+
+/// Where `ray` lands (`None` if it leaves the scene or lands on a mirror or glass, where no
+/// path could connect). Built with the general kernel's code (every switch on), whose results
+/// are the specialised kernels' bit for bit.
+fn land(scene: &Scene, normals: &FaceNormals, accel: &dyn Accel, ray: &Ray) -> Option<Landing> {
+    let hit = accel.intersect_deferred(ray, 0.0, f32::INFINITY)?;
+    let sp = surface_point::<true>(scene, normals, ray, &hit);
+    let mut bsdf = sp.material.bsdf_at::<true>(&sp.tex);
+    if bsdf.is_delta() {
+        return None;
+    }
+    let (ng, ns) = if ray.d.dot(sp.ng) > 0.0 { (-sp.ng, -sp.ns) } else { (sp.ng, sp.ns) };
+    let frame = Frame::from_normal(ns);
+    if let Some(n) = sp.coat_normal(ng) {
+        bsdf.set_coat_normal(frame.to_local(n));
+    }
+    Some(Landing { p: sp.p, ng, frame, bsdf })
+}
+
 /// The light vertex of a point light chosen by power with `u_choice` and a ray in the
-/// direction `uniform_sphere(u)` from it: the surface the ray hits (`None` if it leaves the
-/// scene or lands on a mirror or glass, where no path could connect). Built with the general
-/// kernel's code (every switch on), whose results are the specialised kernels' bit for bit.
+/// direction `uniform_sphere(u)` from it: where the ray [`land`]s.
 fn trace(
     (scene, normals, lights): (&Scene, &FaceNormals, &LightSet),
     accel: &dyn Accel,
@@ -193,18 +350,8 @@ fn trace(
     let e = lights.choose_point_by_power(u_choice)?;
     let ray = Ray::new(e.position, uniform_sphere(u));
     *rays += 1;
-    let hit = accel.intersect_deferred(&ray, 0.0, f32::INFINITY)?;
-    let sp = surface_point::<true>(scene, normals, &ray, &hit);
-    let mut bsdf = sp.material.bsdf_at::<true>(&sp.tex);
-    if bsdf.is_delta() {
-        return None;
-    }
-    let (ng, ns) = if ray.d.dot(sp.ng) > 0.0 { (-sp.ng, -sp.ns) } else { (sp.ng, sp.ns) };
-    let frame = Frame::from_normal(ns);
-    if let Some(n) = sp.coat_normal(ng) {
-        bsdf.set_coat_normal(frame.to_local(n));
-    }
-    let to_l = e.position - sp.p;
+    let Landing { p, ng, frame, bsdf } = land(scene, normals, accel, &ray)?;
+    let to_l = e.position - p;
     let r2 = to_l.length_squared();
     let to_light = to_l / r2.sqrt();
     let cos_g = to_light.dot(ng);
@@ -212,14 +359,47 @@ fn trace(
         return None;
     }
     Some(LightVertex {
-        p: sp.p,
+        p,
         ng,
         frame,
         bsdf,
         to_light,
         scale: e.intensity * (4.0 * PI / (e.prob * cos_g)),
         p_conn: e.prob * cos_g / (4.0 * PI * r2),
-        p_choice: lights.choice_probability_at(sp.p, e.light),
+        p_choice: lights.choice_probability_at(p, e.light),
+        delta: true,
+    })
+}
+
+/// The light vertex of `emission`, light leaving a surface of the set `lights` (as
+/// `emitters` starts it): where its ray [`land`]s.
+fn trace_surface(
+    (scene, normals, lights): (&Scene, &FaceNormals, &LightSet),
+    accel: &dyn Accel,
+    emitters: &Emitters,
+    emission: &Emission,
+) -> Option<LightVertex> {
+    let ray = Ray::new(offset_ray_origin(emission.p, emission.n), emission.d);
+    let Landing { p, ng, frame, bsdf } = land(scene, normals, accel, &ray)?;
+    let to_light = -emission.d;
+    let cos_g = to_light.dot(ng);
+    if !(cos_g > 0.0) {
+        return None;
+    }
+    // Next-event estimation's density of the light point, as a path arriving on this side
+    // chooses and samples it.
+    let choice = lights.choice_facing(p, ng);
+    let p_nee = lights.pdf_point(&choice, emission.light, p, emission.p, emission.n);
+    Some(LightVertex {
+        p,
+        ng,
+        frame,
+        bsdf,
+        to_light,
+        scale: emission.weight / cos_g,
+        p_conn: emitters.surface_density(emission.light) * cos_g,
+        p_choice: p_nee,
+        delta: false,
     })
 }
 
@@ -271,8 +451,17 @@ pub(super) fn connection<const LAMBERT: bool>(x: &PathVertex, y: &LightVertex, b
     if f_y == Vec3::ZERO {
         return None;
     }
-    let p_uni = y.p_choice * x.bsdf.pdf(x.wo_l, wi_x) * cos_y / d2;
-    let c = beta * f_x * f_y * y.scale * (cos_y / d2 * balance_heuristic(y.p_conn, p_uni));
+    let w = if y.delta {
+        let p_uni = y.p_choice * x.bsdf.pdf(x.wo_l, wi_x) * cos_y / d2;
+        balance_heuristic(y.p_conn, p_uni)
+    } else {
+        // Against the same path found by BSDF sampling at x, then next-event estimation or
+        // BSDF sampling at y (all three per the light point's cos / r²).
+        let p_xy = x.bsdf.pdf(x.wo_l, wi_x) * cos_y / d2;
+        let p_bsdf_y = y.bsdf.pdf(local(&y.frame, -dir), wi_y);
+        power_heuristic3(y.p_conn, p_xy * y.p_choice, p_xy * p_bsdf_y)
+    };
+    let c = beta * f_x * f_y * y.scale * (cos_y / d2 * w);
     if c == Vec3::ZERO || !c.is_finite() {
         return None;
     }
@@ -294,6 +483,15 @@ pub(super) fn nee_weight(lights: &LightSet, ls: &LightSample, p: Vec3, ng: Vec3,
     let p_uni = ls.pdf * prev_pdf * (back.dot(ng) / d2.sqrt()).max(0.0) / d2;
     let p_conn = lights.power_probability(ls.light) * ls.wi.dot(ng).max(0.0) / (4.0 * PI * r2);
     balance_heuristic(p_uni, p_conn)
+}
+
+/// The power heuristic (β = 2): the weight of a strategy of density `a` against two of
+/// densities `b` and `c`.
+#[inline]
+pub(super) fn power_heuristic3(a: f32, b: f32, c: f32) -> f32 {
+    let a2 = a * a;
+    let sum = a2 + b * b + c * c;
+    if sum > 0.0 { a2 / sum } else { 0.0 }
 }
 
 /// The balance heuristic: the weight of a strategy of density `a` against one of density `b`.
@@ -339,7 +537,10 @@ mod tests {
         let pool = LightVertexPool {
             vertices: (0..index.size()).map(|i| (!i.is_multiple_of(3)).then(|| vertex(i as f32))).collect(),
             index,
+            surface_density: Vec::new(),
+            visited: None,
             rays: 0,
+            kept: 0,
         };
         for (pixel, sample, depth) in [(0, 0, 0), (513, 5, 3), (262_143, 63, 7), (9, 700, 2)] {
             let e = index.entry(pixel, sample, depth);
@@ -358,7 +559,19 @@ mod tests {
             scale: Vec3::ONE,
             p_conn: 1.0,
             p_choice: 1.0,
+            delta: true,
         }
+    }
+
+    #[test]
+    fn the_three_weights_of_a_path_from_an_area_light_sum_to_one() {
+        for (a, b, c) in [(1.0, 2.0, 3.0), (0.5, 0.0, 7.0), (1e-15, 2e-15, 1e-15), (3.0, 4.0, 0.0)] {
+            let sum = power_heuristic3(a, b, c) + power_heuristic3(b, c, a) + power_heuristic3(c, a, b);
+            assert!((sum - 1.0).abs() < 1e-6, "{a} {b} {c}: {sum}");
+        }
+        // Without a connection, next-event estimation against BSDF sampling as before.
+        assert_eq!(power_heuristic3(3.0, 4.0, 0.0), 9.0 / 25.0);
+        assert_eq!(power_heuristic3(0.0, 0.0, 0.0), 0.0);
     }
 
     #[test]
@@ -367,6 +580,8 @@ mod tests {
         let size = |spp, samples| PoolIndex::new(1, spp, samples).size();
         assert_eq!((size(1, 64), size(16, 16 * 16 * 16), size(64, 100)), (64, 4096, 128));
         assert_eq!((size(8, 1), size(64, 512 * 512 * 64)), (8, LightVertexPool::SIZE));
+        // The most samples a pixel can be asked for.
+        assert_eq!(size(u32::MAX, u32::MAX as u64), LightVertexPool::SIZE);
         // A pixel's samples stay distinct within the small pool.
         let index = PoolIndex::new(3, 16, 10 * 10 * 16);
         for pixel in 0..100 {

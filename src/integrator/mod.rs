@@ -57,6 +57,18 @@ pub struct RenderStats {
     /// The cells where the light choice was weighed by where light samples get through
     /// (`--light-visibility`), if it was.
     pub light_visibility_cells: Option<usize>,
+    /// Where light vertices could come from area lights: whether they did, and why.
+    pub surface_light_vertices: Option<SurfaceLightVertices>,
+}
+
+/// Light vertices from area lights, decided by the pass before the render
+/// (`light_vertex::LightVertexPool::from_surfaces`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceLightVertices {
+    /// The share of the pass's rays after a bounce that left the scene.
+    pub escaped: f64,
+    /// If paths connected to them: the vertices in the pool, and the light paths traced for it.
+    pub pool: Option<(u32, u64)>,
 }
 
 impl RenderStats {

@@ -71,6 +71,15 @@ pub(crate) struct PathState {
     absorption: Vec3,
     /// The ray the path travels along.
     ray: Ray,
+    /// With light vertices from surfaces: the last vertex could connect to one, and its
+    /// bounce reflected off it by a non-specular lobe (a connection could have built the path
+    /// to the next vertex).
+    conn_next: bool,
+    /// With light vertices from surfaces: the area density with which BSDF sampling at the
+    /// vertex before the last found the last (0 where no connection could have built the
+    /// path to it), and the last vertex's geometric normal on the side the path left by.
+    conn_pdf: f32,
+    conn_ng: Vec3,
 }
 
 impl PathState {
@@ -88,6 +97,9 @@ impl PathState {
             caustic: false,
             absorption: Vec3::ZERO,
             ray,
+            conn_next: false,
+            conn_pdf: 0.0,
+            conn_ng: Vec3::ZERO,
         }
     }
 
@@ -191,8 +203,12 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
         if HIT_LIGHTS {
             let le = ctx.lights.background().radiance(ray.d);
             if le != Vec3::ZERO
-                && let Some(w) =
-                    rules.found.weight(path.specular, path.prev_pdf, || ctx.lights.pdf_background(&path.choice, ray.d))
+                && let Some(w) = rules.found.weight(
+                    path.specular,
+                    path.prev_pdf,
+                    || ctx.lights.pdf_background(&path.choice, ray.d),
+                    || 0.0,
+                )
             {
                 path.l += path.beta * le * w;
             }
@@ -207,9 +223,12 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     if HIT_LIGHTS
         && emission != Vec3::ZERO
         && !(path.caustic && path.depth >= 2 && ctx.emitters.is_some_and(|e| e.covers(hit.geom, hit.prim, sp.ng, wo)))
-        && let Some(w) = rules.found.weight(path.specular, path.prev_pdf, || {
-            ctx.lights.pdf_emitter(&path.choice, hit.geom, hit.prim, path.prev_p, sp.p, sp.ng)
-        })
+        && let Some(w) = rules.found.weight(
+            path.specular,
+            path.prev_pdf,
+            || ctx.lights.pdf_emitter(&path.choice, hit.geom, hit.prim, path.prev_p, sp.p, sp.ng),
+            || connection_ratio(ctx, path, ctx.lights.light_index(hit.geom, hit.prim), ray.d),
+        )
     {
         path.l += path.beta * emission * w;
     }
@@ -241,6 +260,16 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     let leave = if transmissive { sp.p } else { offset_ray_origin(sp.p, ng) };
     let origin = |toward: Vec3| if transmissive { offset_toward(sp.p, ng, toward) } else { leave };
     let beta = path.beta;
+    // With light vertices from surfaces: the area density with which BSDF sampling at the
+    // last vertex found this one, where a connection could have built the path to it.
+    let surface_vertices = ctx.light_vertices.is_some_and(|p| p.is_from_surfaces());
+    let p_xy = if surface_vertices && path.conn_next {
+        let back = path.prev_p - sp.p;
+        let d2 = back.length_squared();
+        path.prev_pdf * (back.dot(ng) / d2.sqrt()).max(0.0) / d2
+    } else {
+        0.0
+    };
     // Caustic guiding (`super::guide`) at a diffuse vertex after the first bounce: its
     // directions are drawn from a mixture, which both its samples' weights and MIS use.
     let guide = ctx.guide.filter(|_| path.depth > 0 && bsdf.is_lambertian()).and_then(|g| g.at(sp.p));
@@ -274,6 +303,13 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
                 light_vertex::nee_weight(ctx.lights, &ls, sp.p, ng, path.prev_p, path.prev_pdf)
             } else if ls.delta || !rules.mis {
                 1.0
+            } else if p_xy > 0.0 {
+                // Also against the connection from the last vertex to a light vertex here.
+                let conn =
+                    ctx.light_vertices.filter(|p| p.holds(sp.p, ng)).map_or(0.0, |p| p.surface_density(ls.light))
+                        * side
+                        / p_xy;
+                light_vertex::power_heuristic3(ls.pdf, mixed(bsdf.pdf(wo_l, wi_l), ls.wi), conn)
             } else {
                 power_heuristic(ls.pdf, mixed(bsdf.pdf(wo_l, wi_l), ls.wi))
             };
@@ -336,6 +372,11 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     path.caustic = if path.depth == 0 { !bs.delta && bsdf.is_lambertian() } else { path.caustic && bs.delta };
     path.prev_pdf = bs.pdf;
     path.prev_p = sp.p;
+    if surface_vertices {
+        path.conn_next = nee_here && path.depth + 2 <= ctx.path_depth && !bs.delta && side > 0.0;
+        path.conn_pdf = p_xy;
+        path.conn_ng = ng;
+    }
     path.depth += 1;
     if path.depth >= ctx.roulette_start {
         let q_rr = (1.0 - path.beta.max_element()).max(0.05);
@@ -368,16 +409,46 @@ impl FoundEmission {
     /// The weight of emission found after a bounce sampled with density `prev_pdf`, or `None`
     /// if it is not counted. After a specular bounce (or the camera), or without next-event
     /// estimation, it counts fully; otherwise only if the estimator counts it, weighted by MIS
-    /// against `light_pdf`, the density with which next-event estimation picks it.
+    /// against `light_pdf`, the density with which next-event estimation picks it, and
+    /// `connection`, the connection to a light vertex ([`connection_ratio`]; 0 if none).
     #[inline]
-    fn weight(self, specular: bool, prev_pdf: f32, light_pdf: impl FnOnce() -> f32) -> Option<f32> {
+    fn weight(
+        self,
+        specular: bool,
+        prev_pdf: f32,
+        light_pdf: impl FnOnce() -> f32,
+        connection: impl FnOnce() -> f32,
+    ) -> Option<f32> {
         if specular || !self.use_nee {
             Some(1.0)
         } else if self.count {
-            Some(if self.mis { power_heuristic(prev_pdf, light_pdf()) } else { 1.0 })
+            Some(if self.mis {
+                match connection() {
+                    0.0 => power_heuristic(prev_pdf, light_pdf()),
+                    c => light_vertex::power_heuristic3(prev_pdf, light_pdf(), c),
+                }
+            } else {
+                1.0
+            })
         } else {
             None
         }
+    }
+}
+
+/// With light vertices from surfaces, for emission of light `light` (if it is one) that the
+/// path's ray `d` found: the density with which the vertex before the last connects to a light
+/// vertex at the last and that vertex's light path starts at this point toward it, per the
+/// density with which BSDF sampling found the last vertex from the one before (its
+/// solid-angle density from the last vertex, as MIS weighs it against `path.prev_pdf`); 0 where
+/// no connection could have built the path.
+#[inline]
+fn connection_ratio(ctx: &PathContext, path: &PathState, light: Option<u32>, d: Vec3) -> f32 {
+    match (ctx.light_vertices, light) {
+        (Some(pool), Some(i)) if path.conn_pdf > 0.0 && pool.holds(path.prev_p, path.conn_ng) => {
+            pool.surface_density(i) * d.dot(path.conn_ng).max(0.0) / path.conn_pdf
+        }
+        _ => 0.0,
     }
 }
 

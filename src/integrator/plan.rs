@@ -116,8 +116,9 @@ impl RenderPlan {
         let light_vertices = light_vertices_apply(&effects, settings, scene_depth).is_ok();
         let caustics = caustics_apply(&effects, settings, scene_depth).is_ok();
         let guiding = guiding_apply(caustics, light_vertices, settings).is_ok();
-        // Light vertices weigh their connections by the choice by importance alone.
-        let light_visibility = settings.light_visibility == crate::settings::LightVisibility::Auto && !light_vertices;
+        // Point lights' vertices weigh their connections by the choice by importance alone.
+        let light_visibility = settings.light_visibility == crate::settings::LightVisibility::Auto
+            && !(light_vertices && effects.point_lights);
         RenderPlan {
             settings: settings.clone(),
             effects,
@@ -245,19 +246,29 @@ impl RenderPlan {
     }
 }
 
-/// Whether a render connects paths to light vertices (`Ok`, with why) or not (`Err`, why not).
+/// Why light vertices from area lights may run: the render decides after its first pass.
+const BY_THE_PASS: &str = "from the area lights if most bounces of a pass of paths stay in the scene";
+
+/// Whether a render connects paths to light vertices (`Ok`, with why; from area lights, if
+/// the pass before the render finds the scene enclosed) or not (`Err`, why not).
 fn light_vertices_apply(effects: &Effects, s: &RenderSettings, scene_depth: u32) -> Result<&'static str, &'static str> {
     let asked = match s.light_vertices {
         LightVertices::Off => return Err("--light-vertices off"),
         LightVertices::On => "--light-vertices on",
         LightVertices::Auto => "every light is a point light inside the scene",
     };
-    if !effects.point_lights || effects.emissive || effects.sky || effects.environment {
-        Err("not every light is a point light")
+    let points = effects.point_lights && !(effects.emissive || effects.sky || effects.environment);
+    let surfaces = effects.area_lights && !effects.point_lights;
+    if !(points || surfaces) {
+        Err("not every light is a point light or an area light")
     } else if s.estimator != Estimator::NeeMis {
         Err("only with --estimator nee-mis")
     } else if scene_depth < 2 {
         Err("no light bounces")
+    } else if surfaces && caustics_apply(effects, s, scene_depth).is_ok() {
+        Err("area lights with caustic light paths")
+    } else if s.light_vertices == LightVertices::Auto && surfaces {
+        Ok(BY_THE_PASS)
     } else if s.light_vertices == LightVertices::Auto && !effects.enclosed_point_lights {
         Err("a point light is outside the scene's surfaces")
     } else {
@@ -303,7 +314,7 @@ fn guiding_apply(caustics: bool, light_vertices: bool, s: &RenderSettings) -> Re
 }
 
 /// `kernel: …; path depth N (why); russian roulette …` (and `; wavefront path loop` if so),
-/// then, where every light is a point light, `light vertices: on|off (why)`, and where the
+/// then, where there are point or area lights, `light vertices: on|off (why)`, and where the
 /// scene has mirrors or glass, `caustic light paths: on|off (why)` and, where they run,
 /// `caustic guiding: on|off (why)`, each on a line of its own.
 impl fmt::Display for RenderPlan {
@@ -312,8 +323,9 @@ impl fmt::Display for RenderPlan {
         if self.settings.path_loop != crate::settings::PathLoop::Scalar {
             write!(f, "; {} path loop", self.settings.path_loop)?;
         }
-        if self.effects.point_lights {
+        if self.effects.point_lights || self.effects.area_lights {
             match light_vertices_apply(&self.effects, &self.settings, self.scene_depth) {
+                Ok(BY_THE_PASS) => write!(f, "\nlight vertices: {BY_THE_PASS}")?,
                 Ok(why) => write!(f, "\nlight vertices: on ({why})")?,
                 Err(why) => write!(f, "\nlight vertices: off ({why})")?,
             }

@@ -31,15 +31,15 @@ use super::aux::AuxSample;
 use super::caustic;
 use super::context::PathContext;
 use super::kernel::SampleFn;
-use super::light_vertex::LightVertexPool;
+use super::light_vertex::{self, LightVertexPool};
 use super::surface::FaceNormals;
 use super::wavefront::{BatchFn, GroupJob};
-use super::{RenderError, RenderPlan, RenderSettings, RenderStats};
+use super::{RenderError, RenderPlan, RenderSettings, RenderStats, SurfaceLightVertices};
 use crate::accel::{Accel, LANES};
 use crate::film::{Accumulator, AuxSums, Checkpoint, CheckpointKey, LightSums, PixelState};
 use crate::sampler::{PixelSampler, mix64};
 use crate::scene::Scene;
-use crate::settings::{PathLoop, TILE, clamp_sample};
+use crate::settings::{LightVertices, PathLoop, TILE, clamp_sample};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -195,24 +195,48 @@ pub(super) fn run(
     let camera = scene.camera(settings.width as f32 / settings.height as f32);
     let normals = FaceNormals::of(scene);
     let lights = scene.light_set(settings.light_tree);
-    // Where light samples get through, learned alike by every render of the scene and seed
-    // (shards, resumed), unless no sample is left to take.
+    // Where light samples get through and where paths go, learned alike by every render of
+    // the scene and seed (shards, resumed), unless no sample is left to take.
     let mut visibility_rays = 0;
-    let lights = if plan.light_visibility && lights.chooses_by_importance() && !earlier.all_taken(settings.spp, owned) {
+    let weigh = plan.light_visibility && lights.chooses_by_importance();
+    let surface_vertices = plan.light_vertices && !plan.effects.point_lights;
+    let learned = if (weigh || surface_vertices) && !earlier.all_taken(settings.spp, owned) {
         let ctx = PathContext::new(scene, accel, &lights, &normals, &camera, plan);
-        match super::visibility::learn(&ctx, &mut visibility_rays) {
-            Some(v) => lights.with_visibility(v),
-            None => lights,
-        }
+        super::visibility::learn(&ctx, weigh, &mut visibility_rays)
     } else {
-        lights
+        None
+    };
+    let (weights, visited) = match learned {
+        Some(l) => (l.weights, Some((l.visited, l.escaped))),
+        None => (None, None),
+    };
+    let lights = match weights {
+        Some(v) => lights.with_visibility(v),
+        None => lights,
     };
     accel.deferred_error()?;
     let mut ctx = PathContext::new(scene, accel, &lights, &normals, &camera, plan);
     let (w, h) = (settings.width, settings.height);
-    let pool = plan
-        .light_vertices
-        .then(|| LightVertexPool::build((scene, &normals, &lights), accel, settings.seed, (w, h), settings.spp));
+    let pool = if !plan.light_vertices {
+        None
+    } else if plan.effects.point_lights {
+        Some(LightVertexPool::build((scene, &normals, &lights), accel, settings.seed, (w, h), settings.spp))
+    } else {
+        // From area lights where most of the pass's bounces stayed in the scene (or asked).
+        visited
+            .as_ref()
+            .filter(|(_, escaped)| {
+                settings.light_vertices == LightVertices::On || *escaped <= light_vertex::MOST_ESCAPED
+            })
+            .map(|(v, _)| {
+                let pass = (scene, &normals, &lights);
+                LightVertexPool::from_surfaces(pass, accel, settings.seed, (w, h), settings.spp, v.clone())
+            })
+    };
+    let surface_light_vertices = visited
+        .as_ref()
+        .filter(|_| surface_vertices)
+        .map(|(_, escaped)| SurfaceLightVertices { escaped: *escaped, pool: pool.as_ref().map(|p| (p.kept, p.rays)) });
     accel.deferred_error()?;
     ctx.light_vertices = pool.as_ref();
     // The caustics' light paths, before the first pixel (a checkpoint has them already; the
@@ -285,6 +309,7 @@ pub(super) fn run(
     }
     session.finish().map(|mut r| {
         r.stats.light_visibility_cells = lights.visibility_cells();
+        r.stats.surface_light_vertices = surface_light_vertices;
         r
     })
 }
@@ -425,6 +450,7 @@ impl Earlier {
             spp: film.spp_range_of(pixel),
             error_estimate: film.error_estimate_of(pixel),
             light_visibility_cells: None,
+            surface_light_vertices: None,
         }
     }
 }

@@ -22,7 +22,7 @@ use crate::material::BsdfModel;
 use crate::sampler::{PixelSampler, mix64};
 use glam::Vec3;
 use rayon::prelude::*;
-use rustc_hash::FxHashMap;
+use rustc_hash::{FxHashMap, FxHashSet};
 
 /// Samples the render plans per path of the pass.
 const SAMPLES_PER_PATH: u64 = 64;
@@ -44,10 +44,36 @@ pub(super) fn chunks(width: u32, height: u32, spp: u32) -> u64 {
         / CHUNK
 }
 
-/// The visibility weights of `ctx`'s lights (which must choose by importance), learned by the
-/// pass; `None` where more than half of the pass's light samples brought light, or every group
-/// got through wherever it was counted. Adds the rays traced to `rays`.
-pub(super) fn learn(ctx: &PathContext, rays: &mut u64) -> Option<Visibility> {
+/// The cells (and sides) where the pass's paths had a vertex that is not a mirror or clear
+/// glass: where paths from the camera go (light vertices from surfaces are kept only there).
+#[derive(Clone, Debug)]
+pub(crate) struct Visited {
+    grid: Grid,
+    cells: FxHashSet<CellKey>,
+}
+
+impl Visited {
+    /// Whether a path's vertex at `p` on the side `n` faces lies in a visited cell.
+    #[inline]
+    pub fn contains(&self, p: Vec3, n: Vec3) -> bool {
+        key(&self.grid, p, n).is_some_and(|k| self.cells.contains(&k))
+    }
+}
+
+/// What the pass learned: the visibility weights of the lights' groups (`None` where more than
+/// half of the pass's light samples brought light, or every group got through wherever it was
+/// counted, or `weigh` is false), where its paths went, and how often they left the scene.
+pub(super) struct Learned {
+    pub weights: Option<Visibility>,
+    pub visited: Visited,
+    /// The share of the pass's rays after a bounce that left the scene.
+    pub escaped: f64,
+}
+
+/// Runs the pass over `ctx`'s scene, counting light samples by group where `weigh` (the lights
+/// must then choose by importance); `None` for a scene of no size. Adds the rays traced to
+/// `rays`.
+pub(super) fn learn(ctx: &PathContext, weigh: bool, rays: &mut u64) -> Option<Learned> {
     let lights = ctx.lights;
     let bounds = ctx.scene.bounds();
     let radius = 0.5 * bounds.diagonal().length();
@@ -56,19 +82,24 @@ pub(super) fn learn(ctx: &PathContext, rays: &mut u64) -> Option<Visibility> {
     }
     let grid = Grid::over(&Sphere::new(bounds.center(), radius), CELLS_PER_RADIUS);
     let streams_key = mix64(ctx.settings.seed ^ 0x0076_6973_6962_6c65); // "visible"
-    let chunks: Vec<(FxHashMap<CellKey, Counts>, u64)> =
+    let chunks: Vec<(FxHashMap<CellKey, Counts>, u64, [u64; 2])> =
         (0..chunks(ctx.settings.width, ctx.settings.height, ctx.settings.spp))
             .into_par_iter()
             .map(|chunk| {
                 let streams = PixelSampler::new(ctx.settings.sampler, streams_key, chunk);
-                let (mut counts, mut rays) = (FxHashMap::<CellKey, Counts>::default(), 0);
+                let (mut counts, mut rays, mut bounces) = (FxHashMap::<CellKey, Counts>::default(), 0, [0u64; 2]);
                 for s in 0..CHUNK {
                     let mut rng = streams.sample(s);
                     let (film, lens) = (rng.next_2d(), rng.next_2d());
                     let mut ray = ctx.camera.ray(film, lens);
-                    for _ in 0..DEPTH.min(ctx.path_depth.max(1)) {
+                    for depth in 0..DEPTH.min(ctx.path_depth.max(1)) {
                         rays += 1;
-                        let Some(hit) = ctx.accel.intersect_deferred(&ray, 0.0, f32::INFINITY) else { break };
+                        let hit = ctx.accel.intersect_deferred(&ray, 0.0, f32::INFINITY);
+                        if depth > 0 {
+                            bounces[0] += 1;
+                            bounces[1] += hit.is_none() as u64;
+                        }
+                        let Some(hit) = hit else { break };
                         let sp = surface_point::<true>(ctx.scene, ctx.normals, &ray, &hit);
                         let wo = -ray.d;
                         let mut bsdf = sp.material.bsdf_at::<true>(&sp.tex);
@@ -76,8 +107,12 @@ pub(super) fn learn(ctx: &PathContext, rays: &mut u64) -> Option<Visibility> {
                         let (ng, frame) = sp.shading::<true>(wo, transmissive, &mut bsdf);
                         let n = if transmissive { Vec3::ZERO } else { ng };
                         let (uc, u) = (rng.next_f32(), rng.next_2d());
-                        if !bsdf.is_delta()
-                            && let Some(k) = key(&grid, sp.p, n)
+                        let k = if bsdf.is_delta() { None } else { key(&grid, sp.p, n) };
+                        if let Some(k) = k {
+                            counts.entry(k).or_insert(NO_COUNTS);
+                        }
+                        if weigh
+                            && let Some(k) = k
                             && let Some(ls) = lights.sample(&lights.choice_at(sp.p).facing(n), sp.p, uc, u)
                         {
                             let brings = ls.radiance != Vec3::ZERO && (transmissive || ls.wi.dot(ng) > 0.0) && {
@@ -107,13 +142,16 @@ pub(super) fn learn(ctx: &PathContext, rays: &mut u64) -> Option<Visibility> {
                         );
                     }
                 }
-                (counts, rays)
+                (counts, rays, bounces)
             })
             .collect();
     // Integer sums: the same whatever order the chunks are added in.
     let mut all: FxHashMap<CellKey, Counts> = FxHashMap::default();
-    for (counts, r) in chunks {
+    let mut bounces = [0u64; 2];
+    for (counts, r, b) in chunks {
         *rays += r;
+        bounces[0] += b[0];
+        bounces[1] += b[1];
         for (k, c) in counts {
             let sum = all.entry(k).or_insert(NO_COUNTS);
             for (s, c) in sum.iter_mut().zip(c) {
@@ -122,13 +160,17 @@ pub(super) fn learn(ctx: &PathContext, rays: &mut u64) -> Option<Visibility> {
             }
         }
     }
+    let visited = Visited { grid, cells: all.keys().copied().collect() };
     // Where most light samples bring light (an open scene), weighing them gains little and
     // each shading point's look-up costs a few percent.
     let (traced, brought) = all.values().flatten().fold((0u64, 0u64), |(t, b), c| (t + c[0] as u64, b + c[1] as u64));
-    if 2 * brought > traced {
-        return None;
-    }
-    Visibility::of(grid, all)
+    let weights = if weigh && 2 * brought <= traced {
+        Visibility::of(grid, all.into_iter().filter(|(_, c)| c.iter().any(|c| c[0] > 0)))
+    } else {
+        None
+    };
+    let escaped = bounces[1] as f64 / bounces[0].max(1) as f64;
+    Some(Learned { weights, visited, escaped })
 }
 
 #[cfg(test)]

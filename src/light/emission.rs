@@ -24,6 +24,8 @@ pub struct Emission {
     /// Radiance × cos (intensity, for a point light) over the density of the light, the point
     /// and the direction.
     pub weight: Vec3,
+    /// Which light of the set.
+    pub light: u32,
 }
 
 /// A point a light emits from ([`Emitters::sample`] picks the direction).
@@ -55,6 +57,8 @@ pub struct Emitters<'a> {
     cdf: Vec<f32>,
     /// The probability of each light of the set (0 for the background and lights of no power).
     prob: Vec<f32>,
+    /// Per light of the set, what [`Emitters::surface_density`] gives.
+    surface_density: Vec<f32>,
 }
 
 impl LightSet {
@@ -75,7 +79,21 @@ impl LightSet {
         for (k, &i) in lights.iter().enumerate() {
             prob[i as usize] = distribution::probability(&cdf, k);
         }
-        Some(Emitters { set: self, target, lights, cdf, prob })
+        // A point's density over a light's surface is the same everywhere on it.
+        let surface_density = (0..self.lights.len())
+            .map(|i| {
+                let e = match &self.lights[i] {
+                    Emitter::Triangle(t) => t.emit_point(Vec2::splat(0.25)),
+                    Emitter::Sphere(s) => s.emit_point(Vec2::splat(0.25)),
+                    Emitter::Point(_) | Emitter::Background => None,
+                };
+                e.map_or(0.0, |e| {
+                    let faces = if e.two_sided { 0.5 } else { 1.0 };
+                    prob[i] * faces / (PI * e.area)
+                })
+            })
+            .collect();
+        Some(Emitters { set: self, target, lights, cdf, prob, surface_density })
     }
 }
 
@@ -126,7 +144,20 @@ impl Emitters<'_> {
         }
         let weight = e.le * (cos * e.area / (self.prob[i] * pdf));
         let n = if e.n.dot(d) < 0.0 { -e.n } else { e.n };
-        (weight.is_finite() && weight.max_element() > 0.0).then_some(Emission { p: e.p, n, d, weight })
+        (weight.is_finite() && weight.max_element() > 0.0).then_some(Emission { p: e.p, n, d, weight, light: i as u32 })
+    }
+
+    /// For light `light` of the set, a surface that emits: the density with which
+    /// [`Emitters::sample`] (with no target) starts a path at a point of it along a direction,
+    /// over the light's area and the projected solid angle about the point's normal: the
+    /// probability of the choice, the point's density (1 / area) and the cosine direction's
+    /// (1 / π, halved for a two-sided face). Times the cosine at a surface point y that the
+    /// path lands on, over the distance², it is the path's density over y's area, per the
+    /// light point's geometric factor cos / distance² (what light vertices weigh). 0 for point
+    /// lights and the background.
+    #[inline]
+    pub fn surface_density(&self, light: u32) -> f32 {
+        self.surface_density[light as usize]
     }
 
     /// Whether light that primitive `prim` of geometry `geom` sheds toward `wo` (from its

@@ -628,6 +628,12 @@ impl LightSet {
 
     /// Which light of the set primitive `prim` of geometry `geom` is, if any.
     #[inline]
+    pub fn light_index(&self, geom: u32, prim: u32) -> Option<u32> {
+        self.light_of(geom, prim).map(|i| i as u32)
+    }
+
+    /// Which light of the set primitive `prim` of geometry `geom` is, if any.
+    #[inline]
     fn light_of(&self, geom: u32, prim: u32) -> Option<usize> {
         match self.primitive_lights.get(geom as usize)? {
             PrimitiveLights::Range(base) => Some((base + prim) as usize),
@@ -640,6 +646,13 @@ impl LightSet {
     /// (normal `n`) on primitive `prim` of geometry `geom`; 0 if that primitive is not a light.
     pub fn pdf_emitter(&self, choice: &LightChoice, geom: u32, prim: u32, p: Vec3, q: Vec3, n: Vec3) -> f32 {
         let Some(i) = self.light_of(geom, prim) else { return 0.0 };
+        self.pdf_point(choice, i as u32, p, q, n)
+    }
+
+    /// Density with which `sample` from `p` (with `choice`, made there) picks the point `q`
+    /// (normal `n`) on light `light` of the set, a surface; 0 for other lights.
+    pub fn pdf_point(&self, choice: &LightChoice, light: u32, p: Vec3, q: Vec3, n: Vec3) -> f32 {
+        let i = light as usize;
         let sel = self.choice_probability(choice, i);
         match &self.lights[i] {
             Emitter::Triangle(t) => t.pdf(sel, p, q, n),

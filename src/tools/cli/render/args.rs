@@ -40,11 +40,13 @@ pub struct RenderArgs {
     /// scene's albedo [scene's render.rr_depth, else auto].
     #[arg(long)]
     pub rr_depth: Option<String>,
-    /// Connect each path vertex to a light vertex (a surface point lit by a point light,
-    /// sampled from the light) and weigh it by MIS against next-event estimation: auto, on or
-    /// off. Auto turns it on where every light is a point light inside the scene's surfaces
-    /// (a lamp in a room), where it lowers the noise of light that bounces off surfaces near
-    /// the lamp; unbiased either way [scene's render.light_vertices, else auto].
+    /// Connect each path vertex to a light vertex (a surface point lit by a point light or an
+    /// area light, sampled from the light) and weigh it by MIS against next-event estimation:
+    /// auto, on or off. Auto turns it on where every light is a point light inside the
+    /// scene's surfaces (a lamp in a room), and for area lights where most bounces of a pass
+    /// of paths before the render stay in the scene (a room lit through its window), where it
+    /// lowers the noise of light that bounces off lit surfaces; unbiased either way [scene's
+    /// render.light_vertices, else auto].
     #[arg(long)]
     pub light_vertices: Option<LightVertices>,
     /// Trace paths from the lights for the caustics (light that reaches a surface the camera

@@ -309,8 +309,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         crate::accel::AccelKind::Naive => "naive accel".to_string(),
     };
     say!("{}", summary::rendered(&stats, &accel_text, &args.output));
-    for line in
-        summary::adaptive(&stats).into_iter().chain(summary::clamped(&stats)).chain(summary::light_visibility(&stats))
+    for line in summary::adaptive(&stats)
+        .into_iter()
+        .chain(summary::clamped(&stats))
+        .chain(summary::light_visibility(&stats))
+        .chain(summary::surface_light_vertices(&stats))
     {
         say!("{line}");
     }

@@ -132,6 +132,22 @@ pub(super) fn error_estimate(stats: &RenderStats) -> String {
 
 /// Where the light choice was weighed by visibility (`--light-visibility`): `light choice: by
 /// importance × the share of light samples that got through, learned in N cells`.
+pub(super) fn surface_light_vertices(stats: &RenderStats) -> Option<String> {
+    stats.surface_light_vertices.map(|v| {
+        let escaped = 100.0 * v.escaped;
+        match v.pool {
+            Some((kept, traced)) => format!(
+                "light vertices: {kept} from the area lights, kept where the pass's paths went ({traced} light paths \
+                 traced); {escaped:.0}% of the pass's bounces left the scene"
+            ),
+            None => format!(
+                "light vertices: off: {escaped:.0}% of the pass's bounces left the scene (they pay where most stay \
+                 in it; --light-vertices on connects anyway)"
+            ),
+        }
+    })
+}
+
 pub(super) fn light_visibility(stats: &RenderStats) -> Option<String> {
     stats.light_visibility_cells.map(|n| {
         format!(
