@@ -37,6 +37,7 @@ use super::wavefront::{BatchFn, GroupJob};
 use super::{RenderError, RenderPlan, RenderSettings, RenderStats, SurfaceLightVertices};
 use crate::accel::{Accel, LANES};
 use crate::film::{Accumulator, AuxSums, Checkpoint, CheckpointKey, LightSums, PixelState};
+use crate::light::Emitters;
 use crate::sampler::{PixelSampler, mix64};
 use crate::scene::Scene;
 use crate::settings::{LightVertices, PathLoop, TILE, clamp_sample};
@@ -195,17 +196,9 @@ pub(super) fn run(
     let camera = scene.camera(settings.width as f32 / settings.height as f32);
     let normals = FaceNormals::of(scene);
     let lights = scene.light_set(settings.light_tree);
-    // Where light samples get through and where paths go, learned alike by every render of
-    // the scene and seed (shards, resumed), unless no sample is left to take.
-    let mut visibility_rays = 0;
-    let weigh = plan.light_visibility && lights.chooses_by_importance();
-    let surface_vertices = plan.light_vertices && !plan.effects.point_lights;
-    let learned = if (weigh || surface_vertices) && !earlier.all_taken(settings.spp, owned) {
-        let ctx = PathContext::new(scene, accel, &lights, &normals, &camera, plan);
-        super::visibility::learn(&ctx, weigh, &mut visibility_rays)
-    } else {
-        None
-    };
+    let taking = !earlier.all_taken(settings.spp, owned);
+    let (learned, visibility_rays) =
+        learn(&PathContext::new(scene, accel, &lights, &normals, &camera, plan), plan, taking);
     let (weights, visited) = match learned {
         Some(l) => (l.weights, Some((l.visited, l.escaped))),
         None => (None, None),
@@ -216,31 +209,13 @@ pub(super) fn run(
     };
     accel.deferred_error()?;
     let mut ctx = PathContext::new(scene, accel, &lights, &normals, &camera, plan);
-    let (w, h) = (settings.width, settings.height);
-    let pool = if !plan.light_vertices {
-        None
-    } else if plan.effects.point_lights {
-        Some(LightVertexPool::build((scene, &normals, &lights), accel, settings.seed, (w, h), settings.spp))
-    } else {
-        // From area lights where most of the pass's bounces stayed in the scene (or asked).
-        visited
-            .as_ref()
-            .filter(|(_, escaped)| {
-                settings.light_vertices == LightVertices::On || *escaped <= light_vertex::MOST_ESCAPED
-            })
-            .map(|(v, _)| {
-                let pass = (scene, &normals, &lights);
-                LightVertexPool::from_surfaces(pass, accel, settings.seed, (w, h), settings.spp, v.clone())
-            })
-    };
+    let pool = light_vertex_pool(&ctx, plan, visited.as_ref());
     let surface_light_vertices = visited
         .as_ref()
-        .filter(|_| surface_vertices)
+        .filter(|_| plan.light_vertices && !plan.effects.point_lights)
         .map(|(_, escaped)| SurfaceLightVertices { escaped: *escaped, pool: pool.as_ref().map(|p| (p.kept, p.rays)) });
     accel.deferred_error()?;
     ctx.light_vertices = pool.as_ref();
-    // The caustics' light paths, before the first pixel (a checkpoint has them already; the
-    // first round of a two-stage shard leaves them to its second stage).
     let target = if plan.caustics { caustic::target(scene) } else { None };
     let emitters = if plan.caustics { lights.emitters(target) } else { None };
     ctx.emitters = emitters.as_ref();
@@ -248,46 +223,23 @@ pub(super) fn run(
     // The caustic guide, built alike by every render of the scene and seed (shards, resumed),
     // unless no sample is left to take.
     let guide = match (&emitters, target) {
-        (Some(e), Some(t)) if plan.guiding && !earlier.all_taken(settings.spp, owned) => {
-            super::guide::Guide::build(&ctx, e, t, &mut guide_rays)
-        }
+        (Some(e), Some(t)) if plan.guiding && taking => super::guide::Guide::build(&ctx, e, t, &mut guide_rays),
         _ => None,
     };
     accel.deferred_error()?;
     ctx.guide = guide.as_ref();
     let (mut light_rays, mut clamped_splats) = (0, 0);
     if plan.caustics && earlier.film.light.is_none() {
-        let c = match &emitters {
-            Some(e) if !control.first_round_only => {
-                let stop = control.stop;
-                let stop_requested = || stop.is_some_and(|s| s.load(Ordering::Relaxed));
-                let paths = caustic::paths(w, h, settings.spp);
-                let rounds = plan.rounds();
-                let report = |traced, rays| {
-                    if let Some(report) = control.progress {
-                        report(Progress {
-                            work_done: 0.0,
-                            work_before: 0.0,
-                            work_planned: 0.0,
-                            rays,
-                            elapsed: start.elapsed(),
-                            round: 0,
-                            rounds,
-                            light_paths: Some((traced, paths)),
-                        });
-                    }
-                };
-                caustic::render(&ctx, e, paths, &stop_requested, &report).ok_or(RenderError::StoppedInLightPaths)?
-            }
-            _ => caustic::CausticImage { sums: LightSums::new(w as usize * h as usize), rays: 0, clamped: 0 },
-        };
+        let c = caustic_image(&ctx, plan, emitters.as_ref(), &control, start)?;
         accel.deferred_error()?;
         earlier.film.light = Some(c.sums);
         (light_rays, clamped_splats) = (c.rays, c.clamped);
     }
     // A shard renders only its own tiles.
-    let tiles: Vec<(u32, u32)> =
-        tile_order(w, h).into_iter().filter(|&(tx, ty)| settings.shard.is_none_or(|s| s.owns_tile(tx, ty))).collect();
+    let tiles: Vec<(u32, u32)> = tile_order(settings.width, settings.height)
+        .into_iter()
+        .filter(|&(tx, ty)| settings.shard.is_none_or(|s| s.owns_tile(tx, ty)))
+        .collect();
     // Stage 1 of an adaptive shard stops before the plan; every other render needs no other
     // shard, and stage 1 is all of it.
     let rounds = if control.first_round_only && settings.adaptive { 1 } else { plan.rounds() };
@@ -312,6 +264,80 @@ pub(super) fn run(
         r.stats.surface_light_vertices = surface_light_vertices;
         r
     })
+}
+
+/// The pass of camera paths before the render ([`super::visibility::learn`]), where the plan
+/// needs it: to weigh the light choice by where samples get through, or to see where paths go
+/// for light vertices from area lights. Learned alike by every render of the scene and seed
+/// (shards, resumed), unless no sample is left to `take`. With the rays it traced.
+fn learn(ctx: &PathContext, plan: &RenderPlan, taking: bool) -> (Option<super::visibility::Learned>, u64) {
+    let weigh = plan.light_visibility && ctx.lights.chooses_by_importance();
+    let surface_vertices = plan.light_vertices && !plan.effects.point_lights;
+    let mut rays = 0;
+    let learned =
+        if (weigh || surface_vertices) && taking { super::visibility::learn(ctx, weigh, &mut rays) } else { None };
+    (learned, rays)
+}
+
+/// The light vertices the plan connects to: from the point lights, or from the area lights
+/// where most of the pass's bounces stayed in the scene (`visited`, with the share that left)
+/// or `--light-vertices on` asks.
+fn light_vertex_pool(
+    ctx: &PathContext,
+    plan: &RenderPlan,
+    visited: Option<&(super::visibility::Visited, f64)>,
+) -> Option<LightVertexPool> {
+    let settings = &plan.settings;
+    let pass = (ctx.scene, ctx.normals, ctx.lights);
+    let (size, spp, seed) = ((settings.width, settings.height), settings.spp, settings.seed);
+    if !plan.light_vertices {
+        None
+    } else if plan.effects.point_lights {
+        Some(LightVertexPool::build(pass, ctx.accel, seed, size, spp))
+    } else {
+        visited
+            .filter(|(_, escaped)| {
+                settings.light_vertices == LightVertices::On || *escaped <= light_vertex::MOST_ESCAPED
+            })
+            .map(|(v, _)| LightVertexPool::from_surfaces(pass, ctx.accel, seed, size, spp, v.clone()))
+    }
+}
+
+/// The caustics' light paths, traced before the first pixel, reporting their progress (a
+/// checkpoint has them already; the first round of a two-stage shard leaves them to its second
+/// stage, and so does a scene with nothing for them to light: an empty image).
+fn caustic_image(
+    ctx: &PathContext,
+    plan: &RenderPlan,
+    emitters: Option<&Emitters>,
+    control: &RenderControl,
+    start: Instant,
+) -> Result<caustic::CausticImage, RenderError> {
+    let (w, h) = (ctx.settings.width, ctx.settings.height);
+    match emitters {
+        Some(e) if !control.first_round_only => {
+            let stop = control.stop;
+            let stop_requested = || stop.is_some_and(|s| s.load(Ordering::Relaxed));
+            let paths = caustic::paths(w, h, plan.settings.spp);
+            let rounds = plan.rounds();
+            let report = |traced, rays| {
+                if let Some(report) = control.progress {
+                    report(Progress {
+                        work_done: 0.0,
+                        work_before: 0.0,
+                        work_planned: 0.0,
+                        rays,
+                        elapsed: start.elapsed(),
+                        round: 0,
+                        rounds,
+                        light_paths: Some((traced, paths)),
+                    });
+                }
+            };
+            caustic::render(ctx, e, paths, &stop_requested, &report).ok_or(RenderError::StoppedInLightPaths)
+        }
+        _ => Ok(caustic::CausticImage { sums: LightSums::new(w as usize * h as usize), rays: 0, clamped: 0 }),
+    }
 }
 
 /// The render's checkpoint key ([`RenderPlan::checkpoint_key`]), made when first needed:
