@@ -402,3 +402,25 @@ fn an_open_scene_renders_without_vertices_from_its_area_light() {
     let (_, stats) = common::render_embree(&scene, &s(LightVertices::On));
     assert!(stats.surface_light_vertices.and_then(|v| v.pool).is_some());
 }
+
+#[test]
+fn a_pass_run_only_to_decide_stops_after_its_first_chunk_in_an_open_scene() {
+    // A floor filling the view under one small lamp and no sky: one group of lights, so the
+    // pass weighs nothing and runs only to decide light vertices. Its paths hit the floor and
+    // bounce (2 rays or more each), mostly out of the scene: the first chunk of 4,096 paths
+    // (at most 4 rays each) decides, and the rest of the pass (3 chunks or more) is not traced.
+    let text = "[camera]\nposition = [0.0, 2.0, 0.0]\nlook_at = [0.0, 0.0, 0.01]\nfov = 40\n\
+        [materials.floor]\ntype = \"diffuse\"\ncolor = [0.5, 0.5, 0.5]\n\
+        [materials.lamp]\ntype = \"emissive\"\nemission = [20.0, 20.0, 20.0]\n\
+        [[quads]]\ncorner = [-50.0, 0.0, -50.0]\nedge1 = [0.0, 0.0, 100.0]\nedge2 = [100.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
+        [[quads]]\ncorner = [-0.2, 1.0, -0.2]\nedge1 = [0.4, 0.0, 0.0]\nedge2 = [0.0, 0.0, 0.4]\nmaterial = \"lamp\"\n";
+    let scene = Scene::load(&common::write_scene("light-vertices", "open-floor.toml", text)).unwrap();
+    let s = |lv| RenderSettings { width: 32, height: 32, spp: 4, light_vertices: lv, ..RenderSettings::default() };
+    let (auto, auto_stats) = common::render_embree(&scene, &s(LightVertices::Auto));
+    let (off, off_stats) = common::render_embree(&scene, &s(LightVertices::Off));
+    let v = auto_stats.surface_light_vertices.expect("the pass decides");
+    assert!(v.pool.is_none() && v.escaped > 0.5, "{v:?}");
+    assert_eq!(auto.pixels, off.pixels);
+    let pass = auto_stats.rays - off_stats.rays;
+    assert!((2 * 4096..=4 * 4096).contains(&pass), "the pass traced {pass} rays");
+}

@@ -156,7 +156,7 @@ impl PoolIndex {
 }
 
 /// Light vertices from area lights run (unless asked) where at most this share of the rays
-/// after a bounce of the camera pass (`super::visibility`) left the scene: in a room, where
+/// after a bounce in the first chunk of the camera pass (`super::visibility`) left the scene: in a room, where
 /// light bounces many times (the broad suite's interior 2%, `cornell-area.toml` 20%). In open
 /// scenes (68–86%: `teapot.toml`, `helmet.toml`, `lamps.toml`, the broad suite's diffuse, metal
 /// and textured scenes) the connections' shadow rays cost more than they gain.

@@ -274,8 +274,12 @@ fn learn(ctx: &PathContext, plan: &RenderPlan, taking: bool) -> (Option<super::v
     let weigh = plan.light_visibility && ctx.lights.chooses_by_importance();
     let surface_vertices = plan.light_vertices && !plan.effects.point_lights;
     let mut rays = 0;
-    let learned =
-        if (weigh || surface_vertices) && taking { super::visibility::learn(ctx, weigh, &mut rays) } else { None };
+    let needs_cells = |escaped| surface_vertices && builds_surface_pool(&plan.settings, escaped);
+    let learned = if (weigh || surface_vertices) && taking {
+        super::visibility::learn(ctx, weigh, needs_cells, &mut rays)
+    } else {
+        None
+    };
     (learned, rays)
 }
 
@@ -296,11 +300,15 @@ fn light_vertex_pool(
         Some(LightVertexPool::build(pass, ctx.accel, seed, size, spp))
     } else {
         visited
-            .filter(|(_, escaped)| {
-                settings.light_vertices == LightVertices::On || *escaped <= light_vertex::MOST_ESCAPED
-            })
+            .filter(|(_, escaped)| builds_surface_pool(settings, *escaped))
             .map(|(v, _)| LightVertexPool::from_surfaces(pass, ctx.accel, seed, size, spp, v.clone()))
     }
+}
+
+/// Whether light vertices come from the area lights, given the share of the pass's bounces
+/// that left the scene: where most stay in it ([`light_vertex::MOST_ESCAPED`]), or when asked.
+fn builds_surface_pool(settings: &RenderSettings, escaped: f64) -> bool {
+    settings.light_vertices == LightVertices::On || escaped <= light_vertex::MOST_ESCAPED
 }
 
 /// The caustics' light paths, traced before the first pixel, reporting their progress (a

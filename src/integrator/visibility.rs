@@ -12,6 +12,11 @@
 //! shard or resumption. The weights are kept only where at most half of the pass's light
 //! samples brought light (a room lit through a window): in an open scene they change little
 //! and their look-up at every shading point costs about 4% (measured on `teapot.toml`).
+//!
+//! The pass also records the cells its vertices landed in and, from its first chunk, the share
+//! of bounces that left the scene: light vertices from area lights need the cells where that
+//! share is low (`super::light_vertex::MOST_ESCAPED`). A pass run only for them (nothing to
+//! weigh) stops after its first chunk where they are not needed.
 
 use super::caustic::CHUNK;
 use super::context::PathContext;
@@ -66,14 +71,20 @@ impl Visited {
 pub(super) struct Learned {
     pub weights: Option<Visibility>,
     pub visited: Visited,
-    /// The share of the pass's rays after a bounce that left the scene.
+    /// The share of the rays after a bounce that left the scene, in the pass's first chunk.
     pub escaped: f64,
 }
 
 /// Runs the pass over `ctx`'s scene, counting light samples by group where `weigh` (the lights
-/// must then choose by importance); `None` for a scene of no size. Adds the rays traced to
-/// `rays`.
-pub(super) fn learn(ctx: &PathContext, weigh: bool, rays: &mut u64) -> Option<Learned> {
+/// must then choose by importance); `None` for a scene of no size. Traces only its first chunk
+/// unless it weighs or `needs_cells` the first chunk's share of bounces that left the scene;
+/// [`Learned::visited`] then holds that chunk's cells. Adds the rays traced to `rays`.
+pub(super) fn learn(
+    ctx: &PathContext,
+    weigh: bool,
+    needs_cells: impl Fn(f64) -> bool,
+    rays: &mut u64,
+) -> Option<Learned> {
     let lights = ctx.lights;
     let bounds = ctx.scene.bounds();
     let radius = 0.5 * bounds.diagonal().length();
@@ -82,76 +93,72 @@ pub(super) fn learn(ctx: &PathContext, weigh: bool, rays: &mut u64) -> Option<Le
     }
     let grid = Grid::over(&Sphere::new(bounds.center(), radius), CELLS_PER_RADIUS);
     let streams_key = mix64(ctx.settings.seed ^ 0x0076_6973_6962_6c65); // "visible"
-    let chunks: Vec<(FxHashMap<CellKey, Counts>, u64, [u64; 2])> =
-        (0..chunks(ctx.settings.width, ctx.settings.height, ctx.settings.spp))
-            .into_par_iter()
-            .map(|chunk| {
-                let streams = PixelSampler::new(ctx.settings.sampler, streams_key, chunk);
-                let (mut counts, mut rays, mut bounces) = (FxHashMap::<CellKey, Counts>::default(), 0, [0u64; 2]);
-                for s in 0..CHUNK {
-                    let mut rng = streams.sample(s);
-                    let (film, lens) = (rng.next_2d(), rng.next_2d());
-                    let mut ray = ctx.camera.ray(film, lens);
-                    for depth in 0..DEPTH.min(ctx.path_depth.max(1)) {
+    let trace_chunk = |chunk: u64| {
+        let streams = PixelSampler::new(ctx.settings.sampler, streams_key, chunk);
+        let (mut counts, mut rays, mut bounces) = (FxHashMap::<CellKey, Counts>::default(), 0, [0u64; 2]);
+        for s in 0..CHUNK {
+            let mut rng = streams.sample(s);
+            let (film, lens) = (rng.next_2d(), rng.next_2d());
+            let mut ray = ctx.camera.ray(film, lens);
+            for depth in 0..DEPTH.min(ctx.path_depth.max(1)) {
+                rays += 1;
+                let hit = ctx.accel.intersect_deferred(&ray, 0.0, f32::INFINITY);
+                if depth > 0 {
+                    bounces[0] += 1;
+                    bounces[1] += hit.is_none() as u64;
+                }
+                let Some(hit) = hit else { break };
+                let sp = surface_point::<true>(ctx.scene, ctx.normals, &ray, &hit);
+                let wo = -ray.d;
+                let mut bsdf = sp.material.bsdf_at::<true>(&sp.tex);
+                let transmissive = bsdf.is_transmissive();
+                let (ng, frame) = sp.shading::<true>(wo, transmissive, &mut bsdf);
+                let n = if transmissive { Vec3::ZERO } else { ng };
+                let (uc, u) = (rng.next_f32(), rng.next_2d());
+                let k = if bsdf.is_delta() { None } else { key(&grid, sp.p, n) };
+                if let Some(k) = k {
+                    counts.entry(k).or_insert(NO_COUNTS);
+                }
+                if weigh
+                    && let Some(k) = k
+                    && let Some(ls) = lights.sample(&lights.choice_at(sp.p).facing(n), sp.p, uc, u)
+                {
+                    let brings = ls.radiance != Vec3::ZERO && (transmissive || ls.wi.dot(ng) > 0.0) && {
+                        let o = if transmissive { offset_toward(sp.p, ng, ls.wi) } else { offset_ray_origin(sp.p, ng) };
+                        let (shadow, tmax) = ls.shadow_ray(o);
                         rays += 1;
-                        let hit = ctx.accel.intersect_deferred(&ray, 0.0, f32::INFINITY);
-                        if depth > 0 {
-                            bounces[0] += 1;
-                            bounces[1] += hit.is_none() as u64;
-                        }
-                        let Some(hit) = hit else { break };
-                        let sp = surface_point::<true>(ctx.scene, ctx.normals, &ray, &hit);
-                        let wo = -ray.d;
-                        let mut bsdf = sp.material.bsdf_at::<true>(&sp.tex);
-                        let transmissive = bsdf.is_transmissive();
-                        let (ng, frame) = sp.shading::<true>(wo, transmissive, &mut bsdf);
-                        let n = if transmissive { Vec3::ZERO } else { ng };
-                        let (uc, u) = (rng.next_f32(), rng.next_2d());
-                        let k = if bsdf.is_delta() { None } else { key(&grid, sp.p, n) };
-                        if let Some(k) = k {
-                            counts.entry(k).or_insert(NO_COUNTS);
-                        }
-                        if weigh
-                            && let Some(k) = k
-                            && let Some(ls) = lights.sample(&lights.choice_at(sp.p).facing(n), sp.p, uc, u)
-                        {
-                            let brings = ls.radiance != Vec3::ZERO && (transmissive || ls.wi.dot(ng) > 0.0) && {
-                                let o = if transmissive {
-                                    offset_toward(sp.p, ng, ls.wi)
-                                } else {
-                                    offset_ray_origin(sp.p, ng)
-                                };
-                                let (shadow, tmax) = ls.shadow_ray(o);
-                                rays += 1;
-                                !ctx.accel.occluded_deferred(&shadow, 0.0, tmax)
-                            };
-                            if let Some(c) = counts.entry(k).or_insert(NO_COUNTS).get_mut(lights.group_of(ls.light)) {
-                                c[0] += 1;
-                                c[1] += brings as u32;
-                            }
-                        }
-                        let (u, uc) = (rng.next_2d(), rng.next_f32());
-                        let Some(bs) = bsdf.sample(frame.to_local(wo), u, uc) else { break };
-                        let wi = frame.to_world(bs.wi);
-                        if !(bs.pdf > 0.0) || (!transmissive && wi.dot(ng) <= 0.0) {
-                            break;
-                        }
-                        ray = Ray::new(
-                            if transmissive { offset_toward(sp.p, ng, wi) } else { offset_ray_origin(sp.p, ng) },
-                            wi,
-                        );
+                        !ctx.accel.occluded_deferred(&shadow, 0.0, tmax)
+                    };
+                    if let Some(c) = counts.entry(k).or_insert(NO_COUNTS).get_mut(lights.group_of(ls.light)) {
+                        c[0] += 1;
+                        c[1] += brings as u32;
                     }
                 }
-                (counts, rays, bounces)
-            })
-            .collect();
+                let (u, uc) = (rng.next_2d(), rng.next_f32());
+                let Some(bs) = bsdf.sample(frame.to_local(wo), u, uc) else { break };
+                let wi = frame.to_world(bs.wi);
+                if !(bs.pdf > 0.0) || (!transmissive && wi.dot(ng) <= 0.0) {
+                    break;
+                }
+                ray =
+                    Ray::new(if transmissive { offset_toward(sp.p, ng, wi) } else { offset_ray_origin(sp.p, ng) }, wi);
+            }
+        }
+        (counts, rays, bounces)
+    };
+    // The first chunk's share of bounces that left the scene decides light vertices; where
+    // nothing is weighed and the cells are not needed, the rest of the pass is not traced.
+    let all_chunks = chunks(ctx.settings.width, ctx.settings.height, ctx.settings.spp);
+    let mut traced: Vec<_> = (0..if weigh { all_chunks } else { 1 }).into_par_iter().map(trace_chunk).collect();
+    let escaped = traced[0].2[1] as f64 / traced[0].2[0].max(1) as f64;
+    if !weigh && needs_cells(escaped) {
+        let rest: Vec<_> = (1..all_chunks).into_par_iter().map(trace_chunk).collect();
+        traced.extend(rest);
+    }
     // Integer sums: the same whatever order the chunks are added in.
     let mut all: FxHashMap<CellKey, Counts> = FxHashMap::default();
-    let mut bounces = [0u64; 2];
-    for (counts, r, b) in chunks {
+    for (counts, r, _) in traced {
         *rays += r;
-        bounces[0] += b[0];
-        bounces[1] += b[1];
         for (k, c) in counts {
             let sum = all.entry(k).or_insert(NO_COUNTS);
             for (s, c) in sum.iter_mut().zip(c) {
@@ -169,7 +176,6 @@ pub(super) fn learn(ctx: &PathContext, weigh: bool, rays: &mut u64) -> Option<Le
     } else {
         None
     };
-    let escaped = bounces[1] as f64 / bounces[0].max(1) as f64;
     Some(Learned { weights, visited, escaped })
 }
 
