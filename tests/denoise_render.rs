@@ -393,13 +393,13 @@ fn rel_mse(image: &Film, reference: &Film) -> f64 {
 
 #[test]
 fn denoising_brings_a_low_spp_render_closer_to_the_reference() {
-    // cornell-area at 40x40: 8 spp (seed 1) against 1024 spp (seed 0, no shared random
-    // numbers). Measured (Sobol samples): relMSE 0.178 noisy, 0.0125 denoised (albedo + normal,
-    // prefiltered), 0.0144 colour only; mean FLIP 0.163 noisy, 0.138 denoised (independent
-    // samples: 0.170, 0.0135, 0.0148; 0.177, 0.139). FLIP gains less: it damps pixel-scale
-    // noise and sees the smooth blotches a denoiser leaves (docs/denoiser.md). Asserted with
-    // room for other builds of OIDN: denoised relMSE below a fifth of the noisy one, FLIP
-    // below 90% of it; colour only below half of the noisy relMSE.
+    // cornell-area at 40x40 (light vertices from its lamp): 8 spp (seed 1) against 1024 spp
+    // (seed 0, no shared random numbers). Measured (Sobol samples, OIDN 2.5.1): relMSE 0.0536
+    // noisy, 0.0096 denoised (albedo + normal, prefiltered: 0.18x), 0.0114 colour only; mean
+    // FLIP 0.141 noisy, 0.119 denoised (0.84x). FLIP gains less: it damps pixel-scale noise and
+    // sees the smooth blotches a denoiser leaves (docs/denoiser.md). Asserted with room for
+    // other builds of OIDN: denoised relMSE below a quarter of the noisy one, FLIP below 90% of
+    // it; colour only below half of the noisy relMSE.
     let scene = Scene::load(&common::scene_path("cornell-area.toml")).unwrap();
     let base = RenderSettings { width: 40, height: 40, ..RenderSettings::from_scene(&scene.render) };
     let reference = render(&scene, &RenderSettings { spp: 1024, seed: 0, ..base.clone() }).accum.film();
@@ -415,7 +415,7 @@ fn denoising_brings_a_low_spp_render_closer_to_the_reference() {
     eprintln!(
         "relMSE {e_noisy:.4} -> {e_denoised:.4} (colour only {e_colour:.4}), FLIP {f_noisy:.4} -> {f_denoised:.4}"
     );
-    assert!(e_denoised < 0.2 * e_noisy, "relMSE {e_noisy} noisy, {e_denoised} denoised");
+    assert!(e_denoised < 0.25 * e_noisy, "relMSE {e_noisy} noisy, {e_denoised} denoised");
     assert!(f_denoised < 0.9 * f_noisy, "FLIP {f_noisy} noisy, {f_denoised} denoised");
     assert!(e_colour < 0.5 * e_noisy, "relMSE {e_noisy} noisy, {e_colour} colour only");
 }
