@@ -44,6 +44,7 @@
 //! ray. On Embree's Cornell box a sample traces about 1.2× the rays of a render without light
 //! vertices, for about half the relMSE (the figures: docs/performance.md, "Light vertices").
 
+use super::mis::{balance_heuristic, power_heuristic};
 use super::surface::{FaceNormals, surface_point};
 use super::visibility::Visited;
 use crate::accel::Accel;
@@ -276,6 +277,17 @@ impl LightVertexPool {
         self.surface_density.get(light as usize).copied().unwrap_or(0.0)
     }
 
+    /// With vertices from surfaces: the density with which a connection from the vertex before
+    /// `y` to a light vertex at `y` (geometric normal `ng`, on the side the path arrived by)
+    /// builds a path whose light path starts at a point of light `light` seen at cosine `cos`
+    /// from `y`, per the light point's cos / r² and per `p_xy`, the area density with which BSDF
+    /// sampling at the vertex before found `y`: what MIS weighs next-event estimation and BSDF
+    /// sampling at `y` against. 0 where the pool keeps no vertex.
+    #[inline]
+    pub(super) fn connection_per(&self, light: u32, y: Vec3, ng: Vec3, cos: f32, p_xy: f32) -> f32 {
+        if self.holds(y, ng) { self.surface_density(light) * cos.max(0.0) / p_xy } else { 0.0 }
+    }
+
     /// The pool's vertices come from lights that emit from surfaces.
     #[inline]
     pub(super) fn is_from_surfaces(&self) -> bool {
@@ -459,7 +471,7 @@ pub(super) fn connection<const LAMBERT: bool>(x: &PathVertex, y: &LightVertex, b
         // BSDF sampling at y (all three per the light point's cos / r²).
         let p_xy = x.bsdf.pdf(x.wo_l, wi_x) * cos_y / d2;
         let p_bsdf_y = y.bsdf.pdf(local(&y.frame, -dir), wi_y);
-        power_heuristic3(y.p_conn, p_xy * y.p_choice, p_xy * p_bsdf_y)
+        power_heuristic(y.p_conn, p_xy * y.p_choice, p_xy * p_bsdf_y)
     };
     let c = beta * f_x * f_y * y.scale * (cos_y / d2 * w);
     if c == Vec3::ZERO || !c.is_finite() {
@@ -483,21 +495,6 @@ pub(super) fn nee_weight(lights: &LightSet, ls: &LightSample, p: Vec3, ng: Vec3,
     let p_uni = ls.pdf * prev_pdf * (back.dot(ng) / d2.sqrt()).max(0.0) / d2;
     let p_conn = lights.power_probability(ls.light) * ls.wi.dot(ng).max(0.0) / (4.0 * PI * r2);
     balance_heuristic(p_uni, p_conn)
-}
-
-/// The power heuristic (β = 2): the weight of a strategy of density `a` against two of
-/// densities `b` and `c`.
-#[inline]
-pub(super) fn power_heuristic3(a: f32, b: f32, c: f32) -> f32 {
-    let a2 = a * a;
-    let sum = a2 + b * b + c * c;
-    if sum > 0.0 { a2 / sum } else { 0.0 }
-}
-
-/// The balance heuristic: the weight of a strategy of density `a` against one of density `b`.
-#[inline]
-fn balance_heuristic(a: f32, b: f32) -> f32 {
-    if a + b > 0.0 { a / (a + b) } else { 0.0 }
 }
 
 #[cfg(test)]
@@ -561,17 +558,6 @@ mod tests {
             p_choice: 1.0,
             delta: true,
         }
-    }
-
-    #[test]
-    fn the_three_weights_of_a_path_from_an_area_light_sum_to_one() {
-        for (a, b, c) in [(1.0, 2.0, 3.0), (0.5, 0.0, 7.0), (1e-15, 2e-15, 1e-15), (3.0, 4.0, 0.0)] {
-            let sum = power_heuristic3(a, b, c) + power_heuristic3(b, c, a) + power_heuristic3(c, a, b);
-            assert!((sum - 1.0).abs() < 1e-6, "{a} {b} {c}: {sum}");
-        }
-        // Without a connection, next-event estimation against BSDF sampling as before.
-        assert_eq!(power_heuristic3(3.0, 4.0, 0.0), 9.0 / 25.0);
-        assert_eq!(power_heuristic3(0.0, 0.0, 0.0), 0.0);
     }
 
     #[test]

@@ -9,6 +9,7 @@ mod context;
 mod guide;
 mod kernel;
 mod light_vertex;
+mod mis;
 mod path;
 mod plan;
 mod progressive;

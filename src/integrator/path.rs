@@ -5,6 +5,7 @@
 use super::context::PathContext;
 pub(crate) use super::light_vertex::ShadowQuery;
 use super::light_vertex::{self, PathVertex, SampleLightVertices};
+use super::mis::power_heuristic;
 use super::surface::{surface_point, transmittance};
 use crate::accel::Accel;
 use crate::geometry::{Hit, Ray, offset_ray_origin, offset_toward};
@@ -13,13 +14,6 @@ use crate::material::{Bsdf, BsdfModel, BsdfSample};
 use crate::sampler::SampleStream;
 use crate::settings::Estimator;
 use glam::Vec3;
-
-/// Power heuristic with β = 2.
-#[inline]
-fn power_heuristic(a: f32, b: f32) -> f32 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
-}
 
 /// How a render's paths count light, read once from its settings.
 #[derive(Clone, Copy)]
@@ -303,15 +297,13 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
                 light_vertex::nee_weight(ctx.lights, &ls, sp.p, ng, path.prev_p, path.prev_pdf)
             } else if ls.delta || !rules.mis {
                 1.0
-            } else if p_xy > 0.0 {
-                // Also against the connection from the last vertex to a light vertex here.
-                let conn =
-                    ctx.light_vertices.filter(|p| p.holds(sp.p, ng)).map_or(0.0, |p| p.surface_density(ls.light))
-                        * side
-                        / p_xy;
-                light_vertex::power_heuristic3(ls.pdf, mixed(bsdf.pdf(wo_l, wi_l), ls.wi), conn)
             } else {
-                power_heuristic(ls.pdf, mixed(bsdf.pdf(wo_l, wi_l), ls.wi))
+                // Also against the connection from the last vertex to a light vertex here.
+                let conn = match ctx.light_vertices {
+                    Some(pool) if p_xy > 0.0 => pool.connection_per(ls.light, sp.p, ng, side, p_xy),
+                    _ => 0.0,
+                };
+                power_heuristic(ls.pdf, mixed(bsdf.pdf(wo_l, wi_l), ls.wi), conn)
             };
             shadow.trace(&mut path.l, ray, tmax, beta * f * ls.radiance * (w / ls.pdf));
         }
@@ -422,14 +414,7 @@ impl FoundEmission {
         if specular || !self.use_nee {
             Some(1.0)
         } else if self.count {
-            Some(if self.mis {
-                match connection() {
-                    0.0 => power_heuristic(prev_pdf, light_pdf()),
-                    c => light_vertex::power_heuristic3(prev_pdf, light_pdf(), c),
-                }
-            } else {
-                1.0
-            })
+            Some(if self.mis { power_heuristic(prev_pdf, light_pdf(), connection()) } else { 1.0 })
         } else {
             None
         }
@@ -445,8 +430,8 @@ impl FoundEmission {
 #[inline]
 fn connection_ratio(ctx: &PathContext, path: &PathState, light: Option<u32>, d: Vec3) -> f32 {
     match (ctx.light_vertices, light) {
-        (Some(pool), Some(i)) if path.conn_pdf > 0.0 && pool.holds(path.prev_p, path.conn_ng) => {
-            pool.surface_density(i) * d.dot(path.conn_ng).max(0.0) / path.conn_pdf
+        (Some(pool), Some(i)) if path.conn_pdf > 0.0 => {
+            pool.connection_per(i, path.prev_p, path.conn_ng, d.dot(path.conn_ng), path.conn_pdf)
         }
         _ => 0.0,
     }

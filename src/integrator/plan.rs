@@ -200,6 +200,12 @@ impl RenderPlan {
         4 * (self.path_depth as u64 + 2)
     }
 
+    /// Whether light vertices, if the pass before the render finds the scene enclosed, come
+    /// from area lights (no point light: `light_vertices_apply`).
+    pub fn light_vertices_from_surfaces(&self) -> bool {
+        self.light_vertices && !self.effects.point_lights
+    }
+
     /// Whether anything in the scene emits light; without light every sample is exactly zero
     /// and the specialised render traces no ray.
     pub fn traces_nothing(&self) -> bool {

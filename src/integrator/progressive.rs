@@ -212,7 +212,7 @@ pub(super) fn run(
     let pool = light_vertex_pool(&ctx, plan, visited.as_ref());
     let surface_light_vertices = visited
         .as_ref()
-        .filter(|_| plan.light_vertices && !plan.effects.point_lights)
+        .filter(|_| plan.light_vertices_from_surfaces())
         .map(|(_, escaped)| SurfaceLightVertices { escaped: *escaped, pool: pool.as_ref().map(|p| (p.kept, p.rays)) });
     accel.deferred_error()?;
     ctx.light_vertices = pool.as_ref();
@@ -272,7 +272,7 @@ pub(super) fn run(
 /// (shards, resumed), unless no sample is left to `take`. With the rays it traced.
 fn learn(ctx: &PathContext, plan: &RenderPlan, taking: bool) -> (Option<super::visibility::Learned>, u64) {
     let weigh = plan.light_visibility && ctx.lights.chooses_by_importance();
-    let surface_vertices = plan.light_vertices && !plan.effects.point_lights;
+    let surface_vertices = plan.light_vertices_from_surfaces();
     let mut rays = 0;
     let needs_cells = |escaped| surface_vertices && builds_surface_pool(&plan.settings, escaped);
     let learned = if (weigh || surface_vertices) && taking {
@@ -294,14 +294,12 @@ fn light_vertex_pool(
     let settings = &plan.settings;
     let pass = (ctx.scene, ctx.normals, ctx.lights);
     let (size, spp, seed) = ((settings.width, settings.height), settings.spp, settings.seed);
-    if !plan.light_vertices {
-        None
-    } else if plan.effects.point_lights {
-        Some(LightVertexPool::build(pass, ctx.accel, seed, size, spp))
-    } else {
+    if plan.light_vertices_from_surfaces() {
         visited
             .filter(|(_, escaped)| builds_surface_pool(settings, *escaped))
             .map(|(v, _)| LightVertexPool::from_surfaces(pass, ctx.accel, seed, size, spp, v.clone()))
+    } else {
+        plan.light_vertices.then(|| LightVertexPool::build(pass, ctx.accel, seed, size, spp))
     }
 }
 

@@ -115,12 +115,11 @@ pub(super) fn learn(
                 let (ng, frame) = sp.shading::<true>(wo, transmissive, &mut bsdf);
                 let n = if transmissive { Vec3::ZERO } else { ng };
                 let (uc, u) = (rng.next_f32(), rng.next_2d());
-                let k = if bsdf.is_delta() { None } else { key(&grid, sp.p, n) };
-                if let Some(k) = k {
-                    counts.entry(k).or_insert(NO_COUNTS);
-                }
+                let cell = if bsdf.is_delta() { None } else { key(&grid, sp.p, n) };
+                // Every cell a vertex lands in is visited, whether or not it counts a sample.
+                let cell = cell.map(|k| counts.entry(k).or_insert(NO_COUNTS));
                 if weigh
-                    && let Some(k) = k
+                    && let Some(cell) = cell
                     && let Some(ls) = lights.sample(&lights.choice_at(sp.p).facing(n), sp.p, uc, u)
                 {
                     let brings = ls.radiance != Vec3::ZERO && (transmissive || ls.wi.dot(ng) > 0.0) && {
@@ -129,7 +128,7 @@ pub(super) fn learn(
                         rays += 1;
                         !ctx.accel.occluded_deferred(&shadow, 0.0, tmax)
                     };
-                    if let Some(c) = counts.entry(k).or_insert(NO_COUNTS).get_mut(lights.group_of(ls.light)) {
+                    if let Some(c) = cell.get_mut(lights.group_of(ls.light)) {
                         c[0] += 1;
                         c[1] += brings as u32;
                     }
