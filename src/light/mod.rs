@@ -463,13 +463,19 @@ impl LightSet {
     /// [`LightSet::choice_at`] `p` of a surface lit on the side `n` faces (zero: both), as
     /// [`LightChoice::facing`] `n`; with [`LightSet::with_visibility`] the groups are weighed
     /// by what got through on that side near `p`.
-    #[inline]
+    #[inline(always)]
     pub fn choice_facing(&self, p: Vec3, n: Vec3) -> LightChoice {
         match &self.visibility {
-            Some(v) => self.local_choice(p, v.at(p, n)),
+            Some(v) => self.visible_choice(v, p, n),
             None => self.choice_at(p),
         }
         .facing(n)
+    }
+
+    /// Out of line, so that kernels without visibility weights carry none of its code.
+    #[inline(never)]
+    fn visible_choice(&self, v: &visibility::Visibility, p: Vec3, n: Vec3) -> LightChoice {
+        self.local_choice(p, v.at(p, n))
     }
 
     /// Whether next-event estimation chooses among 2 to 8 groups by their importance at the
