@@ -1,6 +1,7 @@
 //! The two path loops (`--path-loop scalar|wavefront`) compute the same image, bit for bit:
-//! the wavefront loop shades each path with the scalar loop's code, in the same order on the
-//! same numbers, and only regroups the work (tracing a pixel's rays as packets, which Embree
+//! the wavefront loop shades each path with the scalar loop's code (Lambertian vertices eight
+//! at a time, each lane with the same operations), in the same order on the same numbers, and
+//! only regroups the work (tracing a pixel's rays as packets, which Embree
 //! answers as it answers single rays). Checked on every sample scene, through both
 //! accelerators, uniform and adaptive, with the auxiliary images and with several threads.
 
@@ -70,6 +71,78 @@ fn both_loops_give_the_same_image_through_embree() {
         // With the auxiliary images (albedo, normal), on two threads.
         let aux = RenderSettings { aux: true, threads: Some(2), ..small(5) };
         assert_loops_agree(name, &scene, &accel, &aux);
+    }
+}
+
+/// Lambertian surfaces only (a textured sphere, a plain one, a floor, a small lamp), lit by
+/// the lamp, a point light and a gradient sky: every kind of light the lane stage meets.
+const LAMBERTIAN: &str = r#"
+[render]
+width = 20
+height = 12
+[camera]
+position = [0.0, 2.2, 9.0]
+look_at = [0.0, 1.0, 0.0]
+fov = 38
+[background]
+type = "gradient"
+zenith = [0.35, 0.45, 0.65]
+horizon = [0.75, 0.78, 0.80]
+[materials.earth]
+type = "diffuse"
+texture = "earthmap.jpg"
+[materials.matte]
+type = "diffuse"
+color = [0.2, 0.35, 0.75]
+[materials.lamp]
+type = "emissive"
+emission = [30.0, 28.0, 25.0]
+[[quads]]
+corner = [-20.0, 0.0, -20.0]
+edge1 = [0.0, 0.0, 40.0]
+edge2 = [40.0, 0.0, 0.0]
+material = "matte"
+[[spheres]]
+center = [0.0, 1.0, 0.0]
+radius = 1.0
+material = "earth"
+[[spheres]]
+center = [2.0, 0.6, 0.5]
+radius = 0.6
+material = "matte"
+[[spheres]]
+center = [-1.5, 3.0, 1.5]
+radius = 0.3
+material = "lamp"
+[[lights]]
+type = "point"
+position = [2.0, 4.0, 3.0]
+intensity = [20.0, 20.0, 20.0]
+"#;
+
+#[test]
+fn both_loops_give_the_same_image_where_lambertian_vertices_are_shaded_in_lanes() {
+    // The wavefront loop shades the vertices of kernels without glossy or glass materials,
+    // in renders without light vertices, eight at a time (`src/integrator/lanes.rs`): point
+    // lights alone (cornell.toml), area lights (cornell-area.toml), a sky (bunny.obj), and
+    // all of them with textures and spheres; with Russian roulette (the default) and without.
+    use ember::settings::{LightVertices, RrDepth};
+    let device = Device::new().unwrap();
+    let textured = Scene::from_toml_str(LAMBERTIAN, &common::scene_path("lambertian.toml")).unwrap();
+    let mut lambertian: Vec<(&str, Scene)> = scenes()
+        .into_iter()
+        .filter(|(n, _)| ["cornell.toml", "cornell-area.toml", "bunny.obj"].contains(n))
+        .collect();
+    lambertian.push(("lambertian (textured, every light)", textured));
+    for (name, scene) in lambertian {
+        let plan = RenderPlan::new(&scene, &small(1));
+        assert!(!plan.kernel.glossy && !plan.kernel.glass, "{name}: {}", plan.kernel);
+        let accel = ember::accel::EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
+        let off = RenderSettings { light_vertices: LightVertices::Off, ..small(13) };
+        assert_loops_agree(name, &scene, &accel, &off);
+        let no_rr = RenderSettings { rr_depth: RrDepth::Off, threads: Some(2), ..off.clone() };
+        assert_loops_agree(name, &scene, &accel, &no_rr);
+        assert_loops_agree(name, &scene, &NaiveAccel::new(&scene.geometry), &RenderSettings { spp: 5, ..off });
     }
 }
 

@@ -8,6 +8,7 @@ mod caustic;
 mod context;
 mod guide;
 mod kernel;
+mod lanes;
 mod light_vertex;
 mod mis;
 mod path;

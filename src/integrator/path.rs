@@ -6,7 +6,7 @@ use super::context::PathContext;
 pub(crate) use super::light_vertex::ShadowQuery;
 use super::light_vertex::{self, PathVertex, SampleLightVertices};
 use super::mis::power_heuristic;
-use super::surface::{surface_point, transmittance};
+use super::surface::{SurfacePoint, surface_point, transmittance};
 use crate::accel::Accel;
 use crate::geometry::{Hit, Ray, offset_ray_origin, offset_toward};
 use crate::light::LightChoice;
@@ -18,9 +18,9 @@ use glam::Vec3;
 /// How a render's paths count light, read once from its settings.
 #[derive(Clone, Copy)]
 pub(crate) struct PathRules {
-    use_nee: bool,
-    uniform_diffuse: bool,
-    mis: bool,
+    pub(super) use_nee: bool,
+    pub(super) uniform_diffuse: bool,
+    pub(super) mis: bool,
     found: FoundEmission,
 }
 
@@ -46,7 +46,7 @@ impl PathRules {
 pub(crate) struct PathState {
     /// The radiance gathered so far.
     pub l: Vec3,
-    beta: Vec3,
+    pub(super) beta: Vec3,
     /// The last bounce was specular (camera rays count as specular: emission seen directly
     /// is kept).
     specular: bool,
@@ -55,8 +55,8 @@ pub(crate) struct PathState {
     /// How next-event estimation chose its light at the last vertex where it ran: the
     /// densities MIS weighs emission found by the next ray against (only needed after a
     /// non-specular bounce, which always follows next-event estimation).
-    choice: LightChoice,
-    depth: u32,
+    pub(super) choice: LightChoice,
+    pub(super) depth: u32,
     /// The path so far is the camera, a bounce off a diffuse surface, then only specular ones:
     /// the shape of the light that caustic light paths carry (`super::caustic`).
     caustic: bool,
@@ -95,6 +95,20 @@ impl PathState {
             conn_pdf: 0.0,
             conn_ng: Vec3::ZERO,
         }
+    }
+
+    /// The state after a bounce off a Lambertian surface at `p` that sampled its direction
+    /// with density `pdf` (no light vertices from surfaces), with throughput `beta` after
+    /// Russian roulette, continuing along `ray`: what [`shade`] leaves there.
+    #[inline(always)]
+    pub(super) fn bounced_diffuse(&mut self, beta: Vec3, pdf: f32, p: Vec3, ray: Ray) {
+        self.beta = beta;
+        self.specular = false;
+        self.caustic = self.depth == 0;
+        self.prev_pdf = pdf;
+        self.prev_p = p;
+        self.depth += 1;
+        self.ray = ray;
     }
 
     /// The ray the path travels along: after [`shade`] returned `Some`, the one it returned.
@@ -193,39 +207,12 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
         }
     }
     let Some(hit) = hit else {
-        // Without non-delta lights the background is black.
-        if HIT_LIGHTS {
-            let le = ctx.lights.background().radiance(ray.d);
-            if le != Vec3::ZERO
-                && let Some(w) = rules.found.weight(
-                    path.specular,
-                    path.prev_pdf,
-                    || ctx.lights.pdf_background(&path.choice, ray.d),
-                    || 0.0,
-                )
-            {
-                path.l += path.beta * le * w;
-            }
-        }
+        found_background::<HIT_LIGHTS>(ctx, rules, path);
         return None;
     };
     let sp = surface_point::<TEX>(ctx.scene, ctx.normals, &ray, &hit);
     let wo = -ray.d;
-    let emission = sp.material.emission.at::<TEX>(&sp.tex);
-    // Without non-delta lights nothing emits. Light found after the camera's first hit and only
-    // specular bounces since is the caustic light paths' to carry, where they run.
-    if HIT_LIGHTS
-        && emission != Vec3::ZERO
-        && !(path.caustic && path.depth >= 2 && ctx.emitters.is_some_and(|e| e.covers(hit.geom, hit.prim, sp.ng, wo)))
-        && let Some(w) = rules.found.weight(
-            path.specular,
-            path.prev_pdf,
-            || ctx.lights.pdf_emitter(&path.choice, hit.geom, hit.prim, path.prev_p, sp.p, sp.ng),
-            || connection_ratio(ctx, path, ctx.lights.light_index(hit.geom, hit.prim), ray.d),
-        )
-    {
-        path.l += path.beta * emission * w;
-    }
+    found_emission::<TEX, HIT_LIGHTS>(ctx, rules, path, &hit, &sp);
     if path.depth >= ctx.path_depth {
         return None;
     }
@@ -386,6 +373,56 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     }
     path.ray = Ray::new(origin(wi), wi);
     Some(path.ray)
+}
+
+/// Adds to the radiance of `path`, whose ray left the scene, the background's emission along
+/// it (weighed by MIS where next-event estimation could have found it). Without non-delta
+/// lights the background is black.
+#[inline(always)]
+pub(super) fn found_background<const HIT_LIGHTS: bool>(ctx: &PathContext, rules: &PathRules, path: &mut PathState) {
+    let ray = path.ray;
+    if HIT_LIGHTS {
+        let le = ctx.lights.background().radiance(ray.d);
+        if le != Vec3::ZERO
+            && let Some(w) = rules.found.weight(
+                path.specular,
+                path.prev_pdf,
+                || ctx.lights.pdf_background(&path.choice, ray.d),
+                || 0.0,
+            )
+        {
+            path.l += path.beta * le * w;
+        }
+    }
+}
+
+/// Adds to the radiance of `path` the emission of `sp`, its ray's closest hit `hit` (weighed by
+/// MIS where next-event estimation or a connection could have found it). Without non-delta
+/// lights nothing emits. Light found after the camera's first hit and only specular bounces
+/// since is the caustic light paths' to carry, where they run.
+#[inline(always)]
+pub(super) fn found_emission<const TEX: bool, const HIT_LIGHTS: bool>(
+    ctx: &PathContext,
+    rules: &PathRules,
+    path: &mut PathState,
+    hit: &Hit,
+    sp: &SurfacePoint,
+) {
+    let ray = path.ray;
+    let wo = -ray.d;
+    let emission = sp.material.emission.at::<TEX>(&sp.tex);
+    if HIT_LIGHTS
+        && emission != Vec3::ZERO
+        && !(path.caustic && path.depth >= 2 && ctx.emitters.is_some_and(|e| e.covers(hit.geom, hit.prim, sp.ng, wo)))
+        && let Some(w) = rules.found.weight(
+            path.specular,
+            path.prev_pdf,
+            || ctx.lights.pdf_emitter(&path.choice, hit.geom, hit.prim, path.prev_p, sp.p, sp.ng),
+            || connection_ratio(ctx, path, ctx.lights.light_index(hit.geom, hit.prim), ray.d),
+        )
+    {
+        path.l += path.beta * emission * w;
+    }
 }
 
 /// How emission that a path's ray runs into (an emitter or the background) is counted.

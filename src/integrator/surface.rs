@@ -33,14 +33,9 @@ impl SurfacePoint<'_> {
         self.coat_ns.map(|n| if ng.dot(self.ng) < 0.0 { -n } else { n })
     }
 
-    /// How the point is shaded seen from `wo` (a unit direction), with `bsdf` its BSDF: the
-    /// geometric normal and the shading frame, both turned to `wo`'s side unless `transmissive`
-    /// (glass is shaded from both sides), the shading normal made to face `wo`
-    /// ([`facing_shading_normal`]); with `COAT`, `bsdf`'s clear coat gets its own normal,
-    /// turned and made to face `wo` the same way. The path from the camera and the light paths
-    /// shade with it, so both see one BSDF.
+    /// The geometric and shading normals of [`SurfacePoint::shading`] (before the frame).
     #[inline(always)]
-    pub fn shading<const COAT: bool>(&self, wo: Vec3, transmissive: bool, bsdf: &mut Bsdf) -> (Vec3, Frame) {
+    pub fn facing(&self, wo: Vec3, transmissive: bool) -> (Vec3, Vec3) {
         let (mut ng, mut ns) = (self.ng, self.ns);
         if !transmissive {
             if wo.dot(ng) < 0.0 {
@@ -50,6 +45,18 @@ impl SurfacePoint<'_> {
             }
             ns = facing_shading_normal(wo, ng, ns);
         }
+        (ng, ns)
+    }
+
+    /// How the point is shaded seen from `wo` (a unit direction), with `bsdf` its BSDF: the
+    /// geometric normal and the shading frame, both turned to `wo`'s side unless `transmissive`
+    /// (glass is shaded from both sides), the shading normal made to face `wo`
+    /// ([`facing_shading_normal`]); with `COAT`, `bsdf`'s clear coat gets its own normal,
+    /// turned and made to face `wo` the same way. The path from the camera and the light paths
+    /// shade with it, so both see one BSDF.
+    #[inline(always)]
+    pub fn shading<const COAT: bool>(&self, wo: Vec3, transmissive: bool, bsdf: &mut Bsdf) -> (Vec3, Frame) {
+        let (ng, ns) = self.facing(wo, transmissive);
         let frame = Frame::from_normal(ns);
         // (Set in place: rebinding `bsdf` would copy it at every vertex.)
         if COAT && let Some(n) = self.coat_normal(ng) {

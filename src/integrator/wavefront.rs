@@ -8,7 +8,8 @@
 //! 1. camera: each group's camera rays, traced as one packet (as the scalar kernel does);
 //! 2. shade: every path's vertex at its ray's closest hit ([`shade`]): emission found, the
 //!    light sample, the light-vertex connection and the BSDF sample, each path drawing from
-//!    its own sample stream;
+//!    its own sample stream; Lambertian vertices [`LANES`] at a time where the render allows
+//!    ([`super::lanes`]);
 //! 3. shadow: the shadow rays the shade stage queued (next-event estimation's and the
 //!    connections');
 //! 4. extend: paths that ended hand in their radiance and leave the batch (compacted, so the
@@ -83,12 +84,12 @@ fn batch<const LENS: bool, const TEX: bool, const GLOSSY: bool, const GLASS: boo
 
 /// A live path of the batch: its state, the closest hit of its ray, its numbers, its light
 /// vertices, whether it goes on after its vertex, and where its value goes (group, lane).
-struct Lane<'s, 'c> {
-    path: PathState,
-    hit: Option<Hit>,
-    rng: SampleStream<'s>,
+pub(super) struct Lane<'s, 'c> {
+    pub path: PathState,
+    pub hit: Option<Hit>,
+    pub rng: SampleStream<'s>,
     light_vertices: Option<super::light_vertex::SampleLightVertices<'c>>,
-    goes_on: bool,
+    pub goes_on: bool,
     slot: (u32, u8),
 }
 
@@ -102,10 +103,22 @@ struct Queued {
 
 /// The shadow rays of a shade stage, in the order the stage made them (a path's add in the
 /// order it made them, as the scalar loop's do).
-struct ShadowQueue {
+pub(super) struct ShadowQueue {
     queries: Vec<Queued>,
     lane: u32,
     group: u32,
+}
+
+impl ShadowQueue {
+    /// Queues `ray` for the lane `index` of the batch (`lane`).
+    #[inline(always)]
+    pub(super) fn push(&mut self, index: usize, lane: &Lane, ray: Ray, tmax: f32, contribution: Vec3) {
+        self.queries.push(Queued {
+            lane: index as u32,
+            group: lane.slot.0,
+            query: ShadowQuery { ray, tmax, contribution },
+        });
+    }
 }
 
 impl ShadowRays for ShadowQueue {
@@ -148,6 +161,8 @@ fn run<
     rays: &mut [u64],
 ) -> Result<(), AccelError> {
     let rules = PathRules::new::<HIT_LIGHTS>(ctx);
+    // Lambertian vertices are shaded a group of paths at a time ([`super::lanes`]).
+    let lane_stage = super::lanes::applies::<GLOSSY, GLASS>(ctx, &rules);
     let width = ctx.settings.width as u64;
     // Camera stage.
     let mut lanes: Vec<Lane> = Vec::with_capacity(jobs.len() * LANES);
@@ -182,7 +197,12 @@ fn run<
     while !lanes.is_empty() {
         // Shade stage.
         shadow.queries.clear();
-        for (i, lane) in lanes.iter_mut().enumerate() {
+        if lane_stage {
+            for (c, paths) in lanes.chunks_mut(LANES).enumerate() {
+                super::lanes::shade_diffuse::<TEX, HIT_LIGHTS>(ctx, &rules, paths, c * LANES, &mut shadow);
+            }
+        } else {
+            for (i, lane) in lanes.iter_mut().enumerate() {
             shadow.lane = i as u32;
             shadow.group = lane.slot.0;
             lane.goes_on = shade::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
@@ -195,6 +215,7 @@ fn run<
                 &mut shadow,
             )
             .is_some();
+            }
         }
         // Shadow stage.
         let queries = &shadow.queries;

@@ -26,6 +26,14 @@ impl Lambert {
         Lambert { albedo }
     }
 
+    /// [`BsdfModel::sample`] without its branch, for lanes computed together: the same
+    /// sample where that gives one, and one of density 0 (and f 0) where it gives none.
+    #[inline(always)]
+    pub fn sample_branchless(&self, wo: Vec3, u: Vec2) -> BsdfSample {
+        let wi = sample_cosine_hemisphere(u);
+        BsdfSample { wi, f: self.eval(wo, wi), pdf: self.pdf(wo, wi), delta: false }
+    }
+
     /// Its albedo (the colour).
     pub fn albedo(&self) -> Vec3 {
         self.albedo
@@ -48,8 +56,7 @@ impl BsdfModel for Lambert {
         if wo.z <= MIN_COS {
             return None;
         }
-        let wi = sample_cosine_hemisphere(u);
-        Some(BsdfSample { wi, f: self.eval(wo, wi), pdf: self.pdf(wo, wi), delta: false })
+        Some(self.sample_branchless(wo, u))
     }
 
     /// Its colour.
