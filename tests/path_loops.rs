@@ -126,6 +126,10 @@ fn both_loops_give_the_same_image_where_lambertian_vertices_are_shaded_in_lanes(
     // in renders without light vertices, eight at a time (`src/integrator/lanes.rs`): point
     // lights alone (cornell.toml), area lights (cornell-area.toml), a sky (bunny.obj), and
     // all of them with textures and spheres; with Russian roulette (the default) and without.
+    // The lanes' width is the build's, not the CPU's (x86-64-v2: SSE, 4 floats a vector; no
+    // run-time dispatch), and each lane runs the scalar IEEE operations (Rust does not fuse
+    // multiply-adds), so a build for wider vectors gives the same bits: an x86-64-v3 build
+    // (`RUSTFLAGS="-C target-cpu=x86-64-v3"`, AVX2) renders these scenes byte-identical.
     use ember::settings::{LightVertices, RrDepth};
     let device = Device::new().unwrap();
     let textured = Scene::from_toml_str(LAMBERTIAN, &common::scene_path("lambertian.toml")).unwrap();
