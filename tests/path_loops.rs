@@ -143,10 +143,28 @@ fn both_loops_give_the_same_image_where_lambertian_vertices_are_shaded_in_lanes(
         assert!(!plan.kernel.glossy && !plan.kernel.glass, "{name}: {}", plan.kernel);
         let accel = ember::accel::EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
         let off = RenderSettings { light_vertices: LightVertices::Off, ..small(13) };
+        // The render says so.
+        let shown = RenderPlan::new(&scene, &RenderSettings { path_loop: PathLoop::Wavefront, ..off.clone() }).to_string();
+        assert!(shown.contains("; wavefront path loop (Lambertian vertices 8 at a time)"), "{name}: {shown}");
         assert_loops_agree(name, &scene, &accel, &off);
         let no_rr = RenderSettings { rr_depth: RrDepth::Off, threads: Some(2), ..off.clone() };
         assert_loops_agree(name, &scene, &accel, &no_rr);
         assert_loops_agree(name, &scene, &NaiveAccel::new(&scene.geometry), &RenderSettings { spp: 5, ..off });
+    }
+    // Glossy materials, or light vertices that always run (a point light inside the box), keep
+    // the scalar loop's shading; where the pass decides on light vertices, the line says so.
+    let wavefront = RenderSettings { path_loop: PathLoop::Wavefront, ..small(13) };
+    for (name, scene) in scenes() {
+        let shown = RenderPlan::new(&scene, &wavefront).to_string();
+        let expected = match name {
+            "cornell-area.toml" => Some("(Lambertian vertices 8 at a time if no light vertices run)"),
+            "bunny.obj" => Some("(Lambertian vertices 8 at a time)"),
+            _ => None,
+        };
+        match expected {
+            Some(e) => assert!(shown.contains(e), "{name}: {shown}"),
+            None => assert!(!shown.contains("Lambertian vertices"), "{name}: {shown}"),
+        }
     }
 }
 

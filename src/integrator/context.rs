@@ -32,6 +32,9 @@ pub struct PathContext<'a> {
     /// Where diffuse vertices after the first bounce also sample toward caustic light
     /// (`super::guide`); `None`: BSDF sampling only.
     pub guide: Option<&'a super::guide::Guide>,
+    /// [`super::RenderPlan::lane_shading`]: the wavefront loop shades vertices in lanes where
+    /// no light vertices or guide run.
+    pub lanes: bool,
 }
 
 impl<'a> PathContext<'a> {
@@ -57,6 +60,7 @@ impl<'a> PathContext<'a> {
             light_vertices: None,
             emitters: None,
             guide: None,
+            lanes: plan.lane_shading(),
         }
     }
 }

@@ -31,10 +31,11 @@ use crate::material::{BsdfModel, Lambert};
 use glam::{Vec2, Vec3};
 
 /// Whether the lane stage shades the vertices of a render whose kernel has these switches
-/// (those of [`super::kernel::KernelChoice`]) and rules.
+/// (those of [`super::kernel::KernelChoice`]): where its plan says so
+/// ([`super::RenderPlan::lane_shading`]) and no light vertices or guide run.
 #[inline(always)]
-pub(super) fn applies<const GLOSSY: bool, const GLASS: bool>(ctx: &PathContext, rules: &PathRules) -> bool {
-    !GLOSSY && !GLASS && ctx.light_vertices.is_none() && ctx.guide.is_none() && !rules.uniform_diffuse
+pub(super) fn applies<const GLOSSY: bool, const GLASS: bool>(ctx: &PathContext) -> bool {
+    !GLOSSY && !GLASS && ctx.lanes && ctx.light_vertices.is_none() && ctx.guide.is_none()
 }
 
 /// A vector per lane, by component.

@@ -19,7 +19,7 @@ use glam::Vec3;
 #[derive(Clone, Copy)]
 pub(crate) struct PathRules {
     pub(super) use_nee: bool,
-    pub(super) uniform_diffuse: bool,
+    uniform_diffuse: bool,
     pub(super) mis: bool,
     found: FoundEmission,
 }

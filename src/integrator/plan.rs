@@ -206,6 +206,17 @@ impl RenderPlan {
         self.light_vertices && !self.effects.point_lights
     }
 
+    /// Whether the wavefront loop shades this render's vertices eight at a time
+    /// (`super::lanes`) where no light vertices run: the kernel has neither glossy nor glass
+    /// materials (so no caustic guiding either) and next-event estimation runs with MIS or
+    /// alone (not the uniform-hemisphere estimator).
+    pub fn lane_shading(&self) -> bool {
+        self.settings.path_loop == crate::settings::PathLoop::Wavefront
+            && !self.kernel.glossy
+            && !self.kernel.glass
+            && self.settings.estimator != Estimator::BsdfUniform
+    }
+
     /// Whether anything in the scene emits light; without light every sample is exactly zero
     /// and the specialised render traces no ray.
     pub fn traces_nothing(&self) -> bool {
@@ -328,6 +339,12 @@ impl fmt::Display for RenderPlan {
         write!(f, "kernel: {}; path depth {}; {}", self.kernel, self.depth_text(), self.roulette_text())?;
         if self.settings.path_loop != crate::settings::PathLoop::Scalar {
             write!(f, "; {} path loop", self.settings.path_loop)?;
+            let by_the_pass = light_vertices_apply(&self.effects, &self.settings, self.scene_depth) == Ok(BY_THE_PASS);
+            if self.lane_shading() && !self.light_vertices {
+                write!(f, " (Lambertian vertices 8 at a time)")?;
+            } else if self.lane_shading() && by_the_pass {
+                write!(f, " (Lambertian vertices 8 at a time if no light vertices run)")?;
+            }
         }
         if self.effects.point_lights || self.effects.area_lights {
             match light_vertices_apply(&self.effects, &self.settings, self.scene_depth) {

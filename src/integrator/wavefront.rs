@@ -162,7 +162,7 @@ fn run<
 ) -> Result<(), AccelError> {
     let rules = PathRules::new::<HIT_LIGHTS>(ctx);
     // Lambertian vertices are shaded a group of paths at a time ([`super::lanes`]).
-    let lane_stage = super::lanes::applies::<GLOSSY, GLASS>(ctx, &rules);
+    let lane_stage = super::lanes::applies::<GLOSSY, GLASS>(ctx);
     let width = ctx.settings.width as u64;
     // Camera stage.
     let mut lanes: Vec<Lane> = Vec::with_capacity(jobs.len() * LANES);

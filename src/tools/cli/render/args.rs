@@ -156,7 +156,8 @@ pub struct RenderArgs {
     #[arg(long)]
     pub sampler: Option<SamplerKind>,
     /// How paths are advanced: scalar (one at a time) or wavefront (a tile's paths in a
-    /// batch, stage by stage). The image is the same, bit for bit.
+    /// batch, stage by stage; without glossy or glass materials or light vertices, vertices
+    /// shaded eight at a time). The image is the same, bit for bit.
     #[arg(long, default_value = "scalar")]
     pub path_loop: PathLoop,
     /// Fail (exit 2, no image written) if any sample was NaN or infinite, or if nothing in the
