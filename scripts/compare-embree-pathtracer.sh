@@ -12,7 +12,7 @@
 # Usage: scripts/compare-embree-pathtracer.sh [OUT_DIR]   (default: target/compare-embree)
 # Environment: SIZE (512), SPP (64), DEPTH (8), THREADS (2), ROUNDS (3: each round times the
 # tutorial and ember's three runs; medians and ranges of the ratios are printed at the end),
-# PATH_LOOP (scalar: ember's --path-loop, scalar or wavefront; both render the same image).
+# PATH_LOOP (auto, ember's default: ember's --path-loop, auto, scalar or wavefront; all render the same image).
 #
 # ember runs three times: with its defaults (robust; the low-quality BVH it builds for a scene
 # this small), with the tutorial's Embree settings (--no-robust --bvh-quality medium), and
@@ -30,7 +30,7 @@ spp=${SPP:-64}
 depth=${DEPTH:-8}
 threads=${THREADS:-2}
 rounds=${ROUNDS:-3}
-path_loop=${PATH_LOOP:-scalar}
+path_loop=${PATH_LOOP:-auto}
 
 if ! command -v pathtracer >/dev/null; then
     echo "error: pathtracer not found (apt-get install embree-tools)" >&2

@@ -227,8 +227,12 @@ crate::choice::named_choice!(LightVisibility, "light visibility setting");
 /// for bit; they differ in speed (docs/performance.md, "Path loops").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum PathLoop {
-    /// One path at a time, from its camera ray to its end (`crate::integrator`'s kernels).
+    /// The wavefront loop where it shades the render's vertices in lanes
+    /// ([`crate::integrator::RenderPlan::lane_shading`], and no light vertices run), the scalar
+    /// loop elsewhere: each where it measures faster.
     #[default]
+    Auto,
+    /// One path at a time, from its camera ray to its end (`crate::integrator`'s kernels).
     Scalar,
     /// A tile's paths in a batch, advanced stage by stage (`crate::integrator`'s wavefront
     /// loop).
@@ -236,11 +240,12 @@ pub enum PathLoop {
 }
 
 impl PathLoop {
-    pub const ALL: [PathLoop; 2] = [PathLoop::Scalar, PathLoop::Wavefront];
+    pub const ALL: [PathLoop; 3] = [PathLoop::Auto, PathLoop::Scalar, PathLoop::Wavefront];
 
     /// The name on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
+            PathLoop::Auto => "auto",
             PathLoop::Scalar => "scalar",
             PathLoop::Wavefront => "wavefront",
         }
@@ -460,7 +465,7 @@ impl Default for RenderSettings {
             guiding: Guiding::Auto,
             light_visibility: LightVisibility::Auto,
             clamp: None,
-            path_loop: PathLoop::Scalar,
+            path_loop: PathLoop::Auto,
             bvh_quality: None,
             robust: true,
             embree_kernels: None,

@@ -133,10 +133,8 @@ fn both_loops_give_the_same_image_where_lambertian_vertices_are_shaded_in_lanes(
     use ember::settings::{LightVertices, RrDepth};
     let device = Device::new().unwrap();
     let textured = Scene::from_toml_str(LAMBERTIAN, &common::scene_path("lambertian.toml")).unwrap();
-    let mut lambertian: Vec<(&str, Scene)> = scenes()
-        .into_iter()
-        .filter(|(n, _)| ["cornell.toml", "cornell-area.toml", "bunny.obj"].contains(n))
-        .collect();
+    let mut lambertian: Vec<(&str, Scene)> =
+        scenes().into_iter().filter(|(n, _)| ["cornell.toml", "cornell-area.toml", "bunny.obj"].contains(n)).collect();
     lambertian.push(("lambertian (textured, every light)", textured));
     for (name, scene) in lambertian {
         let plan = RenderPlan::new(&scene, &small(1));
@@ -144,7 +142,8 @@ fn both_loops_give_the_same_image_where_lambertian_vertices_are_shaded_in_lanes(
         let accel = ember::accel::EmbreeAccel::new(&device, &scene.geometry, BuildOptions::default()).unwrap();
         let off = RenderSettings { light_vertices: LightVertices::Off, ..small(13) };
         // The render says so.
-        let shown = RenderPlan::new(&scene, &RenderSettings { path_loop: PathLoop::Wavefront, ..off.clone() }).to_string();
+        let shown =
+            RenderPlan::new(&scene, &RenderSettings { path_loop: PathLoop::Wavefront, ..off.clone() }).to_string();
         assert!(shown.contains("; wavefront path loop (Lambertian vertices 8 at a time)"), "{name}: {shown}");
         assert_loops_agree(name, &scene, &accel, &off);
         let no_rr = RenderSettings { rr_depth: RrDepth::Off, threads: Some(2), ..off.clone() };
@@ -153,19 +152,28 @@ fn both_loops_give_the_same_image_where_lambertian_vertices_are_shaded_in_lanes(
     }
     // Glossy materials, or light vertices that always run (a point light inside the box), keep
     // the scalar loop's shading; where the pass decides on light vertices, the line says so.
-    let wavefront = RenderSettings { path_loop: PathLoop::Wavefront, ..small(13) };
-    for (name, scene) in scenes() {
-        let shown = RenderPlan::new(&scene, &wavefront).to_string();
-        let expected = match name {
-            "cornell-area.toml" => Some("(Lambertian vertices 8 at a time if no light vertices run)"),
-            "bunny.obj" => Some("(Lambertian vertices 8 at a time)"),
-            _ => None,
-        };
-        match expected {
-            Some(e) => assert!(shown.contains(e), "{name}: {shown}"),
-            None => assert!(!shown.contains("Lambertian vertices"), "{name}: {shown}"),
+    // `--path-loop auto` (the default) takes the wavefront loop exactly where it shades in
+    // lanes, and says so; elsewhere it takes the scalar loop and says nothing.
+    let lines = [
+        (PathLoop::Wavefront, "wavefront path loop (Lambertian vertices 8 at a time if no light vertices run)"),
+        (PathLoop::Auto, "wavefront path loop (Lambertian vertices 8 at a time) if no light vertices run"),
+    ];
+    for (path_loop, if_no_light_vertices) in lines {
+        let settings = RenderSettings { path_loop, ..small(13) };
+        for (name, scene) in scenes() {
+            let shown = RenderPlan::new(&scene, &settings).to_string();
+            match name {
+                "cornell-area.toml" => assert!(shown.contains(if_no_light_vertices), "{name}: {shown}"),
+                "bunny.obj" => assert!(
+                    shown.ends_with("; wavefront path loop (Lambertian vertices 8 at a time)"),
+                    "{name}: {shown}"
+                ),
+                _ if path_loop == PathLoop::Auto => assert!(!shown.contains("path loop"), "{name}: {shown}"),
+                _ => assert!(!shown.contains("Lambertian vertices"), "{name}: {shown}"),
+            }
         }
     }
+    assert_eq!(RenderSettings::default().path_loop, PathLoop::Auto);
 }
 
 #[test]

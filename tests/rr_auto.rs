@@ -158,12 +158,13 @@ fn an_explicit_choice_wins_over_the_scene() {
     assert!(msg.contains("expected a number of bounces, \"off\" or \"auto\", found \"never\""), "{msg}");
 }
 
-/// The `kernel:` line a render of `scene` prints with `extra` arguments.
+/// The `kernel:` line a render of `scene` prints with `extra` arguments, on the scalar path
+/// loop (whose line ends with the roulette; `tests/path_loops.rs` checks the loop's words).
 fn kernel_line(scene: &std::path::Path, extra: &[&str]) -> String {
     let out = common::fresh_dir("rr-auto", &format!("line-{}", extra.join("_"))).join("out.exr");
     let args =
         ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--width", "8", "--height", "6", "--spp", "1"];
-    let o = ember(&[&args[..], extra].concat());
+    let o = ember(&[&args[..], &["--path-loop", "scalar"], extra].concat());
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert!(o.status.success(), "{err}");
     err.lines().find(|l| l.starts_with("kernel:")).unwrap_or_else(|| panic!("no kernel line in {err}")).to_string()

@@ -35,7 +35,14 @@ use glam::{Vec2, Vec3};
 /// ([`super::RenderPlan::lane_shading`]) and no light vertices or guide run.
 #[inline(always)]
 pub(super) fn applies<const GLOSSY: bool, const GLASS: bool>(ctx: &PathContext) -> bool {
-    !GLOSSY && !GLASS && ctx.lanes && ctx.light_vertices.is_none() && ctx.guide.is_none()
+    !GLOSSY && !GLASS && run_in(ctx)
+}
+
+/// Whether the lane stage shades the vertices of the render of `ctx` (its kernel's switches
+/// as its plan has them).
+#[inline]
+pub(super) fn run_in(ctx: &PathContext) -> bool {
+    ctx.lanes && ctx.light_vertices.is_none() && ctx.guide.is_none()
 }
 
 /// A vector per lane, by component.

@@ -15,7 +15,7 @@ use crate::embree::BuildOptions;
 use crate::film::CheckpointKey;
 use crate::geometry::Geometry;
 use crate::scene::{DepthLimit, Effects, Scene};
-use crate::settings::{Estimator, LightVertices, RenderSettings, RrDepth};
+use crate::settings::{Estimator, LightVertices, PathLoop, RenderSettings, RrDepth};
 use std::fmt;
 
 /// What a render runs. See the module documentation.
@@ -206,12 +206,12 @@ impl RenderPlan {
         self.light_vertices && !self.effects.point_lights
     }
 
-    /// Whether the wavefront loop shades this render's vertices eight at a time
-    /// (`super::lanes`) where no light vertices run: the kernel has neither glossy nor glass
-    /// materials (so no caustic guiding either) and next-event estimation runs with MIS or
-    /// alone (not the uniform-hemisphere estimator).
+    /// Whether the wavefront loop (asked for, or chosen by `--path-loop auto`) shades this
+    /// render's vertices eight at a time (`super::lanes`) where no light vertices run: the
+    /// kernel has neither glossy nor glass materials (so no caustic guiding either) and
+    /// next-event estimation runs with MIS or alone (not the uniform-hemisphere estimator).
     pub fn lane_shading(&self) -> bool {
-        self.settings.path_loop == crate::settings::PathLoop::Wavefront
+        self.settings.path_loop != PathLoop::Scalar
             && !self.kernel.glossy
             && !self.kernel.glass
             && self.settings.estimator != Estimator::BsdfUniform
@@ -337,14 +337,17 @@ fn guiding_apply(caustics: bool, light_vertices: bool, s: &RenderSettings) -> Re
 impl fmt::Display for RenderPlan {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "kernel: {}; path depth {}; {}", self.kernel, self.depth_text(), self.roulette_text())?;
-        if self.settings.path_loop != crate::settings::PathLoop::Scalar {
-            write!(f, "; {} path loop", self.settings.path_loop)?;
-            let by_the_pass = light_vertices_apply(&self.effects, &self.settings, self.scene_depth) == Ok(BY_THE_PASS);
-            if self.lane_shading() && !self.light_vertices {
-                write!(f, " (Lambertian vertices 8 at a time)")?;
-            } else if self.lane_shading() && by_the_pass {
-                write!(f, " (Lambertian vertices 8 at a time if no light vertices run)")?;
+        let by_the_pass = light_vertices_apply(&self.effects, &self.settings, self.scene_depth) == Ok(BY_THE_PASS);
+        let lanes = self.lane_shading() && (!self.light_vertices || by_the_pass);
+        let unless = if self.light_vertices { " if no light vertices run" } else { "" };
+        match self.settings.path_loop {
+            PathLoop::Scalar => {}
+            PathLoop::Wavefront if lanes => {
+                write!(f, "; wavefront path loop (Lambertian vertices 8 at a time{unless})")?
             }
+            PathLoop::Wavefront => write!(f, "; wavefront path loop")?,
+            PathLoop::Auto if lanes => write!(f, "; wavefront path loop (Lambertian vertices 8 at a time){unless}")?,
+            PathLoop::Auto => {}
         }
         if self.effects.point_lights || self.effects.area_lights {
             match light_vertices_apply(&self.effects, &self.settings, self.scene_depth) {
@@ -423,12 +426,13 @@ mod tests {
             spec.to_string(),
             "kernel: lens off, textures off, glossy off, glass off, hit lights off; path depth 1 (direct light \
              only: nothing can bounce light onward; --max-depth 8); russian roulette off (scene albedo ≤ 0.20: it \
-             would start at depth 2, the path depth is 1)"
+             would start at depth 2, the path depth is 1); wavefront path loop (Lambertian vertices 8 at a time)"
         );
         assert_eq!(
             plan(scattering(0.5), RrDepth::Auto, true).to_string(),
             "kernel: lens off, textures off, glossy off, glass off, hit lights off; path depth 8 (--max-depth); \
-             russian roulette from depth 4 (scene albedo ≤ 0.50)"
+             russian roulette from depth 4 (scene albedo ≤ 0.50); wavefront path loop (Lambertian vertices 8 at a \
+             time)"
         );
     }
 

@@ -243,7 +243,7 @@ pub(super) fn run(
     // Stage 1 of an adaptive shard stops before the plan; every other render needs no other
     // shard, and stage 1 is all of it.
     let rounds = if control.first_round_only && settings.adaptive { 1 } else { plan.rounds() };
-    let session = Session::new(&ctx, Kernel::for_plan(plan), plan, &control, &key, earlier, owned, start);
+    let session = Session::new(&ctx, Kernel::for_render(plan, &ctx), plan, &control, &key, earlier, owned, start);
     session.rays.fetch_add(pool.as_ref().map_or(0, |p| p.rays), Ordering::Relaxed);
     session.rays.fetch_add(light_rays + guide_rays + visibility_rays, Ordering::Relaxed);
     session.clamped_splats.fetch_add(clamped_splats, Ordering::Relaxed);
@@ -819,11 +819,15 @@ enum Kernel {
 }
 
 impl Kernel {
-    fn for_plan(plan: &RenderPlan) -> Kernel {
-        match plan.settings.path_loop {
-            PathLoop::Scalar => Kernel::Scalar(plan.kernel.sample_fn()),
-            PathLoop::Wavefront => Kernel::Wavefront(plan.kernel.batch_fn()),
-        }
+    /// The kernel of `plan` for its path loop, once the passes have filled `ctx` (light
+    /// vertices, guide): `auto` runs the wavefront loop where its shade stage runs in lanes.
+    fn for_render(plan: &RenderPlan, ctx: &PathContext) -> Kernel {
+        let wavefront = match plan.settings.path_loop {
+            PathLoop::Scalar => false,
+            PathLoop::Wavefront => true,
+            PathLoop::Auto => super::lanes::run_in(ctx),
+        };
+        if wavefront { Kernel::Wavefront(plan.kernel.batch_fn()) } else { Kernel::Scalar(plan.kernel.sample_fn()) }
     }
 }
 

@@ -203,18 +203,18 @@ fn run<
             }
         } else {
             for (i, lane) in lanes.iter_mut().enumerate() {
-            shadow.lane = i as u32;
-            shadow.group = lane.slot.0;
-            lane.goes_on = shade::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
-                ctx,
-                &rules,
-                &mut lane.path,
-                lane.hit,
-                lane.light_vertices,
-                &mut lane.rng,
-                &mut shadow,
-            )
-            .is_some();
+                shadow.lane = i as u32;
+                shadow.group = lane.slot.0;
+                lane.goes_on = shade::<_, TEX, GLOSSY, GLASS, HIT_LIGHTS>(
+                    ctx,
+                    &rules,
+                    &mut lane.path,
+                    lane.hit,
+                    lane.light_vertices,
+                    &mut lane.rng,
+                    &mut shadow,
+                )
+                .is_some();
             }
         }
         // Shadow stage.

@@ -155,10 +155,11 @@ pub struct RenderArgs {
     /// or independent [scene's render.sampler, else sobol].
     #[arg(long)]
     pub sampler: Option<SamplerKind>,
-    /// How paths are advanced: scalar (one at a time) or wavefront (a tile's paths in a
-    /// batch, stage by stage; without glossy or glass materials or light vertices, vertices
-    /// shaded eight at a time). The image is the same, bit for bit.
-    #[arg(long, default_value = "scalar")]
+    /// How paths are advanced: scalar (one at a time), wavefront (a tile's paths in a batch,
+    /// stage by stage; without glossy or glass materials or light vertices, vertices shaded
+    /// eight at a time) or auto (wavefront where it shades in lanes, else scalar). The image
+    /// is the same, bit for bit.
+    #[arg(long, default_value = "auto")]
     pub path_loop: PathLoop,
     /// Fail (exit 2, no image written) if any sample was NaN or infinite, or if nothing in the
     /// scene emits light (the image would be black).
