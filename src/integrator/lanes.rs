@@ -161,7 +161,6 @@ pub(super) fn shade_diffuse<const TEX: bool, const HIT_LIGHTS: bool>(
     debug_assert!(paths.len() <= LANES);
     let mut v = DiffuseVertices::default();
     let draws = ctx.lights.numbers();
-    let mut sp_p = [Vec3::ZERO; LANES];
     let mut samples: [Option<LightSample>; LANES] = [None; LANES];
     for (i, lane) in paths.iter_mut().enumerate() {
         let path = &mut lane.path;
@@ -178,7 +177,6 @@ pub(super) fn shade_diffuse<const TEX: bool, const HIT_LIGHTS: bool>(
         let wo = -ray.d;
         let (ng, ns) = sp.facing(wo, false);
         v.live[i] = true;
-        sp_p[i] = sp.p;
         v.p.set(i, sp.p);
         v.ng.set(i, ng);
         v.ns.set(i, ns);
@@ -219,7 +217,7 @@ pub(super) fn shade_diffuse<const TEX: bool, const HIT_LIGHTS: bool>(
             shadow.push(first + i, lane, ray, tmax, out.contribution.at(i));
         }
         if out.goes_on[i] {
-            lane.path.bounced_diffuse(out.beta.at(i), out.pdf[i], sp_p[i], Ray::new(leave, out.wi.at(i)));
+            lane.path.bounced_diffuse(out.beta.at(i), out.pdf[i], v.p.at(i), Ray::new(leave, out.wi.at(i)));
             lane.goes_on = true;
         }
     }

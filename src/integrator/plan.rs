@@ -337,8 +337,8 @@ fn guiding_apply(caustics: bool, light_vertices: bool, s: &RenderSettings) -> Re
 impl fmt::Display for RenderPlan {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "kernel: {}; path depth {}; {}", self.kernel, self.depth_text(), self.roulette_text())?;
-        let by_the_pass = light_vertices_apply(&self.effects, &self.settings, self.scene_depth) == Ok(BY_THE_PASS);
-        let lanes = self.lane_shading() && (!self.light_vertices || by_the_pass);
+        let light_vertices = light_vertices_apply(&self.effects, &self.settings, self.scene_depth);
+        let lanes = self.lane_shading() && (!self.light_vertices || light_vertices == Ok(BY_THE_PASS));
         let unless = if self.light_vertices { " if no light vertices run" } else { "" };
         match self.settings.path_loop {
             PathLoop::Scalar => {}
@@ -350,7 +350,7 @@ impl fmt::Display for RenderPlan {
             PathLoop::Auto => {}
         }
         if self.effects.point_lights || self.effects.area_lights {
-            match light_vertices_apply(&self.effects, &self.settings, self.scene_depth) {
+            match light_vertices {
                 Ok(BY_THE_PASS) => write!(f, "\nlight vertices: {BY_THE_PASS}")?,
                 Ok(why) => write!(f, "\nlight vertices: on ({why})")?,
                 Err(why) => write!(f, "\nlight vertices: off ({why})")?,

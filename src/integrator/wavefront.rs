@@ -113,22 +113,19 @@ impl ShadowQueue {
     /// Queues `ray` for the lane `index` of the batch (`lane`).
     #[inline(always)]
     pub(super) fn push(&mut self, index: usize, lane: &Lane, ray: Ray, tmax: f32, contribution: Vec3) {
-        self.queries.push(Queued {
-            lane: index as u32,
-            group: lane.slot.0,
-            query: ShadowQuery { ray, tmax, contribution },
-        });
+        self.queue(index as u32, lane.slot.0, ShadowQuery { ray, tmax, contribution });
+    }
+
+    #[inline(always)]
+    fn queue(&mut self, lane: u32, group: u32, query: ShadowQuery) {
+        self.queries.push(Queued { lane, group, query });
     }
 }
 
 impl ShadowRays for ShadowQueue {
     #[inline(always)]
     fn trace(&mut self, _l: &mut Vec3, ray: Ray, tmax: f32, contribution: Vec3) {
-        self.queries.push(Queued {
-            lane: self.lane,
-            group: self.group,
-            query: ShadowQuery { ray, tmax, contribution },
-        });
+        self.queue(self.lane, self.group, ShadowQuery { ray, tmax, contribution });
     }
 }
 
