@@ -192,7 +192,7 @@ pub(super) fn shade_diffuse<const TEX: bool, const HIT_LIGHTS: bool>(
                 v.light_wi.set(i, ls.wi);
                 v.light_radiance.set(i, ls.radiance);
                 v.light_pdf[i] = ls.pdf;
-                v.light_mis[i] = !ls.delta && rules.mis;
+                v.light_mis[i] = rules.nee_mis(&ls);
                 samples[i] = Some(ls);
             }
         }

@@ -9,7 +9,7 @@ use super::mis::power_heuristic;
 use super::surface::{SurfacePoint, surface_point, transmittance};
 use crate::accel::Accel;
 use crate::geometry::{Hit, Ray, offset_ray_origin, offset_toward};
-use crate::light::LightChoice;
+use crate::light::{LightChoice, LightSample};
 use crate::material::{Bsdf, BsdfModel, BsdfSample};
 use crate::sampler::SampleStream;
 use crate::settings::Estimator;
@@ -37,6 +37,14 @@ impl PathRules {
             mis,
             found: FoundEmission { use_nee, count: s.estimator != Estimator::NeeOnly, mis },
         }
+    }
+
+    /// Whether next-event estimation's sample `ls` is weighed by MIS against BSDF sampling
+    /// (and connections): a light BSDF sampling can hit, with MIS on. Otherwise its weight is
+    /// 1, but for a delta light against light vertices (see [`shade`]).
+    #[inline(always)]
+    pub(super) fn nee_mis(&self, ls: &LightSample) -> bool {
+        !ls.delta && self.mis
     }
 }
 
@@ -282,7 +290,7 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
             let w = if ls.delta && ctx.light_vertices.is_some() && !path.specular {
                 // After a bounce: against the light vertex the last vertex connected to.
                 light_vertex::nee_weight(ctx.lights, &ls, sp.p, ng, path.prev_p, path.prev_pdf)
-            } else if ls.delta || !rules.mis {
+            } else if !rules.nee_mis(&ls) {
                 1.0
             } else {
                 // Also against the connection from the last vertex to a light vertex here.
