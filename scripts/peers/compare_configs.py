@@ -19,7 +19,8 @@ Command, from the repository root (~25 min with the references, ~10 min without)
     SCRATCH=/tmp/peers/run CONFIGS="ember ember_uniform mitsuba_rroff" ROUNDS=5 \\
         VENV/bin/python scripts/peers/compare_configs.py warmup refs timing analyze rounds
 Phases and the other environment variables (SCRATCH, EMBER, ROUNDS, REF_SPP, IDLE_MAX_S,
-LOAD_MAX) are compare_all.py's; results go to RESULTS_DIR (default $SCRATCH/results).
+LOAD_MAX, MITSUBA_PYTHON: this python by default) are compare_all.py's; results go to
+RESULTS_DIR (default $SCRATCH/results).
 """
 import csv
 import importlib.util
@@ -33,6 +34,9 @@ PEERS_DIR = os.environ.get("PEERS_DIR") or os.path.normpath(os.path.join(HERE, "
 # Results beside the run's records, not in PEERS_DIR (compare_all.py's default).
 os.environ.setdefault("RESULTS_DIR", os.path.join(
     os.environ.get("SCRATCH") or os.path.join(os.environ.get("TMPDIR") or "/tmp", "peers", "compare"), "results"))
+# Mitsuba's child processes run under this python (the venv's), as broad_suite.py's do;
+# compare_all.py's own default is $TMPDIR/peers/venv.
+os.environ.setdefault("MITSUBA_PYTHON", sys.executable)
 sys.path.insert(0, PEERS_DIR)  # compare_all.py imports run_mitsuba / run_cycles from beside itself
 spec = importlib.util.spec_from_file_location("compare_all", os.path.join(PEERS_DIR, "compare_all.py"))
 ca = importlib.util.module_from_spec(spec)
