@@ -17,6 +17,10 @@
 //!   emission is never found by BSDF-sampled rays, and neither MIS weights nor light
 //!   densities are computed.
 //!
+//! Effects that need one of these switches leave with it: caustic light paths and their guide
+//! (only beside mirrors or glass) with `GLOSSY` and `GLASS` both off, light vertices from
+//! surfaces (only from area lights) with `HIT_LIGHTS` off.
+//!
 //! Every kernel takes the samples of a pixel in groups of [`LANES`] (8): their camera rays
 //! share an origin and nearly a direction (an orthographic camera's: a direction, and origins
 //! within the pixel), so they are traced as one Embree packet (`rtcIntersect8`, hinted

@@ -66,7 +66,8 @@ pub(crate) struct PathState {
     pub(super) choice: LightChoice,
     pub(super) depth: u32,
     /// The path so far is the camera, a bounce off a diffuse surface, then only specular ones:
-    /// the shape of the light that caustic light paths carry (`super::caustic`).
+    /// the shape of the light that caustic light paths carry (`super::caustic`). Kept only by
+    /// kernels with mirrors or glass, the only ones caustic light paths run with.
     caustic: bool,
     /// The absorption of the medium `ray` travels in: that of the glass it last refracted
     /// into (zero outside any, and without glass).
@@ -249,9 +250,14 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     let leave = if transmissive { sp.p } else { offset_ray_origin(sp.p, ng) };
     let origin = |toward: Vec3| if transmissive { offset_toward(sp.p, ng, toward) } else { leave };
     let beta = path.beta;
+    // Light vertices from surfaces come from area lights, which BSDF sampling can hit; caustic
+    // light paths and their guide run only beside mirrors or glass. Kernels without those
+    // carry none of their code (checked in debug builds).
+    debug_assert!(HIT_LIGHTS || !ctx.light_vertices.is_some_and(|p| p.is_from_surfaces()));
+    debug_assert!(GLOSSY || GLASS || (ctx.guide.is_none() && ctx.emitters.is_none()));
     // With light vertices from surfaces: the area density with which BSDF sampling at the
     // last vertex found this one, where a connection could have built the path to it.
-    let surface_vertices = ctx.light_vertices.is_some_and(|p| p.is_from_surfaces());
+    let surface_vertices = HIT_LIGHTS && ctx.light_vertices.is_some_and(|p| p.is_from_surfaces());
     let p_xy = if surface_vertices && path.conn_next {
         let back = path.prev_p - sp.p;
         let d2 = back.length_squared();
@@ -261,7 +267,11 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
     };
     // Caustic guiding (`super::guide`) at a diffuse vertex after the first bounce: its
     // directions are drawn from a mixture, which both its samples' weights and MIS use.
-    let guide = ctx.guide.filter(|_| path.depth > 0 && bsdf.is_lambertian()).and_then(|g| g.at(sp.p));
+    let guide = if GLOSSY || GLASS {
+        ctx.guide.filter(|_| path.depth > 0 && bsdf.is_lambertian()).and_then(|g| g.at(sp.p))
+    } else {
+        None
+    };
     let mixed = |bsdf_pdf: f32, wi: Vec3| match guide {
         Some(c) => (1.0 - c.share()) * bsdf_pdf + c.share() * c.pdf(wi),
         None => bsdf_pdf,
@@ -356,7 +366,9 @@ pub(crate) fn shade<S: ShadowRays, const TEX: bool, const GLOSSY: bool, const GL
         path.absorption = if side < 0.0 { sp.material.absorption() } else { Vec3::ZERO };
     }
     path.specular = bs.delta;
-    path.caustic = if path.depth == 0 { !bs.delta && bsdf.is_lambertian() } else { path.caustic && bs.delta };
+    if GLOSSY || GLASS {
+        path.caustic = if path.depth == 0 { !bs.delta && bsdf.is_lambertian() } else { path.caustic && bs.delta };
+    }
     path.prev_pdf = bs.pdf;
     path.prev_p = sp.p;
     if surface_vertices {
