@@ -107,13 +107,13 @@ impl PathState {
     }
 
     /// The state after a bounce off a Lambertian surface at `p` that sampled its direction
-    /// with density `pdf` (no light vertices from surfaces), with throughput `beta` after
-    /// Russian roulette, continuing along `ray`: what [`shade`] leaves there.
+    /// with density `pdf` (no light vertices from surfaces, no mirrors or glass: `caustic` is
+    /// not kept), with throughput `beta` after Russian roulette, continuing along `ray`: what
+    /// [`shade`] leaves there.
     #[inline(always)]
     pub(super) fn bounced_diffuse(&mut self, beta: Vec3, pdf: f32, p: Vec3, ray: Ray) {
         self.beta = beta;
         self.specular = false;
-        self.caustic = self.depth == 0;
         self.prev_pdf = pdf;
         self.prev_p = p;
         self.depth += 1;
